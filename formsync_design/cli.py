@@ -1,0 +1,68 @@
+"""``formsync``: the command-line interface.
+
+Every subcommand lives in its own ``cmd_<name>.py`` module exposing
+``add_parser(subparsers)``; the parser it registers sets ``func`` to a
+``run(args) -> int`` callable.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from . import cmd_derive
+from .cliutil import EXIT_USAGE
+from .errors import FormsyncError
+
+__all__ = ["main", "build_parser"]
+
+_COMMANDS = [cmd_derive]
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose usage errors are one line on stderr, exit 2."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        sys.stderr.write(f"{self.prog}: error: {message}\n")
+        raise SystemExit(EXIT_USAGE)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(
+        prog="formsync",
+        description=(
+            "Decentralized attitude synchronization of spacecraft formations: derive the "
+            "closed loop and Lyapunov conditions of a controller symbolically, certify gain "
+            "ranges for a communication graph, and simulate the nonlinear formation.\n\n"
+            "Exit status: 0 success/certified, 1 negative finding (not certified, a claim "
+            "fails), 2 bad input or usage."
+        ),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sub = p.add_subparsers(dest="command", metavar="SUBCOMMAND", parser_class=_Parser)
+    sub.required = True
+    for mod in _COMMANDS:
+        mod.add_parser(sub)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``formsync`` with ``argv`` (default ``sys.argv[1:]``); return the exit status."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as e:  # --help (0) or usage error (2)
+        return int(e.code or 0)
+    try:
+        return int(args.func(args))
+    except FormsyncError as e:
+        sys.stderr.write(f"formsync {args.command}: error: {e}\n")
+        return EXIT_USAGE
+    except (OSError, UnicodeDecodeError) as e:
+        sys.stderr.write(f"formsync {args.command}: error: {e}\n")
+        return EXIT_USAGE
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())
