@@ -21,7 +21,7 @@ skew-symmetric, the standard Euler-Lagrange property.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 
 import sympy as sp
 
@@ -117,7 +117,7 @@ class AttitudeModel:
         return out + sp.diff(expr, self.q0) * self.q0_rate
 
 
-@lru_cache(maxsize=None)
+@cache
 def derive_attitude_model(suffix: str = "") -> AttitudeModel:
     """Derive the Lagrangian attitude model (paper eq. 3) from eqs. (1)-(2).
 

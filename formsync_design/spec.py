@@ -23,10 +23,11 @@ Optional module attributes: ``NAME`` (short id), ``TITLE`` (one line).
 from __future__ import annotations
 
 import importlib.util
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
-from typing import Any, Callable
+from typing import Any
 
 import sympy as sp
 

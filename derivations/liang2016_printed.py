@@ -1,0 +1,72 @@
+"""Expressions exactly as printed in Liang et al. (2016), transcribed for comparison.
+
+These are *paper data*, not used for any certification of the derived
+conditions: the toolbox evaluates them only to show where the printed
+expressions and the derivation agree or disagree (``--conditions paper``,
+the derivation report).  Reading conventions for ambiguous typography are
+stated on each function.
+"""
+
+import sympy as sp
+
+
+def printed_skew(q):
+    """The printed cross-product matrix q^x (section 1.1), bottom row as printed:
+    [-(q)_2, -(q)_1, 0]."""
+    return sp.Matrix([[0, -q[2], q[1]], [q[2], 0, -q[0]], [-q[1], -q[0], 0]])
+
+
+def printed_B(Q, J, qd, skew):
+    """Printed B = -(Q^T (J Q q')^x Q + Q^T Jdot Q), read with Jdot = 0 (rigid body)."""
+    return -(Q.T * skew(J * Q * qd) * Q)
+
+
+def printed_B_alt(Q, Qdot, J, qd, skew):
+    """Alternative reading of the printed B with the dot on Q: -(Q^T (J Q q')^x Q + Q^T J Qdot)."""
+    return -(Q.T * skew(J * Q * qd) * Q + Q.T * J * Qdot)
+
+
+def printed_kv(ubar, J):
+    """Printed rule K_vi = ubar * alpha_max(J_i^{-1}) (largest eigenvalue of J^-1)."""
+    import numpy as np
+
+    return float(ubar) * float(np.linalg.eigvalsh(np.linalg.inv(np.asarray(J, float)))[-1])
+
+
+def printed_theta(m, K_o, K_q, beta):
+    """Printed Theta_i per axis: [[1/2, (1/2) Omega_i^T], [(1/2) Omega_i, K]],
+    Omega_i = (beta ... beta)^T read as m stacked beta*I_3 blocks,
+    K = (1/4) diag((K_q + beta K_o) I_3 ...)."""
+    T = sp.zeros(m + 1, m + 1)
+    T[0, 0] = sp.Rational(1, 2)
+    for k in range(1, m + 1):
+        T[0, k] = T[k, 0] = beta / 2
+        T[k, k] = (K_q + beta * K_o) / 4
+    return T
+
+
+def printed_M(adj, K_o, K_q, beta):
+    """Printed M (eq. 10): diagonal K_o - beta, off-diagonal 0.5 delta_ij beta
+    (printed n x n; read per axis, i.e. M (x) I_3)."""
+    n = len(adj)
+    return [
+        [(K_o - beta) if i == j else sp.Rational(1, 2) * int(adj[i][j]) * beta for j in range(n)]
+        for i in range(n)
+    ]
+
+
+def printed_N(n, K_o, K_q, beta):
+    """Printed N = diag(beta K_q I_3 ...) (per axis: beta K_q I_n)."""
+    return [[beta * K_q if i == j else 0 for j in range(n)] for i in range(n)]
+
+
+def printed_vdot_i(qd, s, edges, qdn, tau, d, K_o, K_q, K_v, beta):
+    """Printed V_i' after substituting the dynamics (with the printed K_p read as K_q):
+    (K_q + beta K_o)/2 sum_j e_ij^T (q_i' - q_j') + beta sum_j (q_i' - q_j')^T q_i'
+    - (K_q + beta K_o) q_i'^T s_i - K_o q_i'^T q_i' - beta K_q s_i^T s_i
+    - (K_vi - A^-1 Q^T u_d)^T |tau_i|   (the last term read componentwise)."""
+    out = (K_q + beta * K_o) / 2 * sum((e.dot(qd - qj) for e, qj in zip(edges, qdn)), 0)
+    out += beta * sum(((qd - qj).dot(qd) for qj in qdn), 0)
+    out += -(K_q + beta * K_o) * qd.dot(s) - K_o * qd.dot(qd) - beta * K_q * s.dot(s)
+    out += -sum(((K_v - d[k]) * sp.Abs(tau[k]) for k in range(3)), 0)
+    return out
