@@ -70,3 +70,15 @@ def printed_vdot_i(qd, s, edges, qdn, tau, d, K_o, K_q, K_v, beta):
     out += -(K_q + beta * K_o) * qd.dot(s) - K_o * qd.dot(qd) - beta * K_q * s.dot(s)
     out += -sum(((K_v - d[k]) * sp.Abs(tau[k]) for k in range(3)), 0)
     return out
+
+
+#: State at which printed and derived expressions are compared numerically:
+#: spacecraft 1 of the paper's Table 1 (vector part q, body rate omega) and J_1.
+EXAMPLE_STATE = {
+    "q": ("1/10", "2/5", "-3/10"),
+    "omega": ("85/100", "-43/100", "77/100"),
+    "J": (("50", "0", "4"), ("0", "55", "0"), ("4", "0", "60")),
+}
+
+#: Gains published in section 3.
+PAPER_GAINS = {"K_o": "1.6", "K_q": "0.4", "beta": "0.3", "K_v": "0.01"}

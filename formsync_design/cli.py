@@ -56,6 +56,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(e.code or 0)
     try:
         return int(args.func(args))
+    except BrokenPipeError:  # output piped into e.g. `head`: not an error
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except FormsyncError as e:
         sys.stderr.write(f"formsync {args.command}: error: {e}\n")
         return EXIT_USAGE

@@ -468,14 +468,23 @@ def _conditions_cached(graph: Graph, spec_path: str) -> LyapunovConditions:
     templates = {m: _template_cached(spec_path, m) for m in degrees}
     # classify the local forms once per degree
     classified = {m: _classify(templates[m], gens) for m in degrees}
-    # the edge-velocity coefficient must be the same for all degrees present
-    own = {m: classified[m]["own_edge"] for m in degrees}
-    if len({tuple(sorted(v.items())) for v in own.values()}) > 1:
+    # Own-edge terms c e_ij^T q_j' sum into -c q_j'^T s_j only if c is the same for
+    # every neighbour count present.  For m >= 2, c = c_diag - c_off; for m = 1
+    # (s_i = e_1) the split is free and is chosen to match the others.
+    own_exprs = {m: sp.expand(cf["c_diag"] - cf["c_off"]) for m, cf in classified.items()
+                 if cf["c_off"] is not None}
+    if len(set(own_exprs.values())) > 1:
         raise DerivationError(
             "expected the coefficient of e_ij^T q_j' in V_i' to be the same for every "
-            f"neighbour count (to sum it into s_j); received {own} for degrees {degrees}"
+            f"neighbour count (to sum it into s_j); received {own_exprs}"
         )
-    own_c = next(iter(own.values()))
+    own_expr = next(iter(own_exprs.values())) if own_exprs else classified[degrees[0]]["c_diag"]
+    for m, cf in classified.items():
+        c_off = cf["c_off"] if cf["c_off"] is not None else sp.expand(cf["c_diag"] - own_expr)
+        if c_off != 0:
+            for k in range(1, m + 1):
+                cf["qdn_S"][k] = _merge(cf["qdn_S"].get(k, {}), _poly_dict(c_off, gens))
+    own_c = _poly_dict(own_expr, gens)
     entries: dict = {}
     for i in range(n):
         cf = classified[graph.degrees[i]]
@@ -529,12 +538,12 @@ def _classify(t: LocalTemplate, gens: tuple) -> dict:
     """Split a local V' form into the pieces that map onto zeta."""
     m = t.m
     out: dict[str, Any] = {
-        "qd_qd": {}, "S_S": {}, "qd_S": {}, "own_edge": {}, "qd_qdn": {}, "qdn_S": {},
+        "qd_qd": {}, "S_S": {}, "qd_S": {}, "qd_qdn": {}, "qdn_S": {},
         "qdn_qdn": {},
     }
     edge_qd: list[sp.Expr] = [sp.Integer(0)] * (m + 1)
     edge_S: list[sp.Expr] = [sp.Integer(0)] * (m + 1)
-    edge_own: list[sp.Expr] = [sp.Integer(0)] * (m + 1)
+    edge_qdn: dict[tuple[int, int], sp.Expr] = {}
     rho: dict[str, sp.Expr] = {"qd": sp.Integer(0), "S": sp.Integer(0)}
     rho_edge: list[sp.Expr] = [sp.Integer(0)] * (m + 1)
     sig_terms: dict = {}
@@ -551,12 +560,7 @@ def _classify(t: LocalTemplate, gens: tuple) -> dict:
         elif pair == ("e", "S"):
             edge_S[a[1]] += c
         elif pair == ("qdn", "e"):
-            if a[1] != b[1]:
-                raise DerivationError(
-                    f"expected V_i' to pair an edge only with its own neighbour's rate; received "
-                    f"{c} * e_{b[1]} * qdot_n{a[1]}"
-                )
-            edge_own[a[1]] += c
+            edge_qdn[(b[1], a[1])] = edge_qdn.get((b[1], a[1]), 0) + c
         elif pair == ("qd", "qdn"):
             out["qd_qdn"][b[1]] = _poly_dict(c, gens)
         elif pair == ("qdn", "S"):
@@ -588,13 +592,18 @@ def _classify(t: LocalTemplate, gens: tuple) -> dict:
             )
         if vals:
             out[target] = _merge(out[target], _poly_dict(vals.pop(), gens))
-    vals = {sp.expand(x) for x in edge_own[1:]}
-    if len(vals) > 1:
+    # edge l against neighbour rate k: c_diag on l == k, c_off on l != k, so that
+    # sum_{l,k} c e_l^T qdn_k = c_off s_i^T sum_k qdn_k + (c_diag - c_off) sum_k e_k^T qdn_k
+    diag = {sp.expand(edge_qdn.get((k, k), 0)) for k in range(1, m + 1)}
+    off = {sp.expand(edge_qdn.get((r, k), 0)) for r in range(1, m + 1)
+           for k in range(1, m + 1) if r != k}
+    if len(diag) > 1 or len(off) > 1:
         raise DerivationError(
-            "expected the coefficient of e_ij^T q_j' equal for all neighbours; received "
-            f"{sorted(map(str, vals))}"
+            "expected the coefficient of e_il^T q_k' in V_i' to depend only on whether l == k "
+            f"(so it sums into s); received {sorted(map(str, diag | off))}"
         )
-    out["own_edge"] = _poly_dict(vals.pop(), gens) if vals else {}
+    out["c_diag"] = diag.pop() if diag else sp.Integer(0)
+    out["c_off"] = off.pop() if off else None  # undetermined for m == 1 (s_i = e_1)
     vals = {sp.expand(x) for x in rho_edge[1:]}
     if len(vals) > 1:
         raise DerivationError("expected the disturbance coefficient of every edge to be equal")
@@ -808,11 +817,10 @@ def closed_form_conditions(conds: LyapunovConditions) -> tuple[ClosedFormConditi
             lam = sp.Symbol(f"lambda_{which}({gname})")
             expr = sp.expand(alpha + gamma * lam) if gamma != 0 else sp.expand(alpha)
             consts = {str(lam): mu} if gamma != 0 else {}
-            out.append(ClosedFormCondition(
-                f"Pi[{label}]", expr, consts,
-                f"{label} = alpha I + gamma {gname}: eigenvalues alpha + gamma mu, "
-                f"extreme at lambda_min/lambda_max({gname})",
-            ))
+            how = (f"{label} = alpha I + gamma {gname}: eigenvalues alpha + gamma mu, "
+                   f"extreme at lambda_min/lambda_max({gname})" if gamma != 0 else
+                   f"{label} = alpha I")
+            out.append(ClosedFormCondition(f"Pi[{label}]", expr, consts, how))
     # remove duplicates (gamma == 0 gives the same expression twice)
     uniq: list[ClosedFormCondition] = []
     for c in out:
