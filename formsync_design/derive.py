@@ -25,6 +25,7 @@ matrix is stored per axis as a :class:`~.families.MatrixFamily`.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from fractions import Fraction
 from functools import cache, lru_cache
@@ -381,7 +382,7 @@ def family_from_entries(
         cells = buckets[mono]
         den = 1
         for c in cells.values():
-            den = den * c.denominator // np.gcd(den, c.denominator)
+            den = math.lcm(den, c.denominator)
         rows = [ij[0] for ij in cells]
         cols = [ij[1] for ij in cells]
         vals = [int(c * den) for c in cells.values()]

@@ -17,6 +17,7 @@ checked; ``row_labels`` name the rows of ``F`` in order.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+import math
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
@@ -230,7 +231,7 @@ def family_from_sympy(
         entries = buckets[mono]
         den = 1
         for v in entries.values():
-            den = den * v.denominator // np.gcd(den, v.denominator)
+            den = math.lcm(den, v.denominator)
         g = np.zeros((n, n), dtype=np.int64)
         for (i, j), v in entries.items():
             g[i, j] = int(v * den)

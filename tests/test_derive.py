@@ -282,3 +282,13 @@ def test_required_kv_is_the_supremum_over_attitudes_and_disturbances():
     assert -res.fun == pytest.approx(bound, rel=1e-5)
     assert kv_condition_holds(bound * 1.0001, J, ubar)
     assert not kv_condition_holds(bound * 0.9999, J, ubar)
+
+
+def test_family_coefficients_are_exact_python_rationals():
+    """Plain-int Fractions (numpy integers would overflow silently in exact checks)."""
+    for conds in (derive_conditions("star:6"), paper_conditions("ring:5")):
+        for fam in conds.families:
+            for t in fam.terms:
+                assert type(t.coefficient.numerator) is int
+                assert type(t.coefficient.denominator) is int
+                hash(t.coefficient)
