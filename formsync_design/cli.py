@@ -11,13 +11,22 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from . import cmd_derive
+from . import (
+    cmd_certify,
+    cmd_derive,
+    cmd_design,
+    cmd_montecarlo,
+    cmd_region,
+    cmd_simulate,
+    cmd_sweep,
+    cmd_verify,
+)
 from .cliutil import EXIT_USAGE
 from .errors import FormsyncError
 
 __all__ = ["main", "build_parser"]
 
-_COMMANDS = [cmd_derive]
+_COMMANDS = [cmd_derive, cmd_certify, cmd_region, cmd_design, cmd_simulate, cmd_montecarlo, cmd_sweep, cmd_verify]
 
 
 class _Parser(argparse.ArgumentParser):
