@@ -16,8 +16,8 @@ checked; ``row_labels`` name the rows of ``F`` in order.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
