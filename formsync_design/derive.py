@@ -25,7 +25,6 @@ matrix is stored per axis as a :class:`~.families.MatrixFamily`.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from fractions import Fraction
 from functools import cache, lru_cache
@@ -36,7 +35,7 @@ import numpy as np
 import sympy as sp
 
 from .errors import DerivationError, InputError
-from .families import GAIN_NAMES, FamilyTerm, MatrixFamily
+from .families import GAIN_NAMES, MatrixFamily, family_from_entries
 from .graphs import Graph, make_graph
 from .spec import ControllerView, LyapunovView, Spec, gain_symbols, load_spec
 
@@ -54,7 +53,6 @@ __all__ = [
     "zeta_labels",
     "required_kv",
     "kv_condition_holds",
-    "family_from_entries",
 ]
 
 
@@ -356,46 +354,6 @@ def _acc(entries: dict, i: int, j: int, pd: dict, scale: Fraction = Fraction(1))
     cell = entries.setdefault((i, j), {})
     for mono, c in pd.items():
         cell[mono] = cell.get(mono, Fraction(0)) + c * scale
-
-
-def family_from_entries(
-    name: str,
-    size: int,
-    entries: dict[tuple[int, int], dict[tuple[int, ...], Fraction]],
-    *,
-    gains: tuple[str, ...] = GAIN_NAMES,
-    block_size: int = 3,
-    row_labels: tuple[str, ...] = (),
-    spacecraft: int | None = None,
-) -> MatrixFamily:
-    """Build a :class:`MatrixFamily` from sparse polynomial entries
-    ``{(row, col): {exponents: coefficient}}`` (both triangles given)."""
-    import scipy.sparse as sps
-
-    buckets: dict[tuple[int, ...], dict[tuple[int, int], Fraction]] = {}
-    for (i, j), pd in entries.items():
-        for mono, c in pd.items():
-            if c != 0:
-                buckets.setdefault(mono, {})[(i, j)] = c
-    terms = []
-    for mono in sorted(buckets):
-        cells = buckets[mono]
-        den = 1
-        for c in cells.values():
-            den = math.lcm(den, c.denominator)
-        rows = [ij[0] for ij in cells]
-        cols = [ij[1] for ij in cells]
-        vals = [int(c * den) for c in cells.values()]
-        if size > 64:
-            mat: Any = sps.csr_matrix((vals, (rows, cols)), shape=(size, size), dtype=np.int64)
-        else:
-            mat = np.zeros((size, size), dtype=np.int64)
-            mat[rows, cols] = vals
-        terms.append(FamilyTerm(mono, Fraction(1, den), mat))
-    return MatrixFamily(
-        name=name, gains=gains, terms=tuple(terms), size=size, block_size=block_size,
-        row_labels=row_labels, spacecraft=spacecraft,
-    )
 
 
 def zeta_labels(n: int) -> tuple[str, ...]:

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["GAIN_NAMES", "FamilyTerm", "MatrixFamily", "family_from_sympy"]
+__all__ = ["GAIN_NAMES", "FamilyTerm", "MatrixFamily", "family_from_sympy", "family_from_entries"]
 
 #: Canonical gain order used throughout the toolbox.
 GAIN_NAMES: tuple[str, ...] = ("K_o", "K_q", "beta")
@@ -211,7 +211,7 @@ def family_from_sympy(
         raise ValueError(f"expected a symmetric matrix for {name}, received a non-symmetric one")
     n = mat.shape[0]
     gens = list(gain_symbols)
-    buckets: dict[tuple[int, ...], dict[tuple[int, int], Fraction]] = {}
+    entries: dict[tuple[int, int], dict[tuple[int, ...], Fraction]] = {}
     for i in range(n):
         for j in range(n):
             e = sympy.expand(mat[i, j])
@@ -223,25 +223,59 @@ def family_from_sympy(
                     raise ValueError(
                         f"expected rational coefficients in {name}[{i},{j}], received {c}"
                     )
-                buckets.setdefault(tuple(int(x) for x in mono), {})[(i, j)] = Fraction(
+                entries.setdefault((i, j), {})[tuple(int(x) for x in mono)] = Fraction(
                     int(c.p), int(c.q)
                 )
+    return family_from_entries(
+        name, n, entries, gains=tuple(str(s) for s in gens), block_size=block_size,
+        row_labels=tuple(row_labels), spacecraft=spacecraft,
+    )
+
+
+def family_from_entries(
+    name: str,
+    size: int,
+    entries: dict[tuple[int, int], dict[tuple[int, ...], Fraction]],
+    *,
+    gains: tuple[str, ...] = GAIN_NAMES,
+    block_size: int = 3,
+    row_labels: tuple[str, ...] = (),
+    spacecraft: int | None = None,
+) -> MatrixFamily:
+    """Build a :class:`MatrixFamily` from sparse polynomial entries
+    ``{(row, col): {exponents: coefficient}}`` (both triangles given).
+
+    Entries of each monomial share one integer matrix scaled by ``1/lcm`` of
+    their denominators; matrices larger than 64 are stored sparse.
+
+    Examples
+    --------
+    >>> f = family_from_entries("F", 2, {(0, 0): {(1, 0, 0): Fraction(1, 2)},
+    ...                                  (1, 1): {(0, 0, 0): Fraction(1, 3)}})
+    >>> f.evaluate((2, 0, 0)).round(4).tolist()
+    [[1.0, 0.0], [0.0, 0.3333]]
+    """
+    buckets: dict[tuple[int, ...], dict[tuple[int, int], Fraction]] = {}
+    for (i, j), pd in entries.items():
+        for mono, c in pd.items():
+            if c != 0:
+                buckets.setdefault(mono, {})[(i, j)] = c
     terms = []
     for mono in sorted(buckets):
-        entries = buckets[mono]
+        cells = buckets[mono]
         den = 1
-        for v in entries.values():
-            den = math.lcm(den, v.denominator)
-        g = np.zeros((n, n), dtype=np.int64)
-        for (i, j), v in entries.items():
-            g[i, j] = int(v * den)
-        terms.append(FamilyTerm(mono, Fraction(1, den), g))
+        for c in cells.values():
+            den = math.lcm(den, c.denominator)
+        rows = [ij[0] for ij in cells]
+        cols = [ij[1] for ij in cells]
+        vals = [int(c * den) for c in cells.values()]
+        if size > 64:
+            mat: Any = sp.csr_matrix((vals, (rows, cols)), shape=(size, size), dtype=np.int64)
+        else:
+            mat = np.zeros((size, size), dtype=np.int64)
+            mat[rows, cols] = vals
+        terms.append(FamilyTerm(mono, Fraction(1, den), mat))
     return MatrixFamily(
-        name=name,
-        gains=tuple(str(s) for s in gens),
-        terms=tuple(terms),
-        size=n,
-        block_size=block_size,
-        row_labels=tuple(row_labels),
-        spacecraft=spacecraft,
+        name=name, gains=gains, terms=tuple(terms), size=size, block_size=block_size,
+        row_labels=row_labels, spacecraft=spacecraft,
     )
