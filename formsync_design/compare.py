@@ -280,7 +280,11 @@ def lyapunov_findings(graph: Any) -> tuple[Finding, ...]:
     >>> [f.key for f in lyapunov_findings("ring:4")]
     ['Theta', 'Vdot-quadratic', 'Vdot-disturbance', 'Pi-M', 'Pi-N', 'K_vi-rule']
     """
-    g = make_graph(graph)
+    return _lyapunov_findings(make_graph(graph))
+
+
+@lru_cache(maxsize=16)
+def _lyapunov_findings(g: Graph) -> tuple[Finding, ...]:
     pr = load_printed()
     der = derive_conditions(g)
     pap = paper_conditions(g)

@@ -360,6 +360,15 @@ def verify_case(case_path: str | Path | None = None, *, progress: Any = None) ->
     kv = check_kv(list(gains.K_v), list(case.inertias), [float(x) for x in ubar])
     kv_ratio = min(float(k) / r for k, r in zip(gains.K_v, kv_req))
 
+    sims: dict = {}
+
+    def run(g: Any, options: Any) -> Any:
+        """Simulate once per (graph, options): the sweeps repeat the default settings."""
+        key = (g.name, options)
+        if key not in sims:
+            sims[key] = simulate(case.formation(g), options)
+        return sims[key]
+
     runs = []
     for g in graphs:
         say(f"certify and simulate {g.name}")
@@ -368,9 +377,8 @@ def verify_case(case_path: str | Path | None = None, *, progress: Any = None) ->
         theta_ok = all(fm.status == "certified" for fm in der.families
                        if fm.name.startswith("Theta"))
         pi_ok = all(fm.status == "certified" for fm in der.families if fm.name == "Pi")
-        r = simulate(case.formation(g), case.options)
-        rs = simulate(case.formation(g), replace(case.options,
-                                                 torque_limit=settings["saturation_torque_limit"]))
+        r = run(g, case.options)
+        rs = run(g, replace(case.options, torque_limit=settings["saturation_torque_limit"]))
         q = _sim_quantities(r, frac)
         q["theta_pd"] = 1.0 if theta_ok else 0.0
         q["pi_pd"] = 1.0 if pi_ok else 0.0
@@ -412,11 +420,11 @@ def verify_case(case_path: str | Path | None = None, *, progress: Any = None) ->
     g0 = graphs[0]
     for phi in settings["phi_sweep"]:
         say(f"sensitivity: boundary layer {phi:g}")
-        r = simulate(case.formation(g0), replace(case.options, phi=phi))
+        r = run(g0, replace(case.options, phi=phi))
         sens.append(_sens_row("boundary_layer", phi, r, frac, None))
     for lim in settings["torque_limit_sweep"]:
         say(f"sensitivity: torque limit {lim:g}")
-        r = simulate(case.formation(g0), replace(case.options, torque_limit=lim or None))
+        r = run(g0, replace(case.options, torque_limit=lim or None))
         sens.append(_sens_row("torque_limit", lim or None, r, frac, lim or None))
 
     spec = load_spec()
