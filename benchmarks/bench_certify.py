@@ -27,11 +27,11 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from formsync_design.certify import certify_box  # noqa: E402
-from formsync_design.derive import derive_conditions  # noqa: E402
+from formsync_design.certify.engine import certify_box  # noqa: E402
+from formsync_design.certify.region import region_map  # noqa: E402
+from formsync_design.derive.conditions import derive_conditions  # noqa: E402
 from formsync_design.errors import GraphError  # noqa: E402
-from formsync_design.graphs import make_graph  # noqa: E402
-from formsync_design.region import region_map  # noqa: E402
+from formsync_design.graphs.build import make_graph  # noqa: E402
 
 RANGES = {"K_o": ("0.05", "5"), "K_q": ("0.05", "5"), "beta": ("0.01", "1")}
 

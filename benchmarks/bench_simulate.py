@@ -38,15 +38,15 @@ from scipy.integrate import solve_ivp
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from formsync_design import simulate as S  # noqa: E402
-from formsync_design.case import load_case  # noqa: E402
-from formsync_design.montecarlo import (  # noqa: E402
+from formsync_design.sim import simulator as S  # noqa: E402
+from formsync_design.sim.montecarlo import (  # noqa: E402
     GainBox,
     MonteCarloSettings,
     replay,
     run_montecarlo,
 )
-from formsync_design.simulate import SimOptions, simulate  # noqa: E402
+from formsync_design.sim.simulator import SimOptions, simulate  # noqa: E402
+from formsync_design.verify.case import load_case  # noqa: E402
 from tests import numpy_reference as R  # noqa: E402
 
 

@@ -1,7 +1,7 @@
 """Specification of Liang, Wang, Sun, Zhang (2016), J. Harbin Inst. Technol. 48(4).
 
 Controller (4) and the Lyapunov candidate of Theorem 1, as inputs to the
-formsync-design derivation engine (see ``formsync_design.spec``).
+formsync-design derivation engine (see ``formsync_design.spec.loader``).
 """
 
 NAME = "liang2016"

@@ -14,6 +14,7 @@ __all__ = [
     "DerivationError",
     "SolverError",
     "SimulationError",
+    "PackagingError",
 ]
 
 
@@ -39,3 +40,7 @@ class SolverError(FormsyncError, RuntimeError):
 
 class SimulationError(FormsyncError, RuntimeError):
     """A simulation produced NaN/inf or could not proceed."""
+
+
+class PackagingError(FormsyncError, RuntimeError):
+    """The installation lacks a file it should ship (not the user's input)."""

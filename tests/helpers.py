@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from formsync_design.model import derive_attitude_model
+from formsync_design.models.attitude import derive_attitude_model
 
 
 def cross(v: np.ndarray) -> np.ndarray:

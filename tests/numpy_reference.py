@@ -1,7 +1,7 @@
 """An independent, straightforward numpy closed loop (tests and benchmark baseline).
 
 Written by hand from the paper's formulas, deliberately *not* through the
-sympy -> CasADi bridge, so that agreement with :mod:`formsync_design.simulate`
+sympy -> CasADi bridge, so that agreement with :mod:`formsync_design.sim.simulator`
 is evidence and not a tautology:
 
 * ``Q = 2 (q0 I - q^x + q q^T / q0)`` (closed form of ``E^{-1}``),

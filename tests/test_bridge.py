@@ -7,15 +7,15 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from formsync_design.bridge import (
+from formsync_design.errors import DerivationError, InputError
+from formsync_design.models.attitude import derive_attitude_model
+from formsync_design.sim.bridge import (
     build_controller,
     matrix_expr_to_casadi,
     model_function,
     switch_function,
     sympy_to_casadi,
 )
-from formsync_design.errors import DerivationError, InputError
-from formsync_design.model import derive_attitude_model
 
 from .numpy_reference import skew
 from .numpy_reference import switch as np_switch

@@ -8,9 +8,9 @@ import tomllib
 import numpy as np
 import pytest
 
-from formsync_design.case import default_case_path, load_case, parse_case
-from formsync_design.disturbances import Orbit, paper_umg_magnitude
 from formsync_design.errors import InputError
+from formsync_design.models.disturbances import Orbit, paper_umg_magnitude
+from formsync_design.verify.case import default_case_path, load_case, parse_case
 
 
 @pytest.fixture(scope="module")

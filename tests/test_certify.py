@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from formsync_design.certify import (
+from formsync_design.certify.engine import (
     STATUS_MAP,
     as_box,
     box_vertices,
@@ -20,11 +20,11 @@ from formsync_design.certify import (
     exact_ldl,
     rigorous_lower_bound,
 )
-from formsync_design.cli import main
-from formsync_design.derive import derive_conditions, paper_conditions, required_kv
+from formsync_design.cli.main import main
+from formsync_design.derive.conditions import derive_conditions, paper_conditions, required_kv
+from formsync_design.derive.families import family_from_sympy
 from formsync_design.errors import InputError
-from formsync_design.families import family_from_sympy
-from formsync_design.graphs import make_graph
+from formsync_design.graphs.build import make_graph
 
 GRAPHS = ["ring:5", "star:6", "path:5", "complete:5", "random:7:0.5:3", "circulant:8:1,3"]
 
@@ -302,7 +302,7 @@ def test_not_multiaffine_interval_subdivision_is_sound() -> None:
 
 
 def test_not_multiaffine_singular_inside_is_undecided(monkeypatch) -> None:
-    import formsync_design.certify as C
+    import formsync_design.certify.engine as C
 
     monkeypatch.setattr(C, "SUBDIVISION_LIMIT", 64)
     # (2 K_o - 3)^2 vanishes at K_o = 3/2 inside the box, positive at both vertices
@@ -444,8 +444,8 @@ def test_exact_boundary_decided_by_rationals() -> None:
     """On the Theta boundary (from derive.closed_form_conditions, solved for K_q) the
     matrix is singular: refuted with an exact witness of value 0; 1e-15 above it the
     float test is inconclusive and exact LDL^T certifies."""
-    from formsync_design.derive import closed_form_conditions
-    from formsync_design.spec import gain_symbols
+    from formsync_design.derive.conditions import closed_form_conditions
+    from formsync_design.spec.loader import gain_symbols
 
     conds = derive_conditions("star:3")
     ko, kq, b = gain_symbols()
@@ -473,7 +473,7 @@ def test_inertia_per_spacecraft_and_case_override(capsys, tmp_path) -> None:
 def test_uniform_refutation_matches_rational_evaluation() -> None:
     """The integer-arithmetic sign test agrees with MatrixFamily.evaluate_exact,
     including vectors whose quadratic form is (nearly) zero."""
-    from formsync_design.certify import analyze, uniform_refutation
+    from formsync_design.certify.engine import analyze, uniform_refutation
 
     rng = np.random.default_rng(9)
     for spec in ("ring:5", "star:4"):

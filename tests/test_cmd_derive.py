@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from formsync_design.cli import main
+from formsync_design.cli.main import main
 
 
 def test_numeric_json_order_and_values(capsys):

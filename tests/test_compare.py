@@ -7,15 +7,15 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from formsync_design.compare import (
+from formsync_design.derive.compare import (
     VERDICTS,
     disagreement_witness,
     lyapunov_findings,
     model_findings,
 )
-from formsync_design.derive import required_kv
-from formsync_design.graphs import make_graph
-from formsync_design.printed import load_printed
+from formsync_design.derive.conditions import required_kv
+from formsync_design.derive.printed import load_printed
+from formsync_design.graphs.build import make_graph
 
 from .helpers import cross, model_numeric, random_inertia
 

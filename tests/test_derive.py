@@ -19,7 +19,7 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 from scipy.optimize import minimize
 
-from formsync_design.derive import (
+from formsync_design.derive.conditions import (
     brute_force_vdot,
     closed_form_conditions,
     derive_closed_loop,
@@ -30,8 +30,8 @@ from formsync_design.derive import (
     required_kv,
 )
 from formsync_design.errors import DerivationError
-from formsync_design.graphs import make_graph
-from formsync_design.spec import ControllerView, LyapunovView, load_spec
+from formsync_design.graphs.build import make_graph
+from formsync_design.spec.loader import ControllerView, LyapunovView, load_spec
 
 from .helpers import cross, model_numeric, random_inertia, random_quaternion
 

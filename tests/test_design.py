@@ -8,10 +8,10 @@ import json
 import numpy as np
 import pytest
 
-from formsync_design.certify import as_box, box_vertices
-from formsync_design.cli import main
-from formsync_design.derive import derive_conditions
-from formsync_design.design import design_gains
+from formsync_design.certify.design import design_gains
+from formsync_design.certify.engine import as_box, box_vertices
+from formsync_design.cli.main import main
+from formsync_design.derive.conditions import derive_conditions
 from formsync_design.errors import InputError
 
 RANGES = {"K_o": (0.1, 3), "K_q": (0.1, 3), "beta": (0.05, 0.5)}

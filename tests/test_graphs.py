@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from formsync_design.errors import FormsyncError, GraphError
-from formsync_design.graphs import Graph, make_graph
+from formsync_design.graphs.build import Graph, make_graph
 
 
 @pytest.mark.parametrize(

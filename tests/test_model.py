@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from formsync_design.model import derive_attitude_model, reduce_unit, skew
+from formsync_design.models.attitude import derive_attitude_model, reduce_unit, skew
 
 from .helpers import cross, model_numeric, random_inertia, random_quaternion
 

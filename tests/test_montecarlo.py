@@ -7,12 +7,12 @@ import json
 import numpy as np
 import pytest
 
-from formsync_design.case import load_case
-from formsync_design.cli import main
-from formsync_design.disturbances import constant_disturbance
+from formsync_design.cli.main import main
 from formsync_design.errors import InputError
-from formsync_design.montecarlo import GainBox, MonteCarloSettings, replay, run_montecarlo
-from formsync_design.simulate import Formation, Gains, SimOptions, simulate
+from formsync_design.models.disturbances import constant_disturbance
+from formsync_design.sim.montecarlo import GainBox, MonteCarloSettings, replay, run_montecarlo
+from formsync_design.sim.simulator import Formation, Gains, SimOptions, simulate
+from formsync_design.verify.case import load_case
 
 OPT = SimOptions(tf=20.0, step=0.1, output_step=0.5, norm_tol=1e-5, compile=False)
 
@@ -107,7 +107,7 @@ def test_cli_montecarlo(capsys):
 
 
 def test_phases_randomised_and_zoh_campaign(base):
-    from formsync_design.montecarlo import sample_formation
+    from formsync_design.sim.montecarlo import sample_formation
 
     s = MonteCarloSettings(runs=2, seed=4)
     a = sample_formation(base, GainBox.around(base.gains), s, 1)

@@ -8,16 +8,20 @@ import json
 import numpy as np
 import pytest
 
-from formsync_design.cli import main
-from formsync_design.derive import closed_form_conditions, derive_conditions, paper_conditions
-from formsync_design.errors import InputError
-from formsync_design.region import (
+from formsync_design.certify.region import (
     closed_form_agreement,
     map_to_dict,
     rasterize,
     region_map,
     write_region,
 )
+from formsync_design.cli.main import main
+from formsync_design.derive.conditions import (
+    closed_form_conditions,
+    derive_conditions,
+    paper_conditions,
+)
+from formsync_design.errors import InputError
 
 RANGES = {"K_o": ("0.05", "5"), "K_q": ("0.05", "5"), "beta": ("0.01", "1")}
 
@@ -56,7 +60,7 @@ def test_map_agrees_with_closed_form(spec, which) -> None:
     # (they straddle a boundary, or different matrices fail in different parts)
     import sympy as sp
 
-    from formsync_design.spec import gain_symbols
+    from formsync_design.spec.loader import gain_symbols
 
     fns = [sp.lambdify(gain_symbols(), cf.substituted(), "numpy") for cf in closed_form_conditions(c)]
     for b in m.boxes:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from formsync_design.report import write_derivation_report
+from formsync_design.derive.report import write_derivation_report
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -9,17 +9,16 @@ import pytest
 import scipy.linalg
 from scipy.integrate import solve_ivp
 
-from formsync_design.case import load_case
-from formsync_design.cli import main
-from formsync_design.disturbances import (
+from formsync_design.cli.main import main
+from formsync_design.errors import InputError, SimulationError
+from formsync_design.graphs.build import make_graph
+from formsync_design.models.disturbances import (
     constant_disturbance,
     gravity_gradient_disturbance,
     harmonic_disturbance,
     no_disturbance,
 )
-from formsync_design.errors import InputError, SimulationError
-from formsync_design.graphs import make_graph
-from formsync_design.simulate import (
+from formsync_design.sim.simulator import (
     Formation,
     Gains,
     SimOptions,
@@ -30,6 +29,7 @@ from formsync_design.simulate import (
     state_names,
     unpack_state,
 )
+from formsync_design.verify.case import load_case
 
 from . import numpy_reference as R
 
@@ -312,7 +312,7 @@ def test_cli_simulate_exit_codes(capsys, tmp_path):
 
 
 def test_figures_and_reproducible_files(paper, tmp_path):
-    from formsync_design.simplot import all_figures, save_figure, torque_figures
+    from formsync_design.sim.figures import all_figures, save_figure, torque_figures
 
     r = simulate(paper.formation(), SimOptions(tf=4.0, torque_limit=30.0, compile=False))
     figs = torque_figures(r)
@@ -327,7 +327,7 @@ def test_figures_and_reproducible_files(paper, tmp_path):
 
 
 def test_disturbance_frequencies_must_be_shared():
-    from formsync_design.disturbances import DisturbanceModel, kernel_parameters
+    from formsync_design.models.disturbances import DisturbanceModel, kernel_parameters
 
     h = np.zeros((2, 3, 6))
     h[0, 0, 2] = 0.1

@@ -1,4 +1,4 @@
-"""Tests of formsync_design.sweep / ``formsync sweep``.
+"""Tests of formsync_design.sweep.campaign / ``formsync sweep``.
 
 Independent truths: the number of connected graphs on n nodes (OEIS A001349:
 1, 1, 2, 6, 21, 112, 853), the Laplacian spectrum from networkx/numpy, and the
@@ -21,9 +21,9 @@ import networkx as nx
 import numpy as np
 import pytest
 
-from formsync_design.cli import main
+from formsync_design.cli.main import main
 from formsync_design.errors import FormsyncError, InputError
-from formsync_design.sweep import (
+from formsync_design.sweep.campaign import (
     COLUMNS,
     build_tasks,
     campaign_from_dict,
@@ -312,7 +312,7 @@ def test_campaign_file_strictness(tmp_path):
 
 
 def test_example_campaign_definition_loads():
-    from formsync_design.sweep import load_campaign
+    from formsync_design.sweep.campaign import load_campaign
 
     c = load_campaign(ROOT / "verification" / "sweep_atlas6.toml")
     gs, skipped = expand_graphs(c.graphs)
@@ -365,7 +365,7 @@ def test_killed_process_resumes_to_rows_of_uninterrupted_run(tmp_path):
             "--workers", "0", "--no-progress"]
     assert main([*argv, "--out", str(tmp_path / "ref")]) == 0
     out = tmp_path / "r"
-    exe = [sys.executable, "-c", "import sys; from formsync_design.cli import main; "
+    exe = [sys.executable, "-c", "import sys; from formsync_design.cli.main import main; "
            "sys.exit(main(sys.argv[1:]))"]
     proc = subprocess.Popen([*exe, *argv, "--out", str(out)], stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
@@ -413,8 +413,8 @@ def test_progress_reports_every_task_and_json_output(tmp_path, capsys):
 
 
 def test_montecarlo_case_content_is_part_of_the_campaign(tmp_path):
-    from formsync_design.case import default_case_path
-    from formsync_design.sweep import campaign_hash
+    from formsync_design.sweep.campaign import campaign_hash
+    from formsync_design.verify.case import default_case_path
 
     case = tmp_path / "case.toml"
     text = default_case_path().read_text()

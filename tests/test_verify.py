@@ -10,12 +10,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from formsync_design.case import load_case
-from formsync_design.cli import main
-from formsync_design.derive import derive_conditions
+from formsync_design.cli.main import main
+from formsync_design.derive.conditions import derive_conditions
 from formsync_design.errors import InputError
-from formsync_design.simulate import simulate
-from formsync_design.verify import (
+from formsync_design.sim.simulator import simulate
+from formsync_design.verify.case import load_case
+from formsync_design.verify.verification import (
     chatter_end_time,
     parse_claims,
     verify_case,

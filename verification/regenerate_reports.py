@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def main() -> int:
-    from formsync_design.cli import main as formsync
+    from formsync_design.cli.main import main as formsync
 
     os.chdir(ROOT)
     shutil.rmtree(ROOT / "reports" / "sweep-atlas6", ignore_errors=True)

@@ -1,0 +1,1 @@
+"""The shipped design specifications (installed as ``formsync_design.derivations``)."""

@@ -1,0 +1,339 @@
+"""Gain design: maximize the certified margin over user ranges.
+
+For a fixed ``beta`` every family is affine in ``(K_o, K_q)`` (checked term by
+term: no monomial may contain both, or a square), so
+
+    maximize  t - rho * (K_o / K_o_hi + K_q / K_q_hi)
+    s.t.      F_b(K_o, K_q; beta) - t I  >= 0    for every distinct block b,
+              K_o, K_q within the user ranges
+
+is a genuine SDP (cvxpy + Clarabel).  ``Pi``'s pencil block ``a I + b M``
+enters as the two linear constraints ``a + b mu >= t`` at the ends of the
+rigorous spectrum enclosure of ``M``.  ``beta`` is swept over a grid.  The
+best point is rounded to a short rational, certified with
+:func:`~formsync_design.certify.engine.certify_box`, and the largest box
+``g_i * [1 - s, 1 + s]`` (intersected with the ranges) that is still certified
+is found by bisection on ``s``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+
+from formsync_design.certify.engine import (
+    CLARABEL_OPTIONS,
+    STATUS_MAP,
+    Box,
+    CertificationResult,
+    _pencil_spectrum,
+    analyze,
+    as_box,
+    certify_box,
+)
+from formsync_design.errors import DerivationError, InputError
+
+__all__ = ["BetaStep", "DesignResult", "design_gains", "largest_certified_box"]
+
+
+@dataclass(frozen=True)
+class BetaStep:
+    """One SDP of the beta sweep (float values are solver hints)."""
+
+    beta: Fraction
+    raw_status: str
+    outcome: str
+    t: float | None
+    K_o: float | None
+    K_q: float | None
+    objective: float | None
+    solve_time: float
+    iterations: int | None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "beta": float(self.beta),
+            "raw_status": self.raw_status,
+            "outcome": self.outcome,
+            "margin_hint": self.t,
+            "K_o": self.K_o,
+            "K_q": self.K_q,
+            "objective": self.objective,
+            "solve_time_s": self.solve_time,
+            "iterations": self.iterations,
+        }
+
+
+@dataclass(frozen=True)
+class DesignResult:
+    """Recommended gains and their certificates.
+
+    ``status``: ``"designed"`` (the recommended point is certified),
+    ``"infeasible"`` (no swept beta gives a positive margin hint),
+    ``"undecided"`` (a point was found but not certified), ``"error"``.
+    """
+
+    status: str
+    gains: dict[str, Fraction]
+    margin: Fraction | None
+    penalty: float
+    sweep: tuple[BetaStep, ...]
+    point: CertificationResult | None
+    box: Box | None
+    box_half_width: float
+    box_result: CertificationResult | None
+    ranges: Box
+    elapsed: float
+    reason: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        g = list(self.gains)
+        return {
+            "status": self.status,
+            "reason": self.reason,
+            "gains": {k: float(v) for k, v in self.gains.items()},
+            "gains_exact": {k: str(v) for k, v in self.gains.items()},
+            "certified_margin": None if self.margin is None else float(self.margin),
+            "penalty": self.penalty,
+            "ranges": {k: [float(lo), float(hi)] for k, (lo, hi) in zip(g, self.ranges)}
+            if g else {},
+            "largest_certified_box": None
+            if self.box is None
+            else {k: [float(lo), float(hi)] for k, (lo, hi) in zip(g, self.box)},
+            "box_relative_half_width": self.box_half_width,
+            "sweep": [s.to_dict() for s in self.sweep],
+            "point_certificate": None if self.point is None else self.point.to_dict(),
+            "box_certificate": None if self.box_result is None else self.box_result.to_dict(),
+            "elapsed_s": self.elapsed,
+        }
+
+
+def _affine_split(st: Any, gains: tuple[str, ...]) -> None:
+    ko, kq = gains.index("K_o"), gains.index("K_q")
+    for b in st.blocks:
+        for e in b.exps:
+            if e[ko] + e[kq] > 1:
+                raise DerivationError(
+                    "expected every family affine in (K_o, K_q) for fixed beta, received a term "
+                    f"with exponents {dict(zip(gains, e))}"
+                )
+
+
+def _sdp_at_beta(st: Any, gains: tuple[str, ...], beta: Fraction, rko: tuple, rkq: tuple,
+                 penalty: float) -> BetaStep:
+    import cvxpy as cp
+
+    iko, ikq, ib = gains.index("K_o"), gains.index("K_q"), gains.index("beta")
+    ko = cp.Variable()
+    kq = cp.Variable()
+    t = cp.Variable()
+    bf = float(beta)
+    cons = [ko >= float(rko[0]), ko <= float(rko[1]), kq >= float(rkq[0]), kq <= float(rkq[1])]
+
+    def weight(e: tuple[int, ...], c: Fraction) -> Any:
+        w: Any = float(c) * bf ** e[ib]
+        if e[iko]:
+            w = w * ko
+        if e[ikq]:
+            w = w * kq
+        return w
+
+    for b in st.blocks:
+        ws = [weight(e, c) for e, c in zip(b.exps, b.coefs)]
+        if b.pencil is not None:
+            p = b.pencil
+            _pencil_spectrum(p)
+            a = sum(w * float(al) for w, al in zip(ws, p.alphas))
+            bb = sum(w * float(be) for w, be in zip(ws, p.betas))
+            for mu in (float(p.mu_lo), float(p.mu_hi)):
+                cons.append(a + bb * mu >= t)
+        else:
+            expr: Any = cp.Constant(np.zeros((b.size, b.size)))
+            for w, m in zip(ws, b.mats):
+                expr = expr + w * np.asarray(m, dtype=float)
+            if b.size == 1:
+                cons.append(expr[0, 0] >= t)
+            else:
+                sym = (expr + expr.T) / 2
+                cons.append(sym - t * np.eye(b.size) >> 0)
+    obj = t - penalty * (ko / float(rko[1]) + kq / float(rkq[1]))
+    prob = cp.Problem(cp.Maximize(obj), cons)
+    t0 = time.perf_counter()
+    try:
+        prob.solve(solver=cp.CLARABEL, **CLARABEL_OPTIONS)
+        raw = str(prob.status)
+    except cp.error.SolverError:
+        raw = "solver_error"
+    el = time.perf_counter() - t0
+    outcome = STATUS_MAP.get(raw, "error")
+    stats = getattr(prob, "solver_stats", None)
+    ok = outcome in ("ok", "inaccurate") and t.value is not None
+    return BetaStep(
+        beta=beta,
+        raw_status=raw,
+        outcome=outcome,
+        t=float(t.value) if ok else None,
+        K_o=float(ko.value) if ok else None,
+        K_q=float(kq.value) if ok else None,
+        objective=float(prob.value) if ok else None,
+        solve_time=float(getattr(stats, "solve_time", None) or el),
+        iterations=getattr(stats, "num_iters", None),
+    )
+
+
+def _nice(x: float, lo: Fraction, hi: Fraction) -> Fraction:
+    """A short rational near ``x`` inside ``[lo, hi]``."""
+    for den in (100, 1000, 10000, 10**6):
+        q = Fraction(round(x * den), den)
+        if lo <= q <= hi:
+            return q
+    return min(max(Fraction(x), lo), hi)
+
+
+def largest_certified_box(
+    conditions: Any,
+    point: dict[str, Fraction],
+    ranges: Box,
+    *,
+    margin: Any = 0,
+    iterations: int = 12,
+) -> tuple[Box | None, float, CertificationResult | None]:
+    """Largest ``s`` (bisection, ``iterations`` steps) such that the box
+    ``g_i [1 - s, 1 + s]`` (clipped to ``ranges``) is certified.
+
+    Returns ``(box, s, certificate)``; ``(None, 0, None)`` when even the point
+    is not certified.  The bisection uses the re-check only; the final box
+    is certified by :func:`~formsync_design.certify.engine.certify_box` with the SDP.
+
+    >>> from fractions import Fraction as F
+    >>> from formsync_design.derive.conditions import derive_conditions
+    >>> pt = {"K_o": F(8, 5), "K_q": F(2, 5), "beta": F(3, 10)}
+    >>> rng = ((F(1, 10), F(5)), (F(1, 10), F(5)), (F(1, 100), F(1)))
+    >>> box, s, res = largest_certified_box(derive_conditions("ring:8"), pt, rng, iterations=6)
+    >>> res.status, 0 < s < 1
+    ('certified', True)
+    """
+    gains = tuple(conditions.gains)
+
+    def box_of(s: Fraction) -> Box:
+        out = []
+        for g, (lo, hi) in zip(gains, ranges):
+            v = point[g]
+            out.append((max(lo, v * (1 - s)), min(hi, v * (1 + s))))
+        return tuple(out)
+
+    if not certify_box(conditions, box_of(Fraction(0)), margin=margin, use_sdp=False).certified:
+        return None, 0.0, None
+    lo, hi = Fraction(0), Fraction(99, 100)
+    if certify_box(conditions, box_of(hi), margin=margin, use_sdp=False).certified:
+        lo = hi
+    else:
+        for _ in range(iterations):
+            mid = (lo + hi) / 2
+            if certify_box(conditions, box_of(mid), margin=margin, use_sdp=False).certified:
+                lo = mid
+            else:
+                hi = mid
+    bx = box_of(lo)
+    res = certify_box(conditions, bx, margin=margin)
+    if not res.certified:  # the SDP gate failed on the final box: shrink once more
+        return bx, float(lo), res
+    return bx, float(lo), res
+
+
+def design_gains(
+    conditions: Any,
+    ranges: Any,
+    *,
+    betas: int | Sequence[Any] = 11,
+    penalty: float = 0.0,
+    margin: Any = 0,
+) -> DesignResult:
+    """Recommend ``(K_o, K_q, beta)`` maximizing the certified margin.
+
+    Parameters
+    ----------
+    conditions : LyapunovConditions
+    ranges : box of user ranges (see :func:`~formsync_design.certify.engine.as_box`)
+    betas : int or sequence
+        Number of beta values on a uniform grid of the beta range (a point
+        range gives one), or explicit values.
+    penalty : float
+        Weight ``rho >= 0`` on ``K_o / K_o_hi + K_q / K_q_hi`` (gain size).
+    margin : number
+        Margin required of the final boxes.
+
+    Examples
+    --------
+    >>> from formsync_design.derive.conditions import derive_conditions
+    >>> d = design_gains(derive_conditions("ring:6"),
+    ...                  {"K_o": (0.1, 3), "K_q": (0.1, 3), "beta": (0.05, 0.5)}, betas=4)
+    >>> d.status, d.point.status
+    ('designed', 'certified')
+    """
+    t0 = time.perf_counter()
+    gains = tuple(conditions.gains)
+    rng = as_box(ranges, gains)
+    if not (np.isfinite(penalty) and penalty >= 0):
+        raise InputError(f"expected a non-negative finite penalty, received {penalty!r}")
+    st = analyze(conditions.families)
+    _affine_split(st, gains)
+    ib = gains.index("beta")
+    blo, bhi = rng[ib]
+    if isinstance(betas, (int, np.integer)) and not isinstance(betas, bool):
+        if betas < 1:
+            raise InputError(f"expected at least one beta value, received {betas}")
+        if blo == bhi or betas == 1:
+            bl = [blo if blo == bhi else (blo + bhi) / 2]
+        else:
+            bl = [blo + (bhi - blo) * Fraction(i, betas - 1) for i in range(betas)]
+    else:
+        bl = [as_box({**{g: rng[k] for k, g in enumerate(gains)}, "beta": b}, gains)[ib][0]
+              for b in betas]
+        for b in bl:
+            if not blo <= b <= bhi:
+                raise InputError(
+                    f"expected beta values in [{float(blo):g}, {float(bhi):g}], received {float(b):g}"
+                )
+    rko, rkq = rng[gains.index("K_o")], rng[gains.index("K_q")]
+    sweep = tuple(_sdp_at_beta(st, gains, b, rko, rkq, penalty) for b in bl)
+    good = [s for s in sweep if s.outcome == "ok" and s.objective is not None]
+    if any(s.outcome == "error" for s in sweep) and not good:
+        return DesignResult("error", {}, None, penalty, sweep, None, None, 0.0, None, rng,
+                            time.perf_counter() - t0, "unknown solver status")
+    if not good or max(s.t for s in good if s.t is not None) <= float(margin):
+        return DesignResult("infeasible", {}, None, penalty, sweep, None, None, 0.0, None, rng,
+                            time.perf_counter() - t0,
+                            "no swept beta gives a positive margin within the ranges")
+    best = max(good, key=lambda s: (s.objective, -float(s.beta)))
+    assert best.K_o is not None and best.K_q is not None
+    gk = {
+        "K_o": _nice(best.K_o, *rko),
+        "K_q": _nice(best.K_q, *rkq),
+        "beta": best.beta,
+    }
+    pt = {g: gk[g] for g in gains}
+    res = certify_box(conditions, pt, margin=margin)
+    if not res.certified:
+        return DesignResult("undecided", pt, None, penalty, sweep, res, None, 0.0, None, rng,
+                            time.perf_counter() - t0,
+                            f"the rounded optimum is {res.status}: {res.reason}")
+    bx, s, bres = largest_certified_box(conditions, pt, rng, margin=margin)
+    return DesignResult(
+        status="designed",
+        gains=pt,
+        margin=res.margin_lower_bound,
+        penalty=penalty,
+        sweep=sweep,
+        point=res,
+        box=bx,
+        box_half_width=s,
+        box_result=bres,
+        ranges=rng,
+        elapsed=time.perf_counter() - t0,
+    )

@@ -1,0 +1,298 @@
+"""``formsync certify``: prove a gain box admissible for a graph, or refute it."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from formsync_design.cli.options import (
+    EXIT_NEGATIVE,
+    EXIT_OK,
+    add_format_option,
+    emit_json,
+    parse_gain_range,
+)
+from formsync_design.errors import InputError
+from formsync_design.graphs.build import GRAPH_SPEC_HELP, make_graph
+
+__all__ = ["add_parser", "run", "load_conditions", "read_inertias", "add_gain_options",
+           "gain_box_from_args"]
+
+_DESC = """\
+Decide whether Theta_i > 0 for every spacecraft and Pi > 0 (the Lyapunov
+conditions of the paper's Theorem 1, derived from the controller) hold for
+EVERY gain in a box, not just sampled points.
+
+Each gain is a value X or a closed range LO:HI: K_o (1/s), K_q (1/s^2),
+beta (1/s), as in q_i'' = -K_o q_i' - K_q s_i - ...  Because every matrix is
+multi-affine in the gains, the box is covered by its 8 vertices; the margin
+comes from a cvxpy + Clarabel SDP and is re-checked independently in exact
+rational or rigorously rounded arithmetic.  A refutation prints a gain point,
+the matrix, the spacecraft and an integer vector x with x^T M x <= 0, checked
+exactly.
+
+Optional switching-gain check: with --ud (disturbance bound per axis, N m),
+inertia data (--inertia or --case) and --kv, also checks
+K_vi >= (ubar/2) max_v ||J_i^{-1} v||_2 for every spacecraft.
+
+Exit status: 0 certified, 1 refuted or undecided, 2 bad input.
+
+examples:
+  formsync certify --graph ring:8 --ko 1.6 --kq 0.4 --beta 0.3
+  formsync certify --graph ring:8 --ko 1.3:2 --kq 0.2:1 --beta 0.1:0.3 --margin 0.01
+  formsync certify --graph star:8 --ko 1.6 --kq 0.4 --beta 0.3 --format json
+  formsync certify --graph ring:8 --ko 1.6 --kq 0.4 --beta 0.3 --conditions paper
+  formsync certify --graph ring:4 --ko 1.6 --kq 0.4 --beta 0.3 --ud 0.5 --inertia J.txt --kv 0.01
+"""
+
+
+def add_gain_options(p: argparse.ArgumentParser, *, ranges: bool = False) -> None:
+    """--graph, --ko, --kq, --beta, --conditions, --spec."""
+    form = "LO:HI" if ranges else "X|LO:HI"
+    p.add_argument("--graph", required=True, action="append" if ranges else "store",
+                   metavar="SPEC", help=f"communication graph: {GRAPH_SPEC_HELP}"
+                   + (" (repeat to compare graphs)" if ranges else ""))
+    p.add_argument("--ko", required=True, metavar=form, help="K_o, rate-damping gain (> 0)")
+    p.add_argument("--kq", required=True, metavar=form, help="K_q, coupling gain (> 0)")
+    p.add_argument("--beta", required=True, metavar=form, help="beta, sliding-variable weight (> 0)")
+    p.add_argument("--margin", default="0", metavar="EPS",
+                   help="require lambda_min > EPS for every matrix (default 0: positive definite)")
+    p.add_argument("--conditions", default="derived", metavar="derived|paper",
+                   help="matrices to check: 'derived' from the controller (default) or 'paper' "
+                   "as printed in Liang et al. 2016")
+    p.add_argument("--spec", default=None, metavar="FILE",
+                   help="controller/Lyapunov specification .py (default: the paper's)")
+
+
+def gain_box_from_args(args: argparse.Namespace) -> dict[str, Any]:
+    return {
+        "K_o": parse_gain_range(args.ko, "K_o"),
+        "K_q": parse_gain_range(args.kq, "K_q"),
+        "beta": parse_gain_range(args.beta, "beta"),
+    }
+
+
+def parse_margin(text: str) -> Fraction:
+    from formsync_design.cli.options import _exact
+
+    m = _exact(text, "margin")
+    if m < 0:
+        raise InputError(f"expected a non-negative margin EPS, received {text!r}")
+    return m
+
+
+def load_conditions(graph: Any, which: str, spec: str | None = None) -> Any:
+    """Derived or printed conditions for a graph (``which`` in derived|paper).
+
+    >>> load_conditions("ring:4", "paper").source
+    'paper'
+    """
+    from formsync_design.derive.conditions import derive_conditions, paper_conditions
+    from formsync_design.spec.loader import load_spec
+
+    if which not in ("derived", "paper"):
+        raise InputError(f"expected --conditions derived or paper, received {which!r}")
+    g = make_graph(graph)
+    if which == "paper":
+        if spec is not None:
+            raise InputError("expected no --spec with --conditions paper (printed matrices), "
+                             f"received --spec {spec!r}")
+        return paper_conditions(g)
+    return derive_conditions(g, load_spec(spec) if spec else None)
+
+
+def _check_J(J: np.ndarray, k: int, src: str) -> np.ndarray:
+    if not np.all(np.isfinite(J)):
+        raise InputError(f"expected finite inertia entries, received NaN/inf for spacecraft {k} in {src}")
+    if not np.allclose(J, J.T, rtol=0, atol=1e-12 * max(1.0, float(np.abs(J).max()))):
+        raise InputError(
+            f"expected a symmetric inertia for spacecraft {k} in {src}, received {J.tolist()}"
+        )
+    ev = np.linalg.eigvalsh(J)
+    if ev[0] <= 0:
+        raise InputError(
+            f"expected a positive definite inertia for spacecraft {k} in {src}, received "
+            f"eigenvalues {[float(f'{e:.6g}') for e in ev]}"
+        )
+    return J
+
+
+def read_inertias(path: str, n: int) -> list[np.ndarray]:
+    """Read 3x3 inertias (kg m^2) from a text/CSV file: 3 rows per spacecraft
+    (whitespace or comma separated, ``#`` comments).  3 rows = the same inertia
+    for every spacecraft; otherwise exactly ``3 n`` rows.
+
+    >>> import tempfile, os
+    >>> with tempfile.NamedTemporaryFile("w", suffix=".txt", delete=False) as fh:
+    ...     _ = fh.write("50, 0, 0\\n0, 55, 0\\n0, 0, 60\\n")
+    >>> [float(J[1, 1]) for J in read_inertias(fh.name, 2)]
+    [55.0, 55.0]
+    >>> os.unlink(fh.name)
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"expected an inertia file, received {path!r} (no such file)")
+    rows = []
+    for lineno, raw in enumerate(p.read_text().splitlines(), start=1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        parts = line.replace(",", " ").split()
+        if len(parts) != 3:
+            raise InputError(f"expected 3 numbers per row, received {raw.strip()!r} at {path}:{lineno}")
+        try:
+            vals = [float(x) for x in parts]
+        except ValueError:
+            raise InputError(f"expected numbers, received {raw.strip()!r} at {path}:{lineno}") from None
+        if not all(math.isfinite(v) for v in vals):
+            raise InputError(f"expected finite numbers, received {raw.strip()!r} at {path}:{lineno}")
+        rows.append(vals)
+    if len(rows) == 3:
+        J = _check_J(np.array(rows), 1, path)
+        return [J] * n
+    if len(rows) != 3 * n:
+        raise InputError(
+            f"expected 3 rows (one inertia for all) or {3 * n} rows (3 per spacecraft, N={n}) "
+            f"in {path}, received {len(rows)}"
+        )
+    return [_check_J(np.array(rows[3 * k : 3 * k + 3]), k + 1, path) for k in range(n)]
+
+
+def read_case(path: str, n: int) -> dict[str, Any]:
+    """Inertias, per-spacecraft disturbance bounds and K_v from a TOML case file
+    (format: :mod:`formsync_design.verify.case`, e.g. ``verification/liang2016.toml``)."""
+    from formsync_design.verify.case import load_case, make_disturbance
+
+    c = load_case(path)
+    if c.n != n:
+        raise InputError(
+            f"expected a case with {n} spacecraft (the graph's N), received {c.n} in {path}"
+        )
+    d = make_disturbance(c.disturbance, c.inertias, c.orbit)
+    return {
+        "inertias": [np.asarray(J, dtype=float) for J in c.inertias],
+        "ubar": [float(u) for u in d.bound(c.inertias)],
+        "kv": list(c.gains.K_v) if len(c.gains.K_v) == n else [c.gains.K_v[0]] * n,
+    }
+
+
+def add_parser(sub: Any) -> None:
+    p = sub.add_parser(
+        "certify",
+        help="certify (or refute) the Lyapunov conditions for a whole gain box",
+        description=_DESC,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add_gain_options(p)
+    p.add_argument("--ud", default=None, metavar="BOUND",
+                   help="disturbance bound |u_d,k| <= BOUND (N m) for the K_v check")
+    p.add_argument("--inertia", default=None, metavar="FILE",
+                   help="inertias J_i (kg m^2): text/CSV, 3 rows per spacecraft (or 3 rows for all)")
+    p.add_argument("--case", default=None, metavar="FILE",
+                   help="TOML case file (e.g. verification/liang2016.toml): inertias, disturbance "
+                   "model (its per-spacecraft bound is used unless --ud is given) and K_v")
+    p.add_argument("--kv", default=None, metavar="X", help="switching gain K_v (> 0) for the K_v check")
+    add_format_option(p)
+    p.set_defaults(func=run)
+
+
+def _kv_from_args(args: argparse.Namespace, conds: Any) -> Any:
+    from formsync_design.certify.engine import check_kv
+    from formsync_design.cli.options import parse_positive
+
+    n = conds.graph.n
+    want = any(v is not None for v in (args.ud, args.inertia, args.case, args.kv))
+    if not want:
+        return None
+    if args.inertia and args.case:
+        raise InputError("expected one of --inertia or --case, received both")
+    case = read_case(args.case, n) if args.case else {}
+    ubar = parse_positive(args.ud, "--ud") if args.ud is not None else case.get("ubar")
+    kv: Any = parse_positive(args.kv, "--kv") if args.kv is not None else case.get("kv")
+    inertias = read_inertias(args.inertia, n) if args.inertia else case.get("inertias")
+    missing = [name for name, v in (("--ud/--case", ubar), ("--inertia/--case", inertias),
+                                     ("--kv/--case", kv)) if v is None]
+    if missing:
+        raise InputError(
+            f"expected --ud, inertia data and --kv together for the K_v check, missing {missing}"
+        )
+    if args.kv is not None:
+        kv = Fraction(args.kv.strip())
+    if args.ud is not None:
+        ubar = Fraction(args.ud.strip())
+    return check_kv(kv, inertias, ubar, switching_matches=getattr(conds, "switching_matches", True))
+
+
+def run(args: argparse.Namespace) -> int:
+    from formsync_design.certify.engine import certify_box
+
+    box = gain_box_from_args(args)
+    margin = parse_margin(args.margin)
+    conds = load_conditions(args.graph, args.conditions, args.spec)
+    kv = _kv_from_args(args, conds)
+    res = certify_box(conds, box, margin=margin, kv=kv)
+    if args.format == "json":
+        emit_json(res.to_dict())
+    else:
+        print(format_result(res))
+    return EXIT_OK if res.certified else EXIT_NEGATIVE
+
+
+def _g(q: Fraction | None) -> str:
+    return "-" if q is None else f"{float(q):.6g}"
+
+
+def format_result(res: Any) -> str:
+    """Human-readable report of a :class:`~formsync_design.certify.engine.CertificationResult`."""
+    lines = []
+    box = ", ".join(
+        f"{g}={float(lo):g}" if lo == hi else f"{g} in [{float(lo):g}, {float(hi):g}]"
+        for g, (lo, hi) in zip(res.gains, res.box)
+    )
+    lines.append(f"{res.status.upper()}: {res.graph} (N={res.n}), {res.source} conditions, {box}")
+    if res.margin:
+        lines.append(f"  required: lambda_min > {float(res.margin):g}")
+    if res.reason:
+        lines.append(f"  reason: {res.reason}")
+    mlb = res.margin_lower_bound
+    if mlb is not None:
+        lines.append(f"  certified margin: min over box of lambda_min >= {float(mlb):.6g}")
+    lines.append("  matrix                           size  status      lower bound   min-vertex hint")
+    for f in res.families:
+        lines.append(
+            f"  {f.name[:32]:<32} {f.size:>4}  {f.status:<10}  {_g(f.lower):>12}  {f.hint:>14.6g}"
+        )
+    w = res.witness
+    if w is not None:
+        pt = ", ".join(f"{k}={float(v):g}" for k, v in w.point.items())
+        sc = f", spacecraft {w.spacecraft}" if w.spacecraft is not None else ""
+        lines.append(f"  witness: {w.family}{sc} at {pt}")
+        nz = [(lab, v) for lab, v in zip(w.rows, [v for v in w.x if v != 0])]
+        shown = ", ".join(f"{lab}: {v}" for lab, v in nz[:8]) + (" ..." if len(nz) > 8 else "")
+        lines.append(f"    x (integer, nonzero entries) = {shown}")
+        lines.append(
+            f"    x^T (M - {float(res.margin):g} I) x = {float(w.value):.6g} <= 0 (exact rational); "
+            f"x^T M x / x^T x = {float(w.rayleigh):.6g}"
+        )
+        if w.covers_box:
+            lines.append("    the same x refutes every gain in the box")
+    if res.kv is not None:
+        kv = res.kv
+        lines.append(
+            f"  K_v check ({'holds' if kv.holds else 'FAILS'}): required K_vi >= "
+            f"{max(kv.required):.6g} (max over spacecraft), given {float(min(kv.kv)):g}"
+            + (f"; failing spacecraft {list(kv.failing)}" if kv.failing else "")
+            + (f"; {kv.note}" if kv.note else "")
+        )
+    s = res.solver
+    it = "" if s.iterations is None else f", {s.iterations} iterations"
+    lines.append(f"  solver: {s.solver} {s.raw_status} -> {s.outcome} ({s.solve_time * 1e3:.1f} ms{it})"
+                 + (f"; {s.note}" if s.note else ""))
+    lines.append("  re-check: " + ", ".join(f"{k} x{v}" for k, v in res.recheck.items()))
+    lines.append(f"  argument: {res.argument}")
+    return "\n".join(lines)

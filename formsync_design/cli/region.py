@@ -1,0 +1,126 @@
+"""``formsync region``: map certified / refuted / undecided gain boxes."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from formsync_design.cli.options import (
+    EXIT_OK,
+    Progress,
+    add_format_option,
+    emit_json,
+    parse_gain_range,
+)
+from formsync_design.errors import InputError
+
+__all__ = ["add_parser", "run"]
+
+_DESC = """\
+Subdivide a gain box adaptively into boxes that are certified (every gain in
+the box satisfies Theta_i > 0 and Pi > 0, proven), refuted (every gain in the
+box violates them: one exactly checked vector x refutes the whole box) or
+undecided (boxes of the finest size 1/R of each range straddling the
+boundary).  Writes DIR/region.json (boxes, classes, volume fractions) and
+figures: K_o-K_q slices at chosen beta, beta-K_o slices at chosen K_q, and a
+3-D view.  Repeat --graph to compare topologies on one figure; with
+--conditions both the paper's printed conditions are outlined over the
+derived ones.  Dashed lines: closed-form boundaries from the derivation.
+
+A range with LO == HI makes that axis a slice (2-D map).
+
+examples:
+  formsync region --graph ring:8 --ko 0.05:5 --kq 0.05:5 --beta 0.01:1 --out out/ring8
+  formsync region --graph ring:8 --graph star:8 --ko 0.05:5 --kq 0.05:5 --beta 0.01:1 \\
+      --resolution 32 --conditions both --beta-slices 0.1,0.3 --out out/compare
+"""
+
+
+def _values(text: str | None, name: str) -> list[float]:
+    if not text:
+        return []
+    out = []
+    for part in text.split(","):
+        out.append(float(parse_gain_range(part, name).lo))
+    return out
+
+
+def add_parser(sub: Any) -> None:
+    p = sub.add_parser(
+        "region",
+        help="map certified/refuted/undecided gain boxes (adaptive subdivision, figures)",
+        description=_DESC,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    from formsync_design.cli.certify import add_gain_options
+
+    add_gain_options(p, ranges=True)
+    p.set_defaults(conditions="derived")
+    for a in p._actions:
+        if a.dest == "conditions":
+            a.metavar = "derived|paper|both"
+            a.help = ("matrices: 'derived' (default), 'paper' (printed), or 'both' (derived map, "
+                      "paper's certified region outlined)")
+    p.add_argument("--resolution", type=int, default=32, metavar="R",
+                   help="finest box = 1/R of each range (default 32, max 512)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("--beta-slices", default=None, metavar="B1,B2,...",
+                   help="beta values of the K_o-K_q slices (default: 10%%, 30%%, 60%% of the range)")
+    p.add_argument("--kq-slices", default=None, metavar="K1,K2,...",
+                   help="K_q values of the beta-K_o slices (default: 10%%, 30%%, 60%% of the range)")
+    p.add_argument("--no-progress", action="store_true", help="no progress line on stderr")
+    add_format_option(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from formsync_design.certify.region import region_map, write_region
+    from formsync_design.cli.certify import gain_box_from_args, load_conditions, parse_margin
+
+    box = gain_box_from_args(args)
+    margin = parse_margin(args.margin)
+    if args.conditions not in ("derived", "paper", "both"):
+        raise InputError(f"expected --conditions derived, paper or both, received {args.conditions!r}")
+    if not 1 <= args.resolution <= 512:
+        raise InputError(f"expected --resolution in 1..512, received {args.resolution}")
+    bvals = _values(args.beta_slices, "beta slice")
+    kvals = _values(args.kq_slices, "K_q slice")
+    for v in bvals:
+        if not box["beta"].lo <= v <= box["beta"].hi:
+            raise InputError(f"expected beta slices within {box['beta']}, received {v:g}")
+    for v in kvals:
+        if not box["K_q"].lo <= v <= box["K_q"].hi:
+            raise InputError(f"expected K_q slices within {box['K_q']}, received {v:g}")
+    which = "derived" if args.conditions == "both" else args.conditions
+    conds = [load_conditions(g, which, args.spec) for g in args.graph]
+    over = [load_conditions(g, "paper") for g in args.graph] if args.conditions == "both" else None
+    cells = 1
+    for gr in box.values():
+        cells *= 1 if gr.is_point else args.resolution
+    nmaps = len(conds) * (2 if over else 1)
+    prog = Progress(cells * nmaps, "region", enabled=not args.no_progress)
+    maps = [region_map(c, box, resolution=args.resolution, margin=margin, progress=prog.update)
+            for c in conds]
+    omaps = ([region_map(c, box, resolution=args.resolution, margin=margin, progress=prog.update)
+              for c in over] if over else None)
+    paths = write_region(args.out, maps, overlay=omaps, conditions=conds,
+                         beta_values=bvals, kq_values=kvals)
+    if args.format == "json":
+        emit_json({
+            "files": [str(p) for p in paths],
+            "maps": [
+                {"graph": m.graph, "conditions": m.source, "fractions": m.fractions,
+                 "boxes": len(m.boxes), "vertices_evaluated": m.vertices_evaluated,
+                 "elapsed_s": m.elapsed}
+                for m in maps + (omaps or [])
+            ],
+        })
+    else:
+        for m in maps + (omaps or []):
+            f = m.fractions
+            print(f"{m.graph} ({m.source}): certified {f['certified']:.1%}, refuted "
+                  f"{f['refuted']:.1%}, undecided {f['undecided']:.1%} of the box "
+                  f"({len(m.boxes)} boxes, {m.vertices_evaluated} vertices, {m.elapsed:.2f} s)")
+        for p in paths:
+            print(f"wrote {p}")
+    return EXIT_OK

@@ -1,0 +1,233 @@
+"""``formsync sweep``: topology sweeps and Monte-Carlo campaigns on Dask."""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+from typing import Any
+
+from formsync_design.cli.options import (
+    EXIT_OK,
+    Progress,
+    add_format_option,
+    emit_json,
+    parse_gain_range,
+)
+from formsync_design.errors import InputError
+
+__all__ = ["add_parser", "run"]
+
+_DESC = """\
+Run a campaign over many communication graphs x gain boxes and collect, per
+graph: spectral facts (degrees, lambda_2 and lambda_max of the Laplacian),
+the certification status of reference gains (default the paper's K_o = 1.6,
+K_q = 0.4, beta = 0.3), the certified-region summary of each box (volume
+fractions certified / refuted / undecided at resolution R), recommended gains
+with the largest certified box around them, and - with --mc-runs or a
+[montecarlo] table - Monte-Carlo convergence statistics on the nonlinear
+formation.
+
+Graph sets (repeat --graphs):
+  ring:N | path:N | star:N | complete:N     N a number or a range A..B (ring:4..12)
+  circulant:N:a,b                          N may be a range
+  atlas:N | atlas:A..B | atlas:N<=7        all connected graphs of the networkx atlas
+  random:N:P:SEEDS                         seeded G(N,P); SEEDS a seed or a range 0..19
+                                           (disconnected draws are skipped and listed)
+  dir:FOLDER | FOLDER                      every *.txt/*.edges/*.el/*.edgelist/*.csv file
+  FILE                                     one edge-list or adjacency-CSV file
+
+Results (DIR): manifest.json (campaign definition + sha256), results.csv (tidy
+table, one row per graph x box, schema in summary.md), summary.md and figures
+(certified fraction vs lambda_max(L) and vs maximum degree; convergence time vs
+lambda_2 with Monte-Carlo).  Rows are appended to DIR/journal.jsonl with fsync
+as tasks finish: after a kill, the same command with --resume computes only the
+missing tasks.  A DIR written by a different campaign is refused (exit 2,
+nothing overwritten).
+
+Execution: a local dask.distributed cluster of --workers processes (default 2,
+one thread each); --scheduler ADDRESS uses an existing cluster (its workers
+need formsync-design installed); --workers 0 runs serially in this process.
+
+Exit status: 0 campaign complete, 2 bad input (unknown family, empty set,
+unreachable scheduler, foreign results folder) or a failed task.
+
+examples:
+  formsync sweep --graphs atlas:6 --out out/atlas6
+  formsync sweep --graphs ring:4..12 --graphs star:4..12 --ko 0.05:5 --kq 0.05:5 \\
+      --beta 0.01:1 --resolution 16 --out out/families
+  formsync sweep --graphs random:8:0.4:0..19 --mc-runs 200 --mc-gains recommended --out out/rnd
+  formsync sweep --campaign verification/sweep_atlas6.toml --out reports/sweep-atlas6 --overwrite
+  formsync sweep --campaign big.toml --out out/big --scheduler tcp://10.0.0.5:8786 --resume
+"""
+
+_DEF_FLAGS = ("graphs", "ko", "kq", "beta", "ref", "resolution", "design_betas", "conditions",
+              "margin", "mc_runs", "mc_seed", "mc_gains", "mc_tf", "mc_case", "name")
+
+
+def add_parser(sub: Any) -> None:
+    p = sub.add_parser(
+        "sweep",
+        help="campaign over graph sets x gain boxes (certification, regions, design, "
+        "Monte-Carlo) on Dask",
+        description=_DESC,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    d = p.add_argument_group("campaign definition (a --campaign FILE, or these flags)")
+    d.add_argument("--campaign", metavar="FILE", default=None,
+                   help="campaign TOML ([campaign] graphs, [reference], [[box]], [region], "
+                   "[design], [montecarlo]; see formsync_design/sweep/campaign.py)")
+    d.add_argument("--graphs", action="append", metavar="SET", default=None,
+                   help="graph set (repeatable), e.g. ring:4..12, atlas:6, random:8:0.4:0..9")
+    d.add_argument("--name", default=None, help="campaign name (default 'sweep')")
+    d.add_argument("--ko", default=None, metavar="LO:HI", help="K_o range of the box (default 0.05:5)")
+    d.add_argument("--kq", default=None, metavar="LO:HI", help="K_q range of the box (default 0.05:5)")
+    d.add_argument("--beta", default=None, metavar="LO:HI", help="beta range of the box (default 0.01:1)")
+    d.add_argument("--ref", default=None, metavar="KO,KQ,BETA",
+                   help="reference gains certified for every graph (default 1.6,0.4,0.3, the paper's)")
+    d.add_argument("--resolution", type=int, default=None, metavar="R",
+                   help="region map: finest box = 1/R of each range (default 8)")
+    d.add_argument("--design-betas", type=int, default=None, metavar="K",
+                   help="beta values swept by the gain design (default 5)")
+    d.add_argument("--conditions", default=None, choices=("derived", "paper"),
+                   help="Lyapunov conditions: derived (default) or the paper's printed ones")
+    d.add_argument("--margin", default=None, metavar="EPS", help="require lambda_min > EPS (default 0)")
+    d.add_argument("--mc-runs", type=int, default=None, metavar="N",
+                   help="Monte-Carlo runs per graph (default: no Monte-Carlo)")
+    d.add_argument("--mc-seed", type=int, default=None, metavar="S", help="Monte-Carlo master seed (default 0)")
+    d.add_argument("--mc-gains", default=None, choices=("reference", "recommended"),
+                   help="gains simulated (default reference)")
+    d.add_argument("--mc-tf", default=None, metavar="S", help="Monte-Carlo horizon in s (default 200)")
+    d.add_argument("--mc-case", default=None, metavar="FILE",
+                   help="case TOML for inertias/orbit/disturbance/K_v (default the paper's; "
+                   "inertias are cycled for larger formations)")
+    x = p.add_argument_group("execution")
+    x.add_argument("--out", required=True, metavar="DIR", help="results folder")
+    x.add_argument("--resume", action="store_true",
+                   help="finish an interrupted run of the same campaign in DIR (finished tasks kept)")
+    x.add_argument("--overwrite", action="store_true",
+                   help="recompute DIR from scratch (only a folder of the same campaign)")
+    x.add_argument("--workers", type=int, default=2, metavar="N",
+                   help="local Dask worker processes (default 2; 0 = serial, no Dask)")
+    x.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="existing Dask scheduler, e.g. tcp://10.0.0.5:8786")
+    x.add_argument("--timeout", default="10", metavar="S",
+                   help="seconds to wait for the scheduler and its workers (default 10)")
+    x.add_argument("--no-progress", action="store_true", help="no progress line on stderr")
+    add_format_option(p)
+    p.set_defaults(func=run)
+
+
+def _campaign_from_flags(args: argparse.Namespace) -> Any:
+    from formsync_design.sweep.campaign import (
+        DEFAULT_BOX,
+        DEFAULT_REFERENCE,
+        GAINS,
+        campaign_from_dict,
+    )
+
+    doc: dict[str, Any] = {"campaign": {"name": args.name or "sweep", "graphs": args.graphs or []}}
+    if args.conditions:
+        doc["campaign"]["conditions"] = args.conditions
+    if args.margin is not None:
+        doc["campaign"]["margin"] = args.margin
+    box = dict(DEFAULT_BOX)
+    for flag, g in (("ko", "K_o"), ("kq", "K_q"), ("beta", "beta")):
+        v = getattr(args, flag)
+        if v is not None:
+            r = parse_gain_range(v, g)
+            box[g] = [str(r.lo), str(r.hi)]
+    doc["box"] = [box]
+    ref = dict(DEFAULT_REFERENCE)
+    if args.ref is not None:
+        parts = args.ref.split(",")
+        if len(parts) != 3:
+            raise InputError(f"expected --ref KO,KQ,BETA (three numbers), received {args.ref!r}")
+        for g, t in zip(GAINS, parts):
+            ref[g] = str(parse_gain_range(t, g).lo)
+    doc["reference"] = ref
+    if args.resolution is not None:
+        doc["region"] = {"resolution": args.resolution}
+    if args.design_betas is not None:
+        doc["design"] = {"betas": args.design_betas}
+    mc_flags = (args.mc_seed, args.mc_gains, args.mc_tf, args.mc_case)
+    if args.mc_runs is not None or any(v is not None for v in mc_flags):
+        if args.mc_runs is None:
+            raise InputError("expected --mc-runs N with the other --mc-* options, received none")
+        mc: dict[str, Any] = {"runs": args.mc_runs}
+        if args.mc_seed is not None:
+            mc["seed"] = args.mc_seed
+        if args.mc_gains is not None:
+            mc["gains"] = args.mc_gains
+        if args.mc_tf is not None:
+            from formsync_design.cli.options import parse_positive
+
+            mc["tf"] = parse_positive(args.mc_tf, "--mc-tf")
+        if args.mc_case is not None:
+            mc["case"] = args.mc_case
+        doc["montecarlo"] = mc
+    return campaign_from_dict(doc)
+
+
+def _command(args: argparse.Namespace) -> str:
+    """The reproducible part of the command line (execution flags left out)."""
+    if args.campaign:
+        parts = ["--campaign", args.campaign]
+    else:
+        parts = []
+        for g in args.graphs or []:
+            parts += ["--graphs", g]
+        for f in _DEF_FLAGS:
+            v = getattr(args, f)
+            if f != "graphs" and v is not None:
+                parts += ["--" + f.replace("_", "-"), str(v)]
+    return shlex.join(["formsync", "sweep", *parts, "--out", args.out, "--overwrite"])
+
+
+def run(args: argparse.Namespace) -> int:
+    from formsync_design.cli.options import parse_positive
+    from formsync_design.sweep.campaign import load_campaign, run_sweep
+
+    timeout = parse_positive(args.timeout, "--timeout")
+    if args.campaign:
+        used = [f for f in _DEF_FLAGS if getattr(args, f) is not None]
+        if used:
+            raise InputError(
+                "expected either --campaign FILE or campaign flags, received both (--campaign and "
+                + ", ".join("--" + f.replace("_", "-") for f in used) + ")"
+            )
+        camp = load_campaign(args.campaign)
+    else:
+        if not args.graphs:
+            raise InputError("expected --campaign FILE or at least one --graphs SET, received neither")
+        camp = _campaign_from_flags(args)
+    prog: Progress | None = None
+
+    def progress(done: int, total: int) -> None:
+        nonlocal prog
+        if prog is None:
+            prog = Progress(total, "sweep tasks", enabled=not args.no_progress)
+        prog.update(done - prog.done)
+
+    res = run_sweep(
+        camp, args.out, resume=args.resume, overwrite=args.overwrite, scheduler=args.scheduler,
+        n_workers=args.workers, timeout=timeout, progress=progress, command=_command(args),
+    )
+    if args.format == "json":
+        emit_json({
+            "out": str(res.out), "sha256": res.sha256, "graphs": res.graphs, "tasks": res.tasks,
+            "computed": res.computed, "reused": res.reused, "skipped": list(res.skipped),
+            "executor": res.executor, "wall_seconds": res.wall_seconds,
+            "files": [str(p) for p in res.files],
+        })
+    else:
+        rate = res.computed / res.wall_seconds if res.wall_seconds > 0 else 0.0
+        print(f"sweep {camp.name}: {res.tasks} tasks ({res.graphs} graphs x {len(camp.boxes)} boxes); "
+              f"computed {res.computed}, reused {res.reused}; {res.wall_seconds:.1f} s "
+              f"({rate:.2f} tasks/s) on {res.executor}")
+        if res.skipped:
+            print(f"skipped {len(res.skipped)} graphs: {', '.join(res.skipped)}")
+        for p in res.files:
+            print(f"wrote {p}")
+    sys.stdout.flush()
+    return EXIT_OK

@@ -1,0 +1,28 @@
+"""Stage 4 — symbolic derivation: closed loop, Lyapunov conditions as gain families,
+comparison with the printed paper and the derivation report."""
+
+from formsync_design.derive.conditions import (
+    ClosedFormCondition,
+    ClosedLoop,
+    LyapunovConditions,
+    closed_form_conditions,
+    derive_closed_loop,
+    derive_conditions,
+    kv_condition_holds,
+    paper_conditions,
+    required_kv,
+)
+from formsync_design.derive.families import MatrixFamily
+
+__all__ = [
+    "ClosedLoop",
+    "LyapunovConditions",
+    "ClosedFormCondition",
+    "MatrixFamily",
+    "derive_closed_loop",
+    "derive_conditions",
+    "paper_conditions",
+    "closed_form_conditions",
+    "required_kv",
+    "kv_condition_holds",
+]

@@ -1,0 +1,427 @@
+"""Undirected communication graphs of a spacecraft formation.
+
+Spacecraft are numbered ``1..N`` wherever a user sees them (specs, files,
+reports); internally they are ``0..N-1``.  A :class:`Graph` is immutable and
+always valid for the paper's controller: undirected, simple, unweighted (0/1),
+connected, with at least two spacecraft.
+
+Accepted inputs (:func:`make_graph`)
+------------------------------------
+* spec strings ``ring:N``, ``path:N``, ``star:N`` (centre = spacecraft 1),
+  ``complete:N``, ``circulant:N:a,b,...`` and ``random:N:P:SEED``
+  (seeded Erdos-Renyi G(N, P), rejected if disconnected);
+* a path to an edge-list file (one ``i j`` pair per line, 1-based, ``#``
+  comments) or to an adjacency-matrix CSV file (``.csv``);
+* a :class:`networkx.Graph`, a square numpy array (adjacency), or a ``Graph``.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from formsync_design.errors import GraphError
+
+__all__ = ["Graph", "make_graph", "parse_graph_spec", "GRAPH_SPEC_HELP"]
+
+GRAPH_SPEC_HELP = (
+    "ring:N | path:N | star:N | complete:N | circulant:N:a,b,... | random:N:P:SEED "
+    "| an edge-list file (1-based 'i j' per line) | an adjacency CSV file"
+)
+
+
+@dataclass(frozen=True)
+class Graph:
+    """A validated undirected communication graph.
+
+    Parameters
+    ----------
+    n : int
+        Number of spacecraft.
+    edges : tuple of (int, int)
+        0-based edges ``(i, j)`` with ``i < j``, sorted, no duplicates.
+    name : str
+        A human-readable name (the spec it came from).
+
+    Examples
+    --------
+    >>> g = make_graph("ring:4")
+    >>> g.n, g.degrees
+    (4, (2, 2, 2, 2))
+    >>> g.neighbors(0)
+    (1, 3)
+    """
+
+    n: int
+    edges: tuple[tuple[int, int], ...]
+    name: str = "graph"
+
+    def __post_init__(self) -> None:
+        _validate(self.n, self.edges)
+
+    @cached_property
+    def adjacency(self) -> np.ndarray:
+        """Integer adjacency matrix (N x N)."""
+        a = np.zeros((self.n, self.n), dtype=np.int64)
+        for i, j in self.edges:
+            a[i, j] = a[j, i] = 1
+        return a
+
+    @cached_property
+    def laplacian(self) -> np.ndarray:
+        """Integer graph Laplacian ``D - A`` (N x N)."""
+        a = self.adjacency
+        return np.diag(a.sum(axis=1)) - a
+
+    @cached_property
+    def degrees(self) -> tuple[int, ...]:
+        """Degree ``m_i`` of every spacecraft (number of neighbours)."""
+        return tuple(int(d) for d in self.adjacency.sum(axis=1))
+
+    def neighbors(self, i: int) -> tuple[int, ...]:
+        """0-based neighbours of 0-based spacecraft ``i`` in increasing order."""
+        return tuple(int(j) for j in np.flatnonzero(self.adjacency[i]))
+
+    @cached_property
+    def laplacian_eigenvalues(self) -> np.ndarray:
+        """Eigenvalues of the Laplacian in increasing order (floating point)."""
+        return np.linalg.eigvalsh(self.laplacian.astype(float))
+
+    @property
+    def algebraic_connectivity(self) -> float:
+        """lambda_2 of the Laplacian (floating point)."""
+        return float(self.laplacian_eigenvalues[1])
+
+    @property
+    def laplacian_spectral_radius(self) -> float:
+        """lambda_max of the Laplacian (floating point)."""
+        return float(self.laplacian_eigenvalues[-1])
+
+    def edge_list_1based(self) -> list[list[int]]:
+        """Edges as 1-based pairs, as a user sees them."""
+        return [[i + 1, j + 1] for i, j in self.edges]
+
+    def to_networkx(self) -> Any:
+        """The graph as a :class:`networkx.Graph` with nodes ``1..N``."""
+        import networkx as nx
+
+        g = nx.Graph()
+        g.add_nodes_from(range(1, self.n + 1))
+        g.add_edges_from((i + 1, j + 1) for i, j in self.edges)
+        return g
+
+
+def _validate(n: int, edges: tuple[tuple[int, int], ...]) -> None:
+    if not isinstance(n, (int, np.integer)) or n < 2:
+        raise GraphError(f"expected a formation of at least 2 spacecraft, received {n!r}")
+    seen: set[tuple[int, int]] = set()
+    for e in edges:
+        i, j = e
+        if i == j:
+            raise GraphError(f"expected no self-loops, received edge ({i + 1}, {j + 1})")
+        if not (0 <= i < n and 0 <= j < n):
+            raise GraphError(
+                f"expected spacecraft numbers in 1..{n}, received edge ({i + 1}, {j + 1})"
+            )
+        if i > j:
+            raise GraphError(f"expected internal edges (i, j) with i < j, received {e}")
+        if (i, j) in seen:
+            raise GraphError(f"expected each edge once, received ({i + 1}, {j + 1}) twice")
+        seen.add((i, j))
+    if tuple(sorted(edges)) != tuple(edges):
+        raise GraphError("expected internal edges in sorted order")
+    # connectivity by union-find
+    parent = list(range(n))
+
+    def find(x: int) -> int:
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    for i, j in edges:
+        parent[find(i)] = find(j)
+    roots = {find(i) for i in range(n)}
+    if len(roots) > 1:
+        comps: dict[int, list[int]] = {}
+        for i in range(n):
+            comps.setdefault(find(i), []).append(i + 1)
+        parts = sorted(comps.values())
+        raise GraphError(
+            "expected a connected graph (the formation cannot synchronize otherwise), "
+            f"received {len(parts)} components: "
+            + "; ".join("{" + ",".join(map(str, p)) + "}" for p in parts)
+        )
+
+
+def _from_pairs(n: int, pairs: list[tuple[int, int]], name: str) -> Graph:
+    """Build from 0-based pairs, checking duplicates in either orientation."""
+    norm: list[tuple[int, int]] = []
+    seen: set[tuple[int, int]] = set()
+    for i, j in pairs:
+        if i == j:
+            raise GraphError(f"expected no self-loops, received edge ({i + 1}, {j + 1})")
+        if not (0 <= i < n and 0 <= j < n):
+            raise GraphError(
+                f"expected spacecraft numbers in 1..{n}, received edge ({i + 1}, {j + 1})"
+            )
+        key = (min(i, j), max(i, j))
+        if key in seen:
+            raise GraphError(
+                f"expected each edge once, received ({key[0] + 1}, {key[1] + 1}) twice"
+            )
+        seen.add(key)
+        norm.append(key)
+    return Graph(n=n, edges=tuple(sorted(norm)), name=name)
+
+
+def _int_field(text: str, what: str, spec: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise GraphError(
+            f"expected an integer {what} in graph spec, received {text!r} in {spec!r}"
+        ) from None
+    return v
+
+
+def parse_graph_spec(spec: str) -> Graph:
+    """Build a graph from a spec string such as ``ring:8``.
+
+    Parameters
+    ----------
+    spec : str
+        ``ring:N``, ``path:N``, ``star:N`` (centre = spacecraft 1), ``complete:N``,
+        ``circulant:N:a,b,...`` (spacecraft i linked to i +/- a mod N) or
+        ``random:N:P:SEED``.
+
+    Returns
+    -------
+    Graph
+
+    Examples
+    --------
+    >>> parse_graph_spec("star:4").edge_list_1based()
+    [[1, 2], [1, 3], [1, 4]]
+    >>> parse_graph_spec("circulant:8:1,4").degrees
+    (3, 3, 3, 3, 3, 3, 3, 3)
+    """
+    if not isinstance(spec, str):
+        raise GraphError(f"expected a graph spec string ({GRAPH_SPEC_HELP}), received {spec!r}")
+    parts = spec.strip().split(":")
+    kind = parts[0].lower()
+    arity = {"ring": 2, "path": 2, "star": 2, "complete": 2, "circulant": 3, "random": 4}
+    if kind not in arity:
+        raise GraphError(f"expected a graph spec of the form {GRAPH_SPEC_HELP}, received {spec!r}")
+    if len(parts) != arity[kind]:
+        form = {
+            "ring": "ring:N", "path": "path:N", "star": "star:N", "complete": "complete:N",
+            "circulant": "circulant:N:a,b,...", "random": "random:N:P:SEED",
+        }[kind]
+        raise GraphError(f"expected {form}, received {spec!r}")
+    n = _int_field(parts[1], "number of spacecraft N", spec)
+    if n < 2:
+        raise GraphError(f"expected at least 2 spacecraft, received N={n} in {spec!r}")
+    name = spec.strip()
+    if kind == "ring":
+        if n < 3:
+            raise GraphError(f"expected N >= 3 for a ring (a cycle), received N={n} in {spec!r}")
+        return _from_pairs(n, [(i, (i + 1) % n) for i in range(n)], name)
+    if kind == "path":
+        return _from_pairs(n, [(i, i + 1) for i in range(n - 1)], name)
+    if kind == "star":
+        return _from_pairs(n, [(0, i) for i in range(1, n)], name)
+    if kind == "complete":
+        return _from_pairs(n, [(i, j) for i in range(n) for j in range(i + 1, n)], name)
+    if kind == "circulant":
+        offs = [_int_field(a, "circulant offset", spec) for a in parts[2].split(",") if a != ""]
+        if not offs:
+            raise GraphError(f"expected at least one circulant offset, received {spec!r}")
+        pairs: set[tuple[int, int]] = set()
+        for a in offs:
+            if not 1 <= a <= n // 2:
+                raise GraphError(
+                    f"expected circulant offsets in 1..{n // 2} for N={n}, received {a} in {spec!r}"
+                )
+            for i in range(n):
+                j = (i + a) % n
+                pairs.add((min(i, j), max(i, j)))
+        if len(set(offs)) != len(offs):
+            raise GraphError(f"expected distinct circulant offsets, received {parts[2]!r}")
+        return Graph(n=n, edges=tuple(sorted(pairs)), name=name)
+    # random
+    try:
+        p = float(parts[2])
+    except ValueError:
+        raise GraphError(f"expected an edge probability P in (0, 1], received {parts[2]!r}") from None
+    if not (0.0 < p <= 1.0):
+        raise GraphError(f"expected an edge probability P in (0, 1], received {p!r}")
+    seed = _int_field(parts[3], "seed", spec)
+    rng = np.random.default_rng(seed)
+    pairs_r = [(i, j) for i in range(n) for j in range(i + 1, n) if rng.random() < p]
+    return _from_pairs(n, pairs_r, name)
+
+
+def _from_adjacency(a: Any, name: str) -> Graph:
+    arr = np.asarray(a)
+    if arr.ndim != 2 or arr.shape[0] != arr.shape[1]:
+        raise GraphError(f"expected a square adjacency matrix, received shape {arr.shape}")
+    if arr.dtype == object or not np.issubdtype(arr.dtype, np.number):
+        try:
+            arr = arr.astype(float)
+        except (TypeError, ValueError):
+            raise GraphError(
+                f"expected a numeric adjacency matrix, received dtype {arr.dtype}"
+            ) from None
+    if not np.all(np.isfinite(arr)):
+        raise GraphError("expected finite 0/1 adjacency entries, received NaN or inf")
+    bad = np.argwhere((arr != 0) & (arr != 1))
+    if bad.size:
+        i, j = bad[0]
+        raise GraphError(
+            f"expected 0/1 adjacency weights, received {arr[i, j]!r} at ({i + 1}, {j + 1})"
+        )
+    if np.any(np.diag(arr) != 0):
+        i = int(np.flatnonzero(np.diag(arr))[0])
+        raise GraphError(f"expected no self-loops, received a 1 on the diagonal at ({i + 1}, {i + 1})")
+    asym = np.argwhere(arr != arr.T)
+    if asym.size:
+        i, j = asym[0]
+        raise GraphError(
+            "expected a symmetric adjacency matrix (this controller needs an undirected graph), "
+            f"received a[{i + 1},{j + 1}]={arr[i, j]:g} but a[{j + 1},{i + 1}]={arr[j, i]:g}"
+        )
+    n = arr.shape[0]
+    pairs = [(i, j) for i in range(n) for j in range(i + 1, n) if arr[i, j] == 1]
+    return Graph(n=n, edges=tuple(pairs), name=name)
+
+
+def _read_edge_list(path: Path) -> Graph:
+    pairs: list[tuple[int, int]] = []
+    nmax = 0
+    declared_n: int | None = None
+    for lineno, raw in enumerate(path.read_text().splitlines(), start=1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            # a comment of the form "# n = 8" declares isolated trailing spacecraft
+            c = raw.split("#", 1)[1].strip().replace(" ", "") if "#" in raw else ""
+            if c.lower().startswith("n="):
+                declared_n = _int_field(c[2:], "spacecraft count in '# n = N'", str(path))
+            continue
+        fields = line.replace(",", " ").split()
+        if len(fields) != 2:
+            raise GraphError(
+                f"expected one 'i j' pair per line, received {raw.strip()!r} at {path}:{lineno}"
+            )
+        try:
+            i, j = int(fields[0]), int(fields[1])
+        except ValueError:
+            raise GraphError(
+                f"expected integer spacecraft numbers, received {raw.strip()!r} at {path}:{lineno}"
+            ) from None
+        if i < 1 or j < 1:
+            raise GraphError(
+                f"expected 1-based spacecraft numbers (>= 1), received {raw.strip()!r} at {path}:{lineno}"
+            )
+        pairs.append((i - 1, j - 1))
+        nmax = max(nmax, i, j)
+    if not pairs:
+        raise GraphError(f"expected at least one edge in {path}, received none")
+    n = declared_n if declared_n is not None else nmax
+    return _from_pairs(n, pairs, str(path))
+
+
+def _read_csv(path: Path) -> Graph:
+    rows: list[list[float]] = []
+    with path.open(newline="") as fh:
+        for lineno, row in enumerate(csv.reader(fh), start=1):
+            cells = [c.strip() for c in row]
+            if not cells or all(c == "" for c in cells) or cells[0].startswith("#"):
+                continue
+            try:
+                rows.append([float(c) for c in cells])
+            except ValueError:
+                raise GraphError(
+                    f"expected numeric 0/1 entries in adjacency CSV, received {row!r} at {path}:{lineno}"
+                ) from None
+    if not rows or len({len(r) for r in rows}) != 1:
+        raise GraphError(
+            f"expected a square adjacency matrix in {path}, received rows of lengths "
+            f"{sorted({len(r) for r in rows})}"
+        )
+    return _from_adjacency(np.array(rows), str(path))
+
+
+def make_graph(obj: Any) -> Graph:
+    """Build a validated :class:`Graph` from any supported input.
+
+    Parameters
+    ----------
+    obj : str, os.PathLike, networkx.Graph, numpy.ndarray or Graph
+        A spec string, a path to an edge-list or adjacency-CSV file, a
+        networkx graph (nodes are relabelled ``1..N`` in sorted order), or a
+        square 0/1 adjacency array.
+
+    Returns
+    -------
+    Graph
+
+    Raises
+    ------
+    GraphError
+        For a directed/asymmetric, weighted, self-looped, disconnected or
+        too small graph, or a malformed spec or file.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> make_graph(np.array([[0, 1], [1, 0]])).edges
+    ((0, 1),)
+    >>> make_graph("path:3").laplacian.tolist()
+    [[1, -1, 0], [-1, 2, -1], [0, -1, 1]]
+    """
+    if isinstance(obj, Graph):
+        return obj
+    if isinstance(obj, (str, os.PathLike)):
+        text = os.fspath(obj)
+        p = Path(text)
+        if p.is_file():
+            return _read_csv(p) if p.suffix.lower() == ".csv" else _read_edge_list(p)
+        if isinstance(obj, str) and ":" in text and text.split(":", 1)[0].lower() in {
+            "ring", "path", "star", "complete", "circulant", "random"
+        }:
+            return parse_graph_spec(text)
+        raise GraphError(
+            f"expected a graph spec ({GRAPH_SPEC_HELP}) or an existing file, received {text!r}"
+        )
+    try:
+        import networkx as nx
+    except ImportError:  # pragma: no cover - networkx is a dependency
+        nx = None
+    if nx is not None and isinstance(obj, nx.Graph):
+        if obj.is_directed():
+            raise GraphError(
+                "expected an undirected graph (this controller needs bidirectional links), "
+                "received a directed networkx graph"
+            )
+        if obj.is_multigraph():
+            raise GraphError("expected a simple graph, received a networkx multigraph")
+        nodes = sorted(obj.nodes())
+        idx = {v: k for k, v in enumerate(nodes)}
+        for u, v, data in obj.edges(data=True):
+            w = data.get("weight", 1)
+            if w != 1:
+                raise GraphError(f"expected unweighted (0/1) edges, received weight {w!r} on ({u}, {v})")
+        pairs = [(idx[u], idx[v]) for u, v in obj.edges()]
+        return _from_pairs(len(nodes), pairs, getattr(obj, "name", "") or "networkx")
+    if isinstance(obj, np.ndarray) or isinstance(obj, (list, tuple)):
+        return _from_adjacency(obj, "adjacency")
+    raise GraphError(
+        f"expected a graph spec, file path, networkx.Graph or adjacency array, received {type(obj).__name__}"
+    )

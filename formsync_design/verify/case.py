@@ -1,0 +1,298 @@
+"""Simulation cases in TOML (loaded with :mod:`tomllib`, validated strictly).
+
+A case file holds everything physical about a formation run.  Layout
+(``verification/liang2016.toml`` is the paper's case and the reference)::
+
+    [case]          name, title, source, graph (a graph spec, e.g. "ring:8"),
+                    assumptions = ["...", ...]
+    [gains]         K_o, K_q, beta, K_v (one number or one per spacecraft)
+    [orbit]         altitude_km (circular), optional mu, earth_radius_km
+    [disturbance]   model = "paper" | "gravity-gradient" | "none" | "constant" | "harmonic"
+                    paper: signs = [1, 1, 1]; constant: vector = [ux, uy, uz] (N m);
+                    harmonic: amplitude = [...], frequency = [...] (rad/s), offset = [...]
+    [simulation]    tf, switch, boundary_layer, torque_limit, sample_period,
+                    integrator, step, output_step, rtol, atol, q_tol, omega_tol, q0_floor
+    [[spacecraft]]  one table per spacecraft: inertia = 3x3 (kg m^2), rate = [3] (rad/s),
+                    and either q = [q1, q2, q3] (then q0 = +sqrt(1 - |q|^2)) or
+                    quaternion = [q1, q2, q3, q0] (unit, q0 > 0)
+    [claims]        reserved for the verification of published claims (kept, not read here)
+
+Unknown tables or keys, wrong types, non-unit quaternions, ``q0 <= 0``,
+non-SPD inertias and size mismatches raise :class:`InputError`.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from formsync_design.errors import InputError
+from formsync_design.graphs.build import Graph, make_graph
+from formsync_design.models.disturbances import (
+    R_EARTH,
+    DisturbanceModel,
+    Orbit,
+    constant_disturbance,
+    gravity_gradient_disturbance,
+    harmonic_disturbance,
+    no_disturbance,
+    paper_disturbance,
+)
+from formsync_design.sim.simulator import Formation, Gains, SimOptions
+
+__all__ = ["Case", "load_case", "default_case_path", "parse_case", "make_disturbance"]
+
+_TABLES = {
+    "case": {"name", "title", "source", "graph", "assumptions"},
+    "gains": {"K_o", "K_q", "beta", "K_v"},
+    "orbit": {"altitude_km", "mu", "earth_radius_km"},
+    "disturbance": {"model", "signs", "vector", "amplitude", "frequency", "offset"},
+    "simulation": {
+        "tf", "switch", "boundary_layer", "torque_limit", "sample_period", "integrator",
+        "step", "output_step", "rtol", "atol", "q_tol", "omega_tol", "q0_floor",
+    },
+    "spacecraft": {"inertia", "rate", "q", "quaternion", "name"},
+    "claims": None,  # free-form, owned by the verification
+}
+
+_SIM_KEYS = {"boundary_layer": "phi"}
+
+
+def default_case_path() -> Path:
+    """``verification/liang2016.toml`` (shipped as ``formsync_design.verification``)."""
+    from formsync_design.resources import case_file
+
+    return case_file("liang2016")
+
+
+@dataclass(frozen=True)
+class Case:
+    """A validated case.
+
+    Attributes
+    ----------
+    name, title, source, path : str
+    graph_spec : str
+    inertias : (N, 3, 3); attitudes : (N, 4) ``(q1, q2, q3, q0)``; rates : (N, 3)
+    gains : Gains; orbit : Orbit
+    disturbance : dict - the ``[disturbance]`` table (``model`` etc.)
+    options : SimOptions - the ``[simulation]`` table over the defaults
+    assumptions : tuple of str
+    claims : dict - the raw ``[claims]`` table (empty when absent)
+    """
+
+    name: str
+    title: str
+    source: str
+    path: str
+    graph_spec: str
+    inertias: np.ndarray
+    attitudes: np.ndarray
+    rates: np.ndarray
+    gains: Gains
+    orbit: Orbit
+    disturbance: dict
+    options: SimOptions
+    assumptions: tuple[str, ...] = ()
+    claims: dict = field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        return int(self.inertias.shape[0])
+
+    def graph(self, spec: Any = None) -> Graph:
+        """The case's graph, or ``spec`` (checked against the case size)."""
+        g = make_graph(spec if spec is not None else self.graph_spec)
+        if g.n != self.n:
+            raise InputError(
+                f"expected a graph of {self.n} spacecraft (the case has {self.n}), received "
+                f"{g.name!r} with {g.n}"
+            )
+        return g
+
+    def formation(self, graph: Any = None, disturbance: str | None = None) -> Formation:
+        """The :class:`Formation` of this case (optionally another graph / disturbance model).
+
+        >>> c = load_case()
+        >>> f = c.formation("path:8", "none")
+        >>> f.graph.name, f.disturbance.kind
+        ('path:8', 'none')
+        """
+        g = self.graph(graph)
+        d = dict(self.disturbance)
+        if disturbance is not None:
+            d = {"model": disturbance, **({"signs": d["signs"]} if "signs" in d else {})}
+        return Formation(g, self.inertias, self.attitudes, self.rates, self.gains,
+                         make_disturbance(d, self.inertias, self.orbit))
+
+
+def make_disturbance(table: dict, inertias: np.ndarray, orbit: Orbit) -> DisturbanceModel:
+    """Build a :class:`DisturbanceModel` from a ``[disturbance]`` table."""
+    model = table.get("model", "paper")
+    n = len(inertias)
+    if model == "paper":
+        signs = table.get("signs", [1, 1, 1])
+        return paper_disturbance(inertias, orbit, tuple(_numlist(signs, "disturbance.signs", 3)))
+    if model == "gravity-gradient":
+        return gravity_gradient_disturbance(n, orbit)
+    if model == "none":
+        return no_disturbance(n)
+    if model == "constant":
+        if "vector" not in table:
+            raise InputError("expected disturbance.vector = [ux, uy, uz] for model 'constant', received none")
+        v = np.asarray(_numlist(table["vector"], "disturbance.vector", 3))
+        return constant_disturbance(np.tile(v, (n, 1)))
+    if model == "harmonic":
+        for k in ("amplitude", "frequency"):
+            if k not in table:
+                raise InputError(f"expected disturbance.{k} for model 'harmonic', received none")
+        a = _numlist(table["amplitude"], "disturbance.amplitude", 3)
+        w = _numlist(table["frequency"], "disturbance.frequency", 3)
+        c = _numlist(table.get("offset", [0, 0, 0]), "disturbance.offset", 3)
+        return harmonic_disturbance(n, a, w, c)
+    raise InputError(
+        f"expected disturbance.model in paper, gravity-gradient, none, constant, harmonic; received {model!r}"
+    )
+
+
+def _num(v: Any, what: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise InputError(f"expected a finite number for {what}, received {v!r}")
+    return float(v)
+
+
+def _numlist(v: Any, what: str, size: int | None = None) -> list[float]:
+    if not isinstance(v, list):
+        raise InputError(f"expected a list of numbers for {what}, received {v!r}")
+    out = [_num(x, what) for x in v]
+    if size is not None and len(out) != size:
+        raise InputError(f"expected {size} numbers for {what}, received {len(out)}")
+    return out
+
+
+def _matrix(v: Any, what: str) -> np.ndarray:
+    if not (isinstance(v, list) and len(v) == 3 and all(isinstance(r, list) and len(r) == 3 for r in v)):
+        raise InputError(f"expected a 3x3 matrix (list of 3 lists of 3) for {what}, received {v!r}")
+    return np.array([[_num(x, what) for x in r] for r in v])
+
+
+def load_case(path: str | Path | None = None) -> Case:
+    """Load and validate a case file (default: the paper's).
+
+    >>> c = load_case()
+    >>> c.name, c.n, c.graph_spec, c.options.phi
+    ('liang2016', 8, 'ring:8', 0.01)
+    """
+    p = Path(path) if path is not None else default_case_path()
+    if not p.is_file():
+        raise InputError(f"expected a case TOML file, received {str(p)!r} (no such file)")
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as e:
+        raise InputError(f"expected valid TOML in {p}, received a syntax error: {e}") from None
+    return parse_case(data, str(p))
+
+
+def parse_case(data: dict, path: str = "<memory>") -> Case:
+    """Validate a parsed TOML document (see module docstring)."""
+    for k, v in data.items():
+        if k not in _TABLES:
+            raise InputError(f"expected tables {sorted(_TABLES)} in {path}, received unknown [{k}]")
+        allowed = _TABLES[k]
+        if allowed is None:
+            continue
+        rows = v if k == "spacecraft" else [v]
+        if k == "spacecraft" and not isinstance(v, list):
+            raise InputError(f"expected [[spacecraft]] tables in {path}, received {type(v).__name__}")
+        for row in rows:
+            if not isinstance(row, dict):
+                raise InputError(f"expected a table [{k}] in {path}, received {row!r}")
+            extra = set(row) - allowed
+            if extra:
+                raise InputError(f"expected keys {sorted(allowed)} in [{k}], received unknown {sorted(extra)}")
+    meta = data.get("case", {})
+    sc = data.get("spacecraft")
+    if not sc:
+        raise InputError(f"expected at least two [[spacecraft]] tables in {path}, received none")
+    J, A, W = [], [], []
+    for i, s in enumerate(sc, start=1):
+        for key in ("inertia", "rate"):
+            if key not in s:
+                raise InputError(f"expected spacecraft {i} to have '{key}', received keys {sorted(s)}")
+        J.append(_matrix(s["inertia"], f"spacecraft {i} inertia"))
+        W.append(_numlist(s["rate"], f"spacecraft {i} rate", 3))
+        if ("q" in s) == ("quaternion" in s):
+            raise InputError(f"expected exactly one of 'q' or 'quaternion' for spacecraft {i}, received {sorted(s)}")
+        if "q" in s:
+            q = np.array(_numlist(s["q"], f"spacecraft {i} q", 3))
+            r = 1 - float(q @ q)
+            if r <= 0:
+                raise InputError(
+                    f"expected |q| < 1 for spacecraft {i} (q0 = +sqrt(1 - |q|^2) > 0), received |q| = "
+                    f"{math.sqrt(float(q @ q)):.6g}"
+                )
+            A.append([*q, math.sqrt(r)])
+        else:
+            qb = np.array(_numlist(s["quaternion"], f"spacecraft {i} quaternion", 4))
+            if abs(float(np.linalg.norm(qb)) - 1) > 1e-9:
+                raise InputError(
+                    f"expected a unit quaternion for spacecraft {i}, received norm {np.linalg.norm(qb):.12g}"
+                )
+            if qb[3] <= 0:
+                raise InputError(f"expected q0 > 0 for spacecraft {i}, received q0 = {qb[3]:g}")
+            A.append(list(qb))
+    g = data.get("gains", {})
+    for k in ("K_o", "K_q", "beta", "K_v"):
+        if k not in g:
+            raise InputError(f"expected gains.{k} in {path}, received none")
+    kv = g["K_v"]
+    kvs = tuple(_numlist(kv, "gains.K_v", len(sc))) if isinstance(kv, list) else (_num(kv, "gains.K_v"),) * len(sc)
+    gains = Gains(_num(g["K_o"], "gains.K_o"), _num(g["K_q"], "gains.K_q"), _num(g["beta"], "gains.beta"), kvs)
+    o = data.get("orbit", {})
+    orbit = Orbit(
+        altitude=_num(o.get("altitude_km", 400.0), "orbit.altitude_km") * 1e3,
+        mu=_num(o.get("mu", Orbit.mu), "orbit.mu"),
+        earth_radius=_num(o.get("earth_radius_km", R_EARTH / 1e3), "orbit.earth_radius_km") * 1e3,
+    )
+    sim = data.get("simulation", {})
+    kw: dict[str, Any] = {}
+    for k, v in sim.items():
+        name = _SIM_KEYS.get(k, k)
+        if k in ("switch", "integrator"):
+            if not isinstance(v, str):
+                raise InputError(f"expected a string for simulation.{k}, received {v!r}")
+            kw[name] = v
+        elif k in ("torque_limit", "sample_period") and v == "none":
+            kw[name] = None
+        else:
+            kw[name] = _num(v, f"simulation.{k}")
+    options = replace(SimOptions(), **kw)
+    assumptions = meta.get("assumptions", [])
+    if not (isinstance(assumptions, list) and all(isinstance(a, str) for a in assumptions)):
+        raise InputError("expected case.assumptions to be a list of strings")
+    dist = dict(data.get("disturbance", {"model": "paper"}))
+    inertias = np.array(J)
+    case = Case(
+        name=str(meta.get("name", Path(path).stem)),
+        title=str(meta.get("title", "")),
+        source=str(meta.get("source", "")),
+        path=path,
+        graph_spec=str(meta.get("graph", f"ring:{len(sc)}")),
+        inertias=inertias,
+        attitudes=np.array(A),
+        rates=np.array(W),
+        gains=gains,
+        orbit=orbit,
+        disturbance=dist,
+        options=options,
+        assumptions=tuple(assumptions),
+        claims=dict(data.get("claims", {})),
+    )
+    # full validation (SPD inertias, graph size, disturbance table) through Formation
+    case.formation()
+    return case
