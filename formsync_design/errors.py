@@ -1,8 +1,18 @@
 """Exception hierarchy of formsync-design.
 
-Every exception raised for bad input derives from :class:`FormsyncError` and
-from the matching built-in, so callers may catch either.  Messages name what
-was expected and what was received.
+Every exception derives from :class:`FormsyncError` and from the matching
+built-in, so callers may catch either:
+
+* bad input (the user's to fix; ``formsync`` exit status 2) derives from
+  :class:`ValueError`: :class:`InputError`, :class:`GraphError`,
+  :class:`DerivationError` (a specification without the required structure);
+* a failure that is not the user's input (exit status 3) derives from
+  :class:`RuntimeError`: :class:`SolverError`, :class:`SimulationError`,
+  :class:`CompilerError`, :class:`ClusterError`, :class:`PackagingError`.
+
+Messages name what was expected and what was received (bad input) or what
+failed and what to try (failures).  A negative *finding* (not certified, a
+claim fails) is a result, never an exception.
 """
 
 from __future__ import annotations
@@ -15,6 +25,8 @@ __all__ = [
     "SolverError",
     "SimulationError",
     "PackagingError",
+    "CompilerError",
+    "ClusterError",
 ]
 
 
@@ -44,3 +56,11 @@ class SimulationError(FormsyncError, RuntimeError):
 
 class PackagingError(FormsyncError, RuntimeError):
     """The installation lacks a file it should ship (not the user's input)."""
+
+
+class CompilerError(FormsyncError, RuntimeError):
+    """Compiling a simulation kernel failed (C compiler missing or broken)."""
+
+
+class ClusterError(FormsyncError, RuntimeError):
+    """A Dask cluster could not be reached or lost its workers."""

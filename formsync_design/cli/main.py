@@ -8,9 +8,12 @@ Every subcommand lives in its own module ``formsync_design.cli.<name>`` exposing
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import traceback
 from collections.abc import Sequence
 
+from formsync_design import __version__
 from formsync_design.cli import certify as cmd_certify
 from formsync_design.cli import derive as cmd_derive
 from formsync_design.cli import design as cmd_design
@@ -19,8 +22,13 @@ from formsync_design.cli import region as cmd_region
 from formsync_design.cli import simulate as cmd_simulate
 from formsync_design.cli import sweep as cmd_sweep
 from formsync_design.cli import verify as cmd_verify
-from formsync_design.cli.options import EXIT_USAGE
-from formsync_design.errors import FormsyncError
+from formsync_design.cli.options import (
+    EXIT_FAILURE,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_USAGE,
+)
+from formsync_design.errors import DerivationError, FormsyncError, InputError
 
 __all__ = ["main", "build_parser"]
 
@@ -43,10 +51,12 @@ def build_parser() -> argparse.ArgumentParser:
             "closed loop and Lyapunov conditions of a controller symbolically, certify gain "
             "ranges for a communication graph, and simulate the nonlinear formation.\n\n"
             "Exit status: 0 success/certified, 1 negative finding (not certified, a claim "
-            "fails), 2 bad input or usage."
+            "fails), 2 bad input or usage, 3 a failure that is not your input (solver, "
+            "compiler, cluster: the message says what to try), 130 interrupted."
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    p.add_argument("--version", action="version", version=f"formsync {__version__}")
     sub = p.add_subparsers(dest="command", metavar="SUBCOMMAND", parser_class=_Parser)
     sub.required = True
     for mod in _COMMANDS:
@@ -54,26 +64,75 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _fail(command: str, message: str) -> None:
+    sys.stderr.write(f"formsync {command}: error: {' '.join(str(message).split())}\n")
+
+
+_USER_OS_ERRORS = (FileNotFoundError, PermissionError, IsADirectoryError, NotADirectoryError,
+                   FileExistsError)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run ``formsync`` with ``argv`` (default ``sys.argv[1:]``); return the exit status."""
+    """Run ``formsync`` with ``argv`` (default ``sys.argv[1:]``); return the exit status.
+
+    Exit status: 0 success/certified, 1 negative finding, 2 bad input or usage,
+    3 a failure that is not the user's input, 130 interrupted.  Errors are one
+    line on stderr; set ``FORMSYNC_TRACEBACK=1`` to see the traceback of a
+    failure (exit 3).
+
+    >>> main(["--version"])  # doctest: +ELLIPSIS
+    formsync ...
+    0
+    """
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
-    except SystemExit as e:  # --help (0) or usage error (2)
+    except SystemExit as e:  # --help/--version (0) or usage error (2)
         return int(e.code or 0)
+    command = str(args.command)
     try:
         return int(args.func(args))
     except BrokenPipeError:  # output piped into e.g. `head`: not an error
-        import os
-
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 0
-    except FormsyncError as e:
-        sys.stderr.write(f"formsync {args.command}: error: {e}\n")
+        return EXIT_OK
+    except KeyboardInterrupt:
+        _fail(command, "interrupted (Ctrl-C); partial results, if any, are where the command said")
+        return EXIT_INTERRUPTED
+    except (InputError, DerivationError, ValueError) as e:
+        if not isinstance(e, FormsyncError):  # a ValueError we did not anticipate: ours
+            return _internal(command, e)
+        _fail(command, str(e))
         return EXIT_USAGE
-    except (OSError, UnicodeDecodeError) as e:
-        sys.stderr.write(f"formsync {args.command}: error: {e}\n")
+    except FormsyncError as e:  # runtime failures: SolverError, CompilerError, ClusterError, ...
+        _fail(command, f"{type(e).__name__}: {e}")
+        _traceback()
+        return EXIT_FAILURE
+    except UnicodeDecodeError as e:
+        _fail(command, f"expected a UTF-8 text file, received binary or non-UTF-8 data ({e.reason} "
+                       f"at byte {e.start})")
         return EXIT_USAGE
+    except _USER_OS_ERRORS as e:
+        what = f" {e.filename}" if getattr(e, "filename", None) else ""
+        _fail(command, f"cannot use{what}: {e.strerror or e}")
+        return EXIT_USAGE
+    except OSError as e:  # disk full, I/O error: not the user's input
+        _fail(command, f"{type(e).__name__}: {e.strerror or e} (check disk space and permissions)")
+        _traceback()
+        return EXIT_FAILURE
+    except Exception as e:  # a bug of ours: say so in one line, exit 3
+        return _internal(command, e)
+
+
+def _traceback() -> None:
+    if os.environ.get("FORMSYNC_TRACEBACK"):
+        traceback.print_exc()
+
+
+def _internal(command: str, e: BaseException) -> int:
+    _fail(command, f"internal error {type(e).__name__}: {e} (a bug in formsync-design; rerun "
+                   f"with FORMSYNC_TRACEBACK=1 and report it)")
+    _traceback()
+    return EXIT_FAILURE
 
 
 if __name__ == "__main__":  # pragma: no cover

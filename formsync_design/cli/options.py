@@ -1,7 +1,9 @@
 """Shared command-line conventions of every ``formsync`` subcommand.
 
 Exit status: 0 success or certified; 1 ran fine but a negative finding; 2 bad
-input or usage (one line on stderr naming what was expected and received).
+input or usage (one line on stderr naming what was expected and received);
+3 a failure that is not the user's input (solver, compiler, cluster; one line
+saying what failed and what to try); 130 interrupted (Ctrl-C).
 """
 
 from __future__ import annotations
@@ -20,6 +22,8 @@ __all__ = [
     "EXIT_OK",
     "EXIT_NEGATIVE",
     "EXIT_USAGE",
+    "EXIT_FAILURE",
+    "EXIT_INTERRUPTED",
     "GainRange",
     "parse_gain_range",
     "parse_positive",
@@ -31,6 +35,8 @@ __all__ = [
 EXIT_OK = 0
 EXIT_NEGATIVE = 1
 EXIT_USAGE = 2
+EXIT_FAILURE = 3  # a failure that is not the user's input (solver, compiler, cluster)
+EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT), as shells report it
 
 
 @dataclass(frozen=True)
