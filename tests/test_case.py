@@ -127,3 +127,45 @@ def test_formation_overrides():
     f = c.formation("complete:8", "gravity-gradient")
     assert f.graph.name == "complete:8" and f.disturbance.gravity_gradient
     assert math.isclose(float(f.initial_state()[3]), float(c.attitudes[0, 3]))
+
+
+# ---------------------------------------------------------------------------
+# the one TOML loader and the [case] spec key
+# ---------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    "content, match",
+    [
+        (b"\x00\x01\x02binary", "a binary file"),
+        ("[case]\nname = 'caf\u00e9'\n".encode("latin-1"), "UTF-8"),
+        (b"[case]\nname = \"x\"\ngraph = \n", r"line 3"),
+    ],
+)
+def test_unreadable_case_files_give_one_line(tmp_path, content, match):
+    p = tmp_path / "c.toml"
+    p.write_bytes(content)
+    with pytest.raises(InputError, match=match) as e:
+        load_case(p)
+    assert "\n" not in str(e.value)
+    with pytest.raises(InputError, match="not a file"):
+        load_case(tmp_path)
+
+
+def test_case_spec_is_resolved_against_the_case_file(raw, tmp_path):
+    import hashlib
+
+    from formsync_design.tomlio import load_toml
+
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "d.py").write_text("def controller(v):\n    return 0\n")
+    c = parse_case(_mutate(raw, lambda d: d["case"].update(spec="sub/d.py")), str(tmp_path / "c.toml"))
+    assert c.spec == str(tmp_path / "sub" / "d.py")
+    with pytest.raises(InputError, match="case.spec"):
+        parse_case(_mutate(raw, lambda d: d["case"].update(spec="nope.py")), str(tmp_path / "c.toml"))
+    assert load_case().spec is None
+    assert load_case().digest == hashlib.sha256(default_case_path().read_bytes()).hexdigest()
+    assert load_toml(default_case_path())["case"]["name"] == "liang2016"
+
+
+def test_unlimited_torque_word(raw):
+    c = parse_case(_mutate(raw, lambda d: d["simulation"].update(torque_limit="unlimited")))
+    assert c.options.torque_limit is None

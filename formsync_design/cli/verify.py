@@ -16,22 +16,31 @@ _HELP = """\
 Verify a published design: re-derive the conditions, certify the published
 gains with the derived and with the printed conditions, simulate the nonlinear
 formation on every candidate topology, judge each published claim (holds /
-fails / depends on topology), and run the sensitivity study (boundary layer
-against accuracy and chattering, torque limit against convergence).
+fails / depends on topology / undecided, when neither the simulated horizon
+nor the certificate decides it), and run the sensitivity study (boundary
+layer against accuracy and chattering, torque limit against convergence).
 
 CASE is a case name (liang2016 = verification/liang2016.toml) or a TOML file
-with a [claims] table (see formsync_design/verify/verification.py for the format).
+with a [claims] table (format: formsync_design/verify/verification.py; judging
+rules: formsync_design/verify/claims.py).  The specification is --spec, else
+the case file's [case] spec, else the paper's; the derivation and every
+simulation use it.
 
-Writes <out>/<case>-verification.md, its figures under <out>/figures/, and the
-derivation report it links to.
+Writes <out>/<CASE file stem>-verification.md, its figures under
+<out>/figures/<CASE file stem>-verification/, and the derivation report it
+links to.  --out is checked before any work; an existing report of a
+different case is not replaced without --overwrite.
 
 Exit status: 0 when the verification ran to completion (the verdicts are in
-the report), 1 with --strict if any claim does not hold, 2 on bad input.
+the report); 1 with --strict unless every claim holds (undecided is not a
+pass); 2 on bad input (case, spec, --out); 3 on a failure that is not the
+input (solver, compiler).
 
 examples:
   formsync verify liang2016
   formsync verify liang2016 --format json --strict
   formsync verify my_case.toml --out /tmp/verification
+  formsync verify my_case.toml --spec my_design.py --out /tmp/variant --overwrite
 """
 
 
@@ -41,8 +50,13 @@ def add_parser(sub: Any) -> None:
     p.add_argument("case", nargs="?", default="liang2016",
                    help="case name or TOML file (default: liang2016)")
     p.add_argument("--out", default="reports", help="output directory (default: reports)")
+    p.add_argument("--spec", default=None,
+                   help="specification .py file (default: the case file's [case] spec, else the paper's)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an existing report of a different case in --out")
     p.add_argument("--strict", action="store_true",
-                   help="exit 1 if any claim does not hold on every candidate topology")
+                   help="exit 1 unless every claim holds on every candidate topology "
+                        "(undecided is not a pass)")
     add_format_option(p)
     p.set_defaults(func=run)
 
@@ -63,36 +77,48 @@ def resolve_case(name: str) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     from formsync_design.derive.report import write_derivation_report
+    from formsync_design.spec.loader import load_spec
+    from formsync_design.verify.case import load_case
+    from formsync_design.verify.output import check_output, display_path
     from formsync_design.verify.verification import (
         verification_json,
         verify_case,
         write_verification_report,
     )
 
+    # everything the user gave is checked before any computation (nothing is written yet)
     path = resolve_case(args.case)
+    case_display = display_path(path)
+    check_output(args.out, path.stem, case_display, overwrite=args.overwrite)
+    case = load_case(path)
+    spec_arg = args.spec if args.spec is not None else case.spec
+    spec = load_spec(spec_arg) if spec_arg is not None else None
 
     def say(msg: str) -> None:
         sys.stderr.write(f"verify: {msg}\n")
         sys.stderr.flush()
 
-    res = verify_case(path, progress=say)
+    res = verify_case(path, spec=spec, progress=say)
     say("write reports")
     g0 = res.topologies[0].graph
+    spec_opt = f" --spec {res.spec_source}" if spec is not None else ""
+    out_opt = f" --out {args.out}" if args.out != "reports" else ""
     write_derivation_report(
-        g0, args.out,
-        command="formsync derive" + (f" --graph {g0}" if g0 != "ring:8" else "")
-        + (f" --out {args.out}" if args.out != "reports" else ""),
+        g0, args.out, spec=spec,
+        command="formsync derive" + (f" --graph {g0}" if g0 != "ring:8" else "") + spec_opt + out_opt,
     )
-    cmd = "formsync verify " + (args.case if args.case == "liang2016" else str(path))
-    if args.out != "reports":
-        cmd += f" --out {args.out}"
+    cmd = "formsync verify " + (args.case if args.case == path.stem and not Path(args.case).exists()
+                                else case_display)
+    if args.spec is not None:
+        cmd += spec_opt
+    cmd += out_opt
     md, figs = write_verification_report(res, args.out, command=cmd)
     if args.format == "json":
         sys.stdout.write(verification_json(res) + "\n")
     else:
         sys.stdout.write(f"wrote {md} ({len(figs)} figures)\n")
         for c in res.claims:
-            sys.stdout.write(f"  {c.verdict:20s} {c.spec.text}\n")
+            sys.stdout.write(f"  {c.verdict:28s} {c.spec.text}\n")
     if args.strict and not res.all_hold:
         return EXIT_NEGATIVE
     return EXIT_OK

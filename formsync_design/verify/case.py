@@ -1,30 +1,34 @@
-"""Simulation cases in TOML (loaded with :mod:`tomllib`, validated strictly).
+"""Simulation cases in TOML (read with :func:`formsync_design.tomlio.load_toml`, validated strictly).
 
 A case file holds everything physical about a formation run.  Layout
 (``verification/liang2016.toml`` is the paper's case and the reference)::
 
     [case]          name, title, source, graph (a graph spec, e.g. "ring:8"),
-                    assumptions = ["...", ...]
+                    assumptions = ["...", ...],
+                    spec = "my_design.py" (optional: the controller / Lyapunov
+                    specification, relative to the case file; default the paper's)
     [gains]         K_o, K_q, beta, K_v (one number or one per spacecraft)
     [orbit]         altitude_km (circular), optional mu, earth_radius_km
     [disturbance]   model = "paper" | "gravity-gradient" | "none" | "constant" | "harmonic"
                     paper: signs = [1, 1, 1]; constant: vector = [ux, uy, uz] (N m);
                     harmonic: amplitude = [...], frequency = [...] (rad/s), offset = [...]
-    [simulation]    tf, switch, boundary_layer, torque_limit, sample_period,
+    [simulation]    tf, switch, boundary_layer, torque_limit (N m or "unlimited"), sample_period,
                     integrator, step, output_step, rtol, atol, q_tol, omega_tol, q0_floor
     [[spacecraft]]  one table per spacecraft: inertia = 3x3 (kg m^2), rate = [3] (rad/s),
                     and either q = [q1, q2, q3] (then q0 = +sqrt(1 - |q|^2)) or
                     quaternion = [q1, q2, q3, q0] (unit, q0 > 0)
-    [claims]        reserved for the verification of published claims (kept, not read here)
+    [claims]        the published claims (format and judging rules in
+                    :mod:`formsync_design.verify.claims`; kept, not read here)
 
-Unknown tables or keys, wrong types, non-unit quaternions, ``q0 <= 0``,
+Unreadable files (missing, binary, non-UTF-8, TOML syntax errors), unknown
+tables or keys, wrong types, non-unit quaternions, ``q0 <= 0``,
 non-SPD inertias and size mismatches raise :class:`InputError`.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
-import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -44,11 +48,12 @@ from formsync_design.models.disturbances import (
     paper_disturbance,
 )
 from formsync_design.sim.simulator import Formation, Gains, SimOptions
+from formsync_design.tomlio import load_toml
 
 __all__ = ["Case", "load_case", "default_case_path", "parse_case", "make_disturbance"]
 
 _TABLES = {
-    "case": {"name", "title", "source", "graph", "assumptions"},
+    "case": {"name", "title", "source", "graph", "assumptions", "spec"},
     "gains": {"K_o", "K_q", "beta", "K_v"},
     "orbit": {"altitude_km", "mu", "earth_radius_km"},
     "disturbance": {"model", "signs", "vector", "amplitude", "frequency", "offset"},
@@ -84,6 +89,9 @@ class Case:
     options : SimOptions - the ``[simulation]`` table over the defaults
     assumptions : tuple of str
     claims : dict - the raw ``[claims]`` table (empty when absent)
+    spec : str or None - the specification file named by ``[case] spec`` (resolved
+        against the case file's folder), None for the paper's
+    digest : str - sha256 of the case file's bytes ("" for a case built in memory)
     """
 
     name: str
@@ -100,6 +108,8 @@ class Case:
     options: SimOptions
     assumptions: tuple[str, ...] = ()
     claims: dict = field(default_factory=dict)
+    spec: str | None = None
+    digest: str = ""
 
     @property
     def n(self) -> int:
@@ -137,7 +147,8 @@ def make_disturbance(table: dict, inertias: np.ndarray, orbit: Orbit) -> Disturb
     n = len(inertias)
     if model == "paper":
         signs = table.get("signs", [1, 1, 1])
-        return paper_disturbance(inertias, orbit, tuple(_numlist(signs, "disturbance.signs", 3)))
+        sx, sy, sz = _numlist(signs, "disturbance.signs", 3)
+        return paper_disturbance(inertias, orbit, (sx, sy, sz))
     if model == "gravity-gradient":
         return gravity_gradient_disturbance(n, orbit)
     if model == "none":
@@ -151,9 +162,9 @@ def make_disturbance(table: dict, inertias: np.ndarray, orbit: Orbit) -> Disturb
         for k in ("amplitude", "frequency"):
             if k not in table:
                 raise InputError(f"expected disturbance.{k} for model 'harmonic', received none")
-        a = _numlist(table["amplitude"], "disturbance.amplitude", 3)
-        w = _numlist(table["frequency"], "disturbance.frequency", 3)
-        c = _numlist(table.get("offset", [0, 0, 0]), "disturbance.offset", 3)
+        a = np.asarray(_numlist(table["amplitude"], "disturbance.amplitude", 3))
+        w = np.asarray(_numlist(table["frequency"], "disturbance.frequency", 3))
+        c = np.asarray(_numlist(table.get("offset", [0, 0, 0]), "disturbance.offset", 3))
         return harmonic_disturbance(n, a, w, c)
     raise InputError(
         f"expected disturbance.model in paper, gravity-gradient, none, constant, harmonic; received {model!r}"
@@ -189,13 +200,9 @@ def load_case(path: str | Path | None = None) -> Case:
     ('liang2016', 8, 'ring:8', 0.01)
     """
     p = Path(path) if path is not None else default_case_path()
-    if not p.is_file():
-        raise InputError(f"expected a case TOML file, received {str(p)!r} (no such file)")
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as e:
-        raise InputError(f"expected valid TOML in {p}, received a syntax error: {e}") from None
-    return parse_case(data, str(p))
+    data = load_toml(p, "case TOML file")
+    case = parse_case(data, str(p))
+    return replace(case, digest=hashlib.sha256(p.read_bytes()).hexdigest())
 
 
 def parse_case(data: dict, path: str = "<memory>") -> Case:
@@ -267,7 +274,7 @@ def parse_case(data: dict, path: str = "<memory>") -> Case:
             if not isinstance(v, str):
                 raise InputError(f"expected a string for simulation.{k}, received {v!r}")
             kw[name] = v
-        elif k in ("torque_limit", "sample_period") and v == "none":
+        elif k in ("torque_limit", "sample_period") and v in ("none", "unlimited"):
             kw[name] = None
         else:
             kw[name] = _num(v, f"simulation.{k}")
@@ -275,6 +282,17 @@ def parse_case(data: dict, path: str = "<memory>") -> Case:
     assumptions = meta.get("assumptions", [])
     if not (isinstance(assumptions, list) and all(isinstance(a, str) for a in assumptions)):
         raise InputError("expected case.assumptions to be a list of strings")
+    spec = meta.get("spec")
+    if spec is not None:
+        if not (isinstance(spec, str) and spec.strip()):
+            raise InputError(f"expected case.spec = a path to a specification .py file, received {spec!r}")
+        sp = Path(spec)
+        if not sp.is_absolute():
+            sp = Path(path).parent / sp
+        if not sp.is_file():
+            raise InputError(f"expected case.spec to name an existing .py file (relative to the case "
+                             f"file), received {spec!r} ({str(sp)!r} does not exist)")
+        spec = str(sp)
     dist = dict(data.get("disturbance", {"model": "paper"}))
     inertias = np.array(J)
     case = Case(
@@ -292,6 +310,7 @@ def parse_case(data: dict, path: str = "<memory>") -> Case:
         options=options,
         assumptions=tuple(assumptions),
         claims=dict(data.get("claims", {})),
+        spec=spec,
     )
     # full validation (SPD inertias, graph size, disturbance table) through Formation
     case.formation()

@@ -1,0 +1,69 @@
+"""The one TOML loader of the toolbox (case files, campaign files).
+
+:func:`load_toml` turns every way a user's file can be unreadable into a
+one-line :class:`~formsync_design.errors.InputError` ("expected X, received
+Y"): a missing file, a folder, a binary or non-UTF-8 file, and a TOML syntax
+error (with its line and column, as :mod:`tomllib` reports them).
+
+>>> import tempfile, pathlib
+>>> p = pathlib.Path(tempfile.mkdtemp()) / "x.toml"
+>>> _ = p.write_text('[case]\\nname = "x"\\n', encoding="utf-8")
+>>> load_toml(p)
+{'case': {'name': 'x'}}
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from formsync_design.errors import InputError
+
+__all__ = ["load_toml"]
+
+
+def load_toml(path: str | Path, what: str = "TOML file") -> dict[str, Any]:
+    """Read and parse a UTF-8 TOML file; one-line :class:`InputError` on any failure.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    what : str
+        What the file should be, for the messages (``"case TOML file"``).
+
+    Returns
+    -------
+    dict
+        The parsed document.
+
+    Examples
+    --------
+    >>> load_toml("/no/such/file.toml")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected a TOML file, received '/no/such/file.toml' (no such file)
+    """
+    p = Path(path)
+    if not p.exists():
+        raise InputError(f"expected a {what}, received {str(p)!r} (no such file)")
+    if not p.is_file():
+        raise InputError(f"expected a {what}, received {str(p)!r} (not a file)")
+    try:
+        raw = p.read_bytes()
+    except OSError as e:
+        raise InputError(f"expected a readable {what}, received {str(p)!r} ({e.strerror or e})") from None
+    if b"\x00" in raw:
+        raise InputError(f"expected a text {what}, received {str(p)!r} (a binary file)")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise InputError(
+            f"expected a UTF-8 {what}, received {str(p)!r} (byte {e.start} is not UTF-8)"
+        ) from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        msg = str(e).splitlines()[0] if str(e) else "syntax error"
+        raise InputError(f"expected valid TOML in {p}, received a syntax error: {msg}") from None
