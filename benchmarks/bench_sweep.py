@@ -19,7 +19,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from formsync_design.sweep.campaign import campaign_from_dict, run_sweep
+from formsync_design.sweep import campaign_from_dict, run_sweep
 
 
 def main() -> None:

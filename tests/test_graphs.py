@@ -125,3 +125,64 @@ def test_bad_edge_files(tmp_path, text, fragment):
 def test_graph_rejects_invalid_direct_construction():
     with pytest.raises(GraphError):
         Graph(n=3, edges=((0, 1),))
+
+
+# ---------------------------------------------------------------------------
+# size limit, binary files, numpy reprs (issue 9: items 13 and "bad input")
+# ---------------------------------------------------------------------------
+def test_size_cap_is_enforced_before_allocation():
+    import resource
+    import time
+
+    from formsync_design.graphs.build import MAX_SPACECRAFT
+
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    t0 = time.monotonic()
+    for spec in ("ring:100000000", "complete:1000000", f"path:{MAX_SPACECRAFT + 1}",
+                 "random:50000000:0.5:1"):
+        with pytest.raises(GraphError, match=f"at most {MAX_SPACECRAFT} spacecraft"):
+            make_graph(spec)
+    # refused up front: no N x N allocation (80 PB for ring:1e8), no O(N^2) loop
+    assert time.monotonic() - t0 < 2
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200_000  # KB
+    # the cap itself is accepted, and its Laplacian is right (independent: networkx)
+    g = make_graph(f"path:{MAX_SPACECRAFT}")
+    assert g.n == MAX_SPACECRAFT
+    ref = nx.laplacian_matrix(nx.path_graph(MAX_SPACECRAFT)).toarray()
+    assert (g.laplacian == ref).all()
+
+
+def test_size_cap_applies_to_files_and_arrays(tmp_path):
+    f = tmp_path / "big.txt"
+    f.write_text("1 2\n2 3000000\n")
+    with pytest.raises(GraphError, match="at most 2000 spacecraft"):
+        make_graph(f)
+    with pytest.raises(GraphError, match="at most 2000 spacecraft"):
+        make_graph(nx.path_graph(2001))
+    with pytest.raises(GraphError, match="at most 2000 spacecraft"):
+        Graph(2001, tuple((i, i + 1) for i in range(2000)))
+
+
+@pytest.mark.parametrize("name, data, fragment", [
+    ("g.txt", b"1 2\n\x00\x01\x02\xff", "binary"),
+    ("g.txt", "1 2\n# caf\u00e9\n".encode("latin-1"), "not UTF-8"),
+    ("g.csv", b"\x89PNG\r\n\x1a\n\x00\x00", "binary"),
+    ("g.csv", "0,1\n1,0\n# \u00e9\n".encode("latin-1"), "not UTF-8"),
+])
+def test_binary_and_non_utf8_graph_files(tmp_path, name, data, fragment):
+    f = tmp_path / name
+    f.write_bytes(data)
+    with pytest.raises(GraphError, match=fragment) as e:
+        make_graph(f)
+    assert str(f) in str(e.value) and "\n" not in str(e.value)
+
+
+def test_messages_carry_no_numpy_reprs():
+    for bad in (np.array([[0, 0.5], [0.5, 0]]), np.array([[0.0, 1.0], [0.0, 0.0]]),
+                np.zeros((2, 3))):
+        with pytest.raises(GraphError) as e:
+            make_graph(bad)
+        assert "np." not in str(e.value) and "float64" not in str(e.value)
+    with pytest.raises(GraphError) as e:
+        Graph(np.int64(1), ())
+    assert str(e.value) == "expected a formation of at least 2 spacecraft, received 1"

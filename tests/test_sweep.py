@@ -1,4 +1,4 @@
-"""Tests of formsync_design.sweep.campaign / ``formsync sweep``.
+"""Tests of formsync_design.sweep / ``formsync sweep``.
 
 Independent truths: the number of connected graphs on n nodes (OEIS A001349:
 1, 1, 2, 6, 21, 112, 853), the Laplacian spectrum from networkx/numpy, and the
@@ -23,16 +23,16 @@ import pytest
 
 from formsync_design.cli.main import main
 from formsync_design.errors import FormsyncError, InputError
-from formsync_design.sweep.campaign import (
+from formsync_design.sweep import (
     COLUMNS,
     build_tasks,
     campaign_from_dict,
     expand_graph_set,
     expand_graphs,
-    read_results,
     run_sweep,
     run_task,
 )
+from formsync_design.sweep.store import read_results
 
 ROOT = Path(__file__).resolve().parents[1]
 # connected graphs on n nodes, OEIS A001349
@@ -299,7 +299,7 @@ def test_unreachable_scheduler_fails_fast_and_writes_nothing(tmp_path, capsys):
                "--out", str(out)])
     elapsed = time.monotonic() - t0
     err = capsys.readouterr().err
-    assert rc == 2 and "reachable Dask scheduler" in err and err.count("\n") == 1
+    assert rc == 3 and "could not reach the Dask scheduler" in err and err.count("\n") == 1
     assert elapsed < 30  # bounded by --timeout (plus imports), i.e. no hang
     assert not out.exists()
 
@@ -312,7 +312,7 @@ def test_campaign_file_strictness(tmp_path):
 
 
 def test_example_campaign_definition_loads():
-    from formsync_design.sweep.campaign import load_campaign
+    from formsync_design.sweep import load_campaign
 
     c = load_campaign(ROOT / "verification" / "sweep_atlas6.toml")
     gs, skipped = expand_graphs(c.graphs)
@@ -413,7 +413,7 @@ def test_progress_reports_every_task_and_json_output(tmp_path, capsys):
 
 
 def test_montecarlo_case_content_is_part_of_the_campaign(tmp_path):
-    from formsync_design.sweep.campaign import campaign_hash
+    from formsync_design.sweep import campaign_hash
     from formsync_design.verify.case import default_case_path
 
     case = tmp_path / "case.toml"

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 import traceback
 from collections.abc import Sequence
@@ -64,8 +65,14 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+_NUMPY_REPR = re.compile(r"np\.(?:float|int|uint|complex|bool|str)\w*\(([^()]*)\)")
+
+
 def _fail(command: str, message: str) -> None:
-    sys.stderr.write(f"formsync {command}: error: {' '.join(str(message).split())}\n")
+    """One line on stderr; numpy scalar reprs (``np.float64(-1.0)``) shown as their value."""
+    prog = f"formsync {command}" if command else "formsync"
+    text = _NUMPY_REPR.sub(r"\1", " ".join(str(message).split()))
+    sys.stderr.write(f"{prog}: error: {text}\n")
 
 
 _USER_OS_ERRORS = (FileNotFoundError, PermissionError, IsADirectoryError, NotADirectoryError,
@@ -84,11 +91,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     formsync ...
     0
     """
-    parser = build_parser()
     try:
+        parser = build_parser()
         args = parser.parse_args(argv)
     except SystemExit as e:  # --help/--version (0) or usage error (2)
         return int(e.code or 0)
+    except KeyboardInterrupt:
+        _fail("", "interrupted (Ctrl-C)")
+        return EXIT_INTERRUPTED
     command = str(args.command)
     try:
         return int(args.func(args))
@@ -98,6 +108,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         _fail(command, "interrupted (Ctrl-C); partial results, if any, are where the command said")
         return EXIT_INTERRUPTED
+    except UnicodeDecodeError as e:
+        _fail(command, f"expected a UTF-8 text file, received binary or non-UTF-8 data ({e.reason} "
+                       f"at byte {e.start})")
+        return EXIT_USAGE
     except (InputError, DerivationError, ValueError) as e:
         if not isinstance(e, FormsyncError):  # a ValueError we did not anticipate: ours
             return _internal(command, e)
@@ -107,10 +121,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         _fail(command, f"{type(e).__name__}: {e}")
         _traceback()
         return EXIT_FAILURE
-    except UnicodeDecodeError as e:
-        _fail(command, f"expected a UTF-8 text file, received binary or non-UTF-8 data ({e.reason} "
-                       f"at byte {e.start})")
-        return EXIT_USAGE
     except _USER_OS_ERRORS as e:
         what = f" {e.filename}" if getattr(e, "filename", None) else ""
         _fail(command, f"cannot use{what}: {e.strerror or e}")

@@ -10,13 +10,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
-from dataclasses import dataclass
-from fractions import Fraction
+from collections.abc import Mapping
 from typing import Any
 
 from formsync_design.errors import InputError
+
+# the one gain-range type and parser live in formsync_design.gains (re-exported here)
+from formsync_design.gains import GainRange, json_number, parse_gain_range, parse_number
 
 __all__ = [
     "EXIT_OK",
@@ -26,9 +27,11 @@ __all__ = [
     "EXIT_INTERRUPTED",
     "GainRange",
     "parse_gain_range",
+    "parse_number",
     "parse_positive",
     "add_format_option",
     "emit_json",
+    "to_json_value",
     "Progress",
 ]
 
@@ -38,63 +41,14 @@ EXIT_USAGE = 2
 EXIT_FAILURE = 3  # a failure that is not the user's input (solver, compiler, cluster)
 EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT), as shells report it
 
-
-@dataclass(frozen=True)
-class GainRange:
-    """A closed gain interval ``[lo, hi]`` (``lo == hi`` for a single value),
-    kept exactly as the user typed it (rational, from the decimal text)."""
-
-    name: str
-    lo: Fraction
-    hi: Fraction
-
-    @property
-    def is_point(self) -> bool:
-        return self.lo == self.hi
-
-    def __str__(self) -> str:
-        return f"{float(self.lo):g}" if self.is_point else f"{float(self.lo):g}:{float(self.hi):g}"
-
-
-def _exact(text: str, name: str) -> Fraction:
-    t = text.strip()
-    try:
-        f = float(t)
-    except ValueError:
-        raise InputError(f"expected a number for {name}, received {text!r}") from None
-    if not math.isfinite(f):
-        raise InputError(f"expected a finite number for {name}, received {text!r}")
-    try:
-        return Fraction(t)
-    except ValueError:
-        return Fraction(f)
-
-
-def parse_gain_range(text: str, name: str, *, positive: bool = True) -> GainRange:
-    """Parse ``X`` or ``LO:HI`` into a :class:`GainRange`.
-
-    >>> parse_gain_range("0.1:2", "K_o")
-    GainRange(name='K_o', lo=Fraction(1, 10), hi=Fraction(2, 1))
-    """
-    parts = str(text).split(":")
-    if len(parts) == 1:
-        lo = hi = _exact(parts[0], name)
-    elif len(parts) == 2:
-        if not parts[0].strip() or not parts[1].strip():
-            raise InputError(f"expected {name} as X or LO:HI, received {text!r} (empty bound)")
-        lo, hi = _exact(parts[0], name), _exact(parts[1], name)
-    else:
-        raise InputError(f"expected {name} as X or LO:HI, received {text!r}")
-    if hi < lo:
-        raise InputError(f"expected LO <= HI for {name}, received reversed range {text!r}")
-    if positive and lo <= 0:
-        raise InputError(f"expected a positive {name}, received {text!r}")
-    return GainRange(name, lo, hi)
+# transitional alias: cli/certify.py and cli/design.py still import it; use
+# formsync_design.gains.parse_number instead
+_exact = parse_number
 
 
 def parse_positive(text: str, name: str) -> float:
     """Parse a finite, strictly positive float."""
-    v = _exact(text, name)
+    v = parse_number(text, name)
     if v <= 0:
         raise InputError(f"expected a positive {name}, received {text!r}")
     return float(v)
@@ -109,19 +63,42 @@ def add_format_option(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _default(o: Any) -> Any:
-    if isinstance(o, Fraction):
-        return float(o)
-    if hasattr(o, "tolist"):
-        return o.tolist()
-    if hasattr(o, "item"):
-        return o.item()
-    raise TypeError(f"not JSON serializable: {type(o).__name__}")
+def to_json_value(obj: Any) -> Any:
+    """``obj`` with every number in the toolbox's JSON convention
+    (:func:`formsync_design.gains.json_number`: exact rationals as numbers when they
+    round-trip, else ``"p/q"``; ``inf``/``-inf``/``nan`` as strings), numpy arrays
+    as lists, mappings and sequences walked.
+
+    >>> from fractions import Fraction
+    >>> to_json_value({"a": Fraction(1, 3), "b": [float("inf"), Fraction(1, 2)]})
+    {'a': '1/3', 'b': ['inf', 0.5]}
+    """
+    if isinstance(obj, Mapping):
+        return {str(k): to_json_value(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_json_value(v) for v in obj]
+    if hasattr(obj, "tolist") and not isinstance(obj, (int, float)):
+        return to_json_value(obj.tolist())
+    if hasattr(obj, "to_dict") and callable(obj.to_dict):
+        return to_json_value(obj.to_dict())
+    if isinstance(obj, (str, type(None))):
+        return obj
+    return json_number(obj)
 
 
 def emit_json(obj: Any) -> None:
-    """Print ``obj`` as indented JSON (Fractions and numpy values converted)."""
-    json.dump(obj, sys.stdout, indent=2, default=_default, allow_nan=False)
+    """Print ``obj`` as indented JSON, numbers in the toolbox's JSON convention
+    (:func:`to_json_value`): a Fraction is never silently rounded and ``inf`` never
+    makes the output invalid JSON.
+
+    >>> from fractions import Fraction
+    >>> emit_json({"margin": Fraction(1, 3), "t": float("inf")})
+    {
+      "margin": "1/3",
+      "t": "inf"
+    }
+    """
+    json.dump(to_json_value(obj), sys.stdout, indent=2, allow_nan=False)
     sys.stdout.write("\n")
 
 

@@ -5,9 +5,11 @@ from __future__ import annotations
 import argparse
 import shlex
 import sys
+from pathlib import Path
 from typing import Any
 
 from formsync_design.cli.options import (
+    EXIT_INTERRUPTED,
     EXIT_OK,
     Progress,
     add_format_option,
@@ -49,8 +51,22 @@ Execution: a local dask.distributed cluster of --workers processes (default 2,
 one thread each); --scheduler ADDRESS uses an existing cluster (its workers
 need formsync-design installed); --workers 0 runs serially in this process.
 
-Exit status: 0 campaign complete, 2 bad input (unknown family, empty set,
-unreachable scheduler, foreign results folder) or a failed task.
+Specification: --spec FILE (or `spec = "FILE"` in the [campaign] table,
+relative to the campaign file) derives the conditions and simulates the
+Monte-Carlo runs with that controller instead of the paper's; its content is
+part of the campaign sha256, so a folder of another specification is refused.
+
+Limits (refused up front, exit 2): at most 2000 spacecraft per graph, 100000
+tasks (graphs x boxes) and 10^7 Monte-Carlo simulations per campaign.
+
+Ctrl-C stops the sweep within a second or two (exit 130); finished rows stay in
+DIR/journal.jsonl and --resume completes the campaign.
+
+Exit status: 0 campaign complete; 2 bad input (unknown family, empty set, a
+malformed --scheduler address, a campaign too large, a foreign results folder,
+a task that rejected its input); 3 a failure that is not your input (scheduler
+unreachable or without workers, a worker died, a task crashed: finished rows
+are kept, rerun with --resume); 130 interrupted.
 
 examples:
   formsync sweep --graphs atlas:6 --out out/atlas6
@@ -80,6 +96,9 @@ def add_parser(sub: Any) -> None:
     d.add_argument("--graphs", action="append", metavar="SET", default=None,
                    help="graph set (repeatable), e.g. ring:4..12, atlas:6, random:8:0.4:0..9")
     d.add_argument("--name", default=None, help="campaign name (default 'sweep')")
+    d.add_argument("--spec", default=None, metavar="FILE",
+                   help="controller + Lyapunov specification .py (default: the paper's design; "
+                   "with --campaign, instead of its [campaign] spec)")
     d.add_argument("--ko", default=None, metavar="LO:HI", help="K_o range of the box (default 0.05:5)")
     d.add_argument("--kq", default=None, metavar="LO:HI", help="K_q range of the box (default 0.05:5)")
     d.add_argument("--beta", default=None, metavar="LO:HI", help="beta range of the box (default 0.01:1)")
@@ -119,12 +138,8 @@ def add_parser(sub: Any) -> None:
 
 
 def _campaign_from_flags(args: argparse.Namespace) -> Any:
-    from formsync_design.sweep.campaign import (
-        DEFAULT_BOX,
-        DEFAULT_REFERENCE,
-        GAINS,
-        campaign_from_dict,
-    )
+    from formsync_design.sweep.campaign import DEFAULT_BOX, DEFAULT_REFERENCE, campaign_from_dict
+    from formsync_design.sweep.schema import GAINS
 
     doc: dict[str, Any] = {"campaign": {"name": args.name or "sweep", "graphs": args.graphs or []}}
     if args.conditions:
@@ -181,12 +196,14 @@ def _command(args: argparse.Namespace) -> str:
             v = getattr(args, f)
             if f != "graphs" and v is not None:
                 parts += ["--" + f.replace("_", "-"), str(v)]
+    if args.spec:
+        parts += ["--spec", args.spec]
     return shlex.join(["formsync", "sweep", *parts, "--out", args.out, "--overwrite"])
 
 
 def run(args: argparse.Namespace) -> int:
     from formsync_design.cli.options import parse_positive
-    from formsync_design.sweep.campaign import load_campaign, run_sweep
+    from formsync_design.sweep import load_campaign, run_sweep
 
     timeout = parse_positive(args.timeout, "--timeout")
     if args.campaign:
@@ -197,6 +214,11 @@ def run(args: argparse.Namespace) -> int:
                 + ", ".join("--" + f.replace("_", "-") for f in used) + ")"
             )
         camp = load_campaign(args.campaign)
+        if args.spec and camp.spec:
+            raise InputError(
+                f"expected one specification, received --spec {args.spec!r} and spec = "
+                f"{camp.spec!r} in {args.campaign}"
+            )
     else:
         if not args.graphs:
             raise InputError("expected --campaign FILE or at least one --graphs SET, received neither")
@@ -209,10 +231,22 @@ def run(args: argparse.Namespace) -> int:
             prog = Progress(total, "sweep tasks", enabled=not args.no_progress)
         prog.update(done - prog.done)
 
-    res = run_sweep(
-        camp, args.out, resume=args.resume, overwrite=args.overwrite, scheduler=args.scheduler,
-        n_workers=args.workers, timeout=timeout, progress=progress, command=_command(args),
-    )
+    from formsync_design.spec.loader import load_spec
+
+    try:
+        res = run_sweep(
+            camp, args.out, resume=args.resume, overwrite=args.overwrite, scheduler=args.scheduler,
+            n_workers=args.workers, timeout=timeout, progress=progress, command=_command(args),
+            spec=load_spec(args.spec) if args.spec else None,
+        )
+    except KeyboardInterrupt:
+        if prog is not None and prog.enabled:
+            sys.stderr.write("\n")
+        journal = Path(args.out) / "journal.jsonl"
+        kept = f"finished rows are kept in {journal}; " if journal.is_file() else ""
+        sys.stderr.write(f"formsync sweep: interrupted (Ctrl-C); {kept}the same command with "
+                         "--resume completes the campaign\n")
+        return EXIT_INTERRUPTED
     if args.format == "json":
         emit_json({
             "out": str(res.out), "sha256": res.sha256, "graphs": res.graphs, "tasks": res.tasks,

@@ -13,6 +13,17 @@ Accepted inputs (:func:`make_graph`)
 * a path to an edge-list file (one ``i j`` pair per line, 1-based, ``#``
   comments) or to an adjacency-matrix CSV file (``.csv``);
 * a :class:`networkx.Graph`, a square numpy array (adjacency), or a ``Graph``.
+
+Size limit
+----------
+A formation has at most :data:`MAX_SPACECRAFT` (2000) spacecraft.  A
+:class:`Graph` keeps its adjacency and Laplacian as dense ``N x N`` int64
+matrices (``8 N^2`` bytes each: 32 MB at the cap, 80 PB for ``ring:10^8``) and
+computes the Laplacian spectrum with a dense ``O(N^3)`` eigen-decomposition
+(seconds at the cap); the symbolic derivation, the certification and the
+simulation grow faster still.  Larger sizes are refused up front with a
+one-line :class:`~formsync_design.errors.GraphError` before anything is
+allocated, instead of exhausting the memory.
 """
 
 from __future__ import annotations
@@ -28,7 +39,10 @@ import numpy as np
 
 from formsync_design.errors import GraphError
 
-__all__ = ["Graph", "make_graph", "parse_graph_spec", "GRAPH_SPEC_HELP"]
+__all__ = ["Graph", "make_graph", "parse_graph_spec", "check_size", "GRAPH_SPEC_HELP", "MAX_SPACECRAFT"]
+
+MAX_SPACECRAFT = 2000
+"""Largest formation accepted (module docstring: dense N x N matrices, O(N^3) spectrum)."""
 
 GRAPH_SPEC_HELP = (
     "ring:N | path:N | star:N | complete:N | circulant:N:a,b,... | random:N:P:SEED "
@@ -117,9 +131,28 @@ class Graph:
         return g
 
 
+def check_size(n: int, where: str = "") -> None:
+    """Refuse a formation of more than :data:`MAX_SPACECRAFT` spacecraft (one line).
+
+    >>> check_size(8)
+    >>> check_size(100000000, "ring:100000000")
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.GraphError: expected at most 2000 spacecraft (dense N x N Laplacian and O(N^3) spectrum), received N=100000000 in 'ring:100000000'
+    """
+    if n > MAX_SPACECRAFT:
+        at = f" in {where!r}" if where else ""
+        raise GraphError(
+            f"expected at most {MAX_SPACECRAFT} spacecraft (dense N x N Laplacian and O(N^3) "
+            f"spectrum), received N={int(n)}{at}"
+        )
+
+
 def _validate(n: int, edges: tuple[tuple[int, int], ...]) -> None:
-    if not isinstance(n, (int, np.integer)) or n < 2:
-        raise GraphError(f"expected a formation of at least 2 spacecraft, received {n!r}")
+    if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 2:
+        shown = int(n) if isinstance(n, (int, np.integer)) else repr(n)
+        raise GraphError(f"expected a formation of at least 2 spacecraft, received {shown}")
+    check_size(int(n))
     seen: set[tuple[int, int]] = set()
     for e in edges:
         i, j = e
@@ -162,6 +195,7 @@ def _validate(n: int, edges: tuple[tuple[int, int], ...]) -> None:
 
 def _from_pairs(n: int, pairs: list[tuple[int, int]], name: str) -> Graph:
     """Build from 0-based pairs, checking duplicates in either orientation."""
+    check_size(n, name)
     norm: list[tuple[int, int]] = []
     seen: set[tuple[int, int]] = set()
     for i, j in pairs:
@@ -228,6 +262,7 @@ def parse_graph_spec(spec: str) -> Graph:
     n = _int_field(parts[1], "number of spacecraft N", spec)
     if n < 2:
         raise GraphError(f"expected at least 2 spacecraft, received N={n} in {spec!r}")
+    check_size(n, spec.strip())
     name = spec.strip()
     if kind == "ring":
         if n < 3:
@@ -271,7 +306,9 @@ def parse_graph_spec(spec: str) -> Graph:
 def _from_adjacency(a: Any, name: str) -> Graph:
     arr = np.asarray(a)
     if arr.ndim != 2 or arr.shape[0] != arr.shape[1]:
-        raise GraphError(f"expected a square adjacency matrix, received shape {arr.shape}")
+        shape = "x".join(str(int(k)) for k in arr.shape) or "scalar"
+        raise GraphError(f"expected a square adjacency matrix, received shape {shape}")
+    check_size(arr.shape[0], name)
     if arr.dtype == object or not np.issubdtype(arr.dtype, np.number):
         try:
             arr = arr.astype(float)
@@ -285,7 +322,7 @@ def _from_adjacency(a: Any, name: str) -> Graph:
     if bad.size:
         i, j = bad[0]
         raise GraphError(
-            f"expected 0/1 adjacency weights, received {arr[i, j]!r} at ({i + 1}, {j + 1})"
+            f"expected 0/1 adjacency weights, received {float(arr[i, j]):g} at ({i + 1}, {j + 1})"
         )
     if np.any(np.diag(arr) != 0):
         i = int(np.flatnonzero(np.diag(arr))[0])
@@ -295,18 +332,35 @@ def _from_adjacency(a: Any, name: str) -> Graph:
         i, j = asym[0]
         raise GraphError(
             "expected a symmetric adjacency matrix (this controller needs an undirected graph), "
-            f"received a[{i + 1},{j + 1}]={arr[i, j]:g} but a[{j + 1},{i + 1}]={arr[j, i]:g}"
+            f"received a[{i + 1},{j + 1}]={float(arr[i, j]):g} but a[{j + 1},{i + 1}]={float(arr[j, i]):g}"
         )
     n = arr.shape[0]
     pairs = [(i, j) for i in range(n) for j in range(i + 1, n) if arr[i, j] == 1]
     return Graph(n=n, edges=tuple(pairs), name=name)
 
 
+def _read_text(path: Path, what: str) -> str:
+    """A UTF-8 text file's content; one-line :class:`GraphError` for a binary,
+    non-UTF-8 or unreadable file."""
+    try:
+        raw = path.read_bytes()
+    except OSError as e:
+        raise GraphError(f"expected a readable {what}, received {str(path)!r} ({e.strerror or e})") from None
+    if b"\x00" in raw:
+        raise GraphError(f"expected a text {what}, received {str(path)!r} (a binary file)")
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise GraphError(
+            f"expected a UTF-8 {what}, received {str(path)!r} (byte {e.start} is not UTF-8)"
+        ) from None
+
+
 def _read_edge_list(path: Path) -> Graph:
     pairs: list[tuple[int, int]] = []
     nmax = 0
     declared_n: int | None = None
-    for lineno, raw in enumerate(path.read_text().splitlines(), start=1):
+    for lineno, raw in enumerate(_read_text(path, "edge-list file").splitlines(), start=1):
         line = raw.split("#", 1)[0].strip()
         if not line:
             # a comment of the form "# n = 8" declares isolated trailing spacecraft
@@ -331,25 +385,31 @@ def _read_edge_list(path: Path) -> Graph:
             )
         pairs.append((i - 1, j - 1))
         nmax = max(nmax, i, j)
+        check_size(nmax, f"{path}:{lineno}")
     if not pairs:
         raise GraphError(f"expected at least one edge in {path}, received none")
     n = declared_n if declared_n is not None else nmax
+    check_size(n, str(path))
     return _from_pairs(n, pairs, str(path))
 
 
 def _read_csv(path: Path) -> Graph:
+    import io
+
     rows: list[list[float]] = []
-    with path.open(newline="") as fh:
-        for lineno, row in enumerate(csv.reader(fh), start=1):
-            cells = [c.strip() for c in row]
-            if not cells or all(c == "" for c in cells) or cells[0].startswith("#"):
-                continue
-            try:
-                rows.append([float(c) for c in cells])
-            except ValueError:
-                raise GraphError(
-                    f"expected numeric 0/1 entries in adjacency CSV, received {row!r} at {path}:{lineno}"
-                ) from None
+    text = _read_text(path, "adjacency CSV file")
+    for lineno, row in enumerate(csv.reader(io.StringIO(text, newline="")), start=1):
+        cells = [c.strip() for c in row]
+        if not cells or all(c == "" for c in cells) or cells[0].startswith("#"):
+            continue
+        if len(rows) > MAX_SPACECRAFT or len(cells) > MAX_SPACECRAFT + 1:
+            check_size(max(len(rows), len(cells)), str(path))
+        try:
+            rows.append([float(c) for c in cells])
+        except ValueError:
+            raise GraphError(
+                f"expected numeric 0/1 entries in adjacency CSV, received {row!r} at {path}:{lineno}"
+            ) from None
     if not rows or len({len(r) for r in rows}) != 1:
         raise GraphError(
             f"expected a square adjacency matrix in {path}, received rows of lengths "
@@ -412,6 +472,7 @@ def make_graph(obj: Any) -> Graph:
             )
         if obj.is_multigraph():
             raise GraphError("expected a simple graph, received a networkx multigraph")
+        check_size(obj.number_of_nodes(), getattr(obj, "name", "") or "networkx graph")
         nodes = sorted(obj.nodes())
         idx = {v: k for k, v in enumerate(nodes)}
         for u, v, data in obj.edges(data=True):

@@ -1,0 +1,218 @@
+"""Executors of a sweep: serial, a local Dask cluster, or an existing scheduler.
+
+Failures are classified for the exit status of ``formsync``:
+
+* a malformed scheduler address is the user's input (:class:`InputError`, exit 2);
+* a scheduler that cannot be reached, a cluster without workers, a local
+  cluster that does not start, a worker that dies (``KilledWorker``) or a lost
+  connection are failures of the environment (:class:`ClusterError`, exit 3),
+  with what failed and what to try;
+* a task that raises keeps the class of its error when it is one of ours
+  (an :class:`InputError` stays bad input) and is otherwise a
+  :class:`FormsyncError` (exit 3); finished rows are kept either way.
+
+Ctrl-C: the worker processes of a local cluster are started with SIGINT
+ignored (they inherit the disposition), so a terminal's Ctrl-C, which reaches
+the whole process group, interrupts only this process; it then cancels the
+futures and closes the cluster with SIGINT ignored and Dask's logging silenced,
+and re-raises :class:`KeyboardInterrupt` (``formsync`` prints one line and
+exits 130).  Rows finished before the interrupt are already in the journal.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import logging
+import os
+import re
+import signal
+import threading
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
+
+from formsync_design.errors import ClusterError, FormsyncError, InputError
+
+__all__ = ["execute", "check_scheduler_address"]
+
+_ADDRESS = re.compile(r"(tcp|tls|inproc|ucx|ws|wss)://[^\s/:]+(:\d{1,5})?/?|[A-Za-z0-9_.-]+:\d{1,5}")
+_DASK_LOGGERS = ("distributed", "distributed.nanny", "distributed.worker", "distributed.scheduler",
+                 "distributed.client", "distributed.core", "distributed.comm",
+                 "distributed.deploy", "distributed.process", "tornado", "asyncio")
+
+
+def check_scheduler_address(address: str) -> str:
+    """Validate a Dask scheduler address (``tcp://host:port`` or ``host:port``).
+
+    >>> check_scheduler_address("tcp://10.0.0.5:8786")
+    'tcp://10.0.0.5:8786'
+    >>> check_scheduler_address("tcp//oops")
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected a scheduler address like tcp://HOST:PORT, received 'tcp//oops'
+    """
+    a = str(address).strip()
+    if not _ADDRESS.fullmatch(a):
+        raise InputError(f"expected a scheduler address like tcp://HOST:PORT, received {address!r}")
+    m = re.search(r":(\d+)/?$", a)
+    if m and not 0 < int(m.group(1)) < 65536:
+        raise InputError(f"expected a port in 1..65535 in the scheduler address, received {address!r}")
+    return a
+
+
+@contextlib.contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """SIGINT ignored in this block (main thread only; a no-op elsewhere)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+@contextlib.contextmanager
+def _quiet_dask() -> Iterator[None]:
+    """Dask's own shutdown chatter (nanny/worker warnings) silenced in this block."""
+    saved = [(lg, lg.level) for lg in (logging.getLogger(n) for n in _DASK_LOGGERS)]
+    for lg, _ in saved:
+        lg.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for lg, lvl in saved:
+            lg.setLevel(lvl)
+
+
+@contextlib.contextmanager
+def _client(scheduler: str | None, n_workers: int, timeout: float) -> Iterator[Any]:
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        addr = check_scheduler_address(scheduler)
+        try:
+            with _quiet_dask():
+                client = Client(addr, timeout=f"{timeout}s")
+        except Exception as e:  # noqa: BLE001 - any connection failure is the same finding
+            raise ClusterError(
+                f"could not reach the Dask scheduler at {addr!r} within {timeout:g} s "
+                f"({type(e).__name__}); check that it runs and the address and port are right, "
+                "or raise --timeout, or run with a local cluster (omit --scheduler)"
+            ) from None
+        try:
+            try:
+                client.wait_for_workers(1, timeout=timeout)
+            except Exception:  # noqa: BLE001
+                raise ClusterError(
+                    f"the Dask scheduler at {addr!r} has no workers after {timeout:g} s; start "
+                    "workers (dask worker ADDRESS) or raise --timeout"
+                ) from None
+            yield client
+        finally:
+            with _sigint_ignored(), _quiet_dask(), contextlib.suppress(Exception):
+                client.close(timeout=5)
+        return
+    try:
+        # workers inherit SIGINT ignored: a terminal's Ctrl-C interrupts only this process
+        with _sigint_ignored():
+            cluster = LocalCluster(
+                n_workers=n_workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                dashboard_address=None, silence_logs=logging.CRITICAL,
+            )
+    except Exception as e:  # noqa: BLE001 - not a finding about the campaign
+        raise ClusterError(
+            f"could not start a local Dask cluster of {n_workers} worker processes "
+            f"({type(e).__name__}: {e}); try fewer --workers or --workers 0 (serial)"
+        ) from None
+    try:
+        client = Client(cluster, timeout=f"{max(timeout, 30)}s")
+        try:
+            yield client
+        finally:
+            with _sigint_ignored(), _quiet_dask(), contextlib.suppress(Exception):
+                client.close(timeout=5)
+    finally:
+        with _sigint_ignored(), _quiet_dask(), contextlib.suppress(Exception):
+            cluster.close(timeout=5)
+
+
+def _task_failure(name: str, exc: BaseException) -> FormsyncError:
+    """The error reported for a task that raised (or whose worker died)."""
+    kind = type(exc).__name__
+    if kind == "KilledWorker":
+        return ClusterError(
+            f"a Dask worker died while computing task {name!r} (out of memory or killed); "
+            "finished rows are kept: rerun with --resume, with fewer --workers or more memory"
+        )
+    if kind in ("CommClosedError", "StreamClosedError", "FutureCancelledError", "CancelledError"):
+        return ClusterError(
+            f"lost the connection to the Dask cluster while computing task {name!r} ({kind}); "
+            "finished rows are kept: rerun with --resume"
+        )
+    msg = (f"task {name!r} failed: {kind}: {' '.join(str(exc).split())} "
+           "(finished rows kept: rerun with --resume)")
+    if isinstance(exc, InputError):
+        return InputError(msg)
+    if isinstance(exc, FormsyncError):
+        try:
+            return type(exc)(msg)
+        except Exception:  # noqa: BLE001 - an error class with another signature
+            return FormsyncError(msg)
+    return FormsyncError(msg)
+
+
+def execute(
+    tasks: Sequence[dict[str, Any]],
+    on_row: Callable[[dict[str, str]], None],
+    *,
+    scheduler: str | None,
+    n_workers: int,
+    timeout: float,
+    task_fn: Callable[[dict[str, Any]], dict[str, str]],
+) -> None:
+    """Run ``task_fn`` on every task, calling ``on_row`` (in this process) as rows arrive.
+
+    Serial when ``n_workers == 0`` and no ``scheduler``; otherwise on Dask.
+    Raises :class:`ClusterError` for a cluster failure, the task's error class
+    (module docstring) for a failed task, :class:`KeyboardInterrupt` on Ctrl-C
+    after the cluster is closed.
+
+    >>> rows = []
+    >>> execute([{"task": "a"}], rows.append, scheduler=None, n_workers=0, timeout=1,
+    ...         task_fn=lambda t: {"task": t["task"] + "!"})
+    >>> rows
+    [{'task': 'a!'}]
+    """
+    if not tasks:
+        return
+    if n_workers == 0 and not scheduler:
+        for t in tasks:
+            try:
+                row = task_fn(t)
+            except (KeyboardInterrupt, SystemExit):
+                raise
+            except Exception as e:  # noqa: BLE001 - reported with the task, finished rows kept
+                raise _task_failure(t["task"], e) from e
+            on_row(row)
+        return
+    from distributed import as_completed
+
+    with _client(scheduler, n_workers, timeout) as client:
+        salt = hashlib.sha256(os.urandom(16)).hexdigest()[:12]
+        futs = client.map(task_fn, list(tasks), key=[f"sweep-{salt}-{k}" for k in range(len(tasks))],
+                          pure=False)
+        names = {f.key: t["task"] for f, t in zip(futs, tasks)}
+        try:
+            for fut in as_completed(futs):
+                if fut.status == "error":
+                    raise _task_failure(names[fut.key], fut.exception())
+                if fut.status == "cancelled":
+                    raise _task_failure(names[fut.key], ClusterError("cancelled"))
+                on_row(fut.result())
+        except OSError as e:  # a lost connection surfaces as CommClosedError (an OSError)
+            raise _task_failure("?", e) from None
+        finally:
+            with _sigint_ignored(), _quiet_dask(), contextlib.suppress(Exception):
+                client.cancel(futs)

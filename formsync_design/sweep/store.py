@@ -1,0 +1,171 @@
+"""The results folder of a sweep: manifest check, fsync'ed journal, ``results.csv``."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import threading
+from collections.abc import Sequence
+from pathlib import Path
+
+from formsync_design.errors import InputError
+from formsync_design.sweep.schema import COLUMNS
+
+__all__ = ["OWNED", "atomic_write", "read_journal", "Journal", "read_results", "csv_bytes",
+           "sort_key", "check_folder"]
+
+OWNED = ("journal.jsonl", "results.csv", "summary.md", "fraction-vs-lambda-max.png",
+          "fraction-vs-max-degree.png", "convergence-vs-lambda2.png")
+
+
+def atomic_write(path: Path, data: bytes) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    with open(tmp, "wb") as fh:
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+def read_journal(path: Path, *, repair: bool) -> dict[str, dict[str, str]]:
+    """Rows of the journal; a torn last line is cut off (when ``repair``)."""
+    rows: dict[str, dict[str, str]] = {}
+    if not path.is_file():
+        return rows
+    data = path.read_bytes()
+    good = data.rfind(b"\n") + 1
+    lines = data[:good].split(b"\n")[:-1] if good else []
+    kept = 0
+    for k, line in enumerate(lines):
+        try:
+            row = json.loads(line)
+            if not isinstance(row, dict) or set(row) != set(COLUMNS):
+                raise ValueError("columns")
+        except ValueError:
+            if k == len(lines) - 1:  # torn tail with a newline inside a partial write: drop it
+                break
+            raise InputError(
+                f"expected a journal of complete rows in {path}, received a malformed line {k + 1}"
+            ) from None
+        prev = rows.get(row["task"])
+        if prev is not None and prev != row:
+            raise InputError(f"expected identical rows for task {row['task']!r} in {path}, received two")
+        rows[row["task"]] = row
+        kept += len(line) + 1
+    if repair and kept != len(data):
+        with open(path, "r+b") as fh:
+            fh.truncate(kept)
+            fh.flush()
+            os.fsync(fh.fileno())
+    return rows
+
+
+class Journal:
+    """The append-only journal of finished rows (one JSON line each, flushed and fsync'ed).
+
+    A Ctrl-C arriving while a line is written is held until the line is complete
+    (SIGINT blocked around the write), so an interrupt never tears a row; a torn
+    tail from a kill is cut off by :func:`read_journal`.
+
+    >>> import tempfile
+    >>> p = Path(tempfile.mkdtemp()) / "journal.jsonl"
+    >>> j = Journal(p); j.append({"task": "a"}); j.close()
+    >>> p.read_text()
+    '{"task": "a"}\\n'
+    """
+
+    def __init__(self, path: Path) -> None:
+        self.fh = open(path, "ab")
+
+    def append(self, row: dict[str, str]) -> None:
+        data = (json.dumps(row, sort_keys=True, ensure_ascii=True) + "\n").encode()
+        blocked = threading.current_thread() is threading.main_thread()
+        if blocked:
+            signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            self.fh.write(data)
+            self.fh.flush()
+            os.fsync(self.fh.fileno())
+        finally:
+            if blocked:  # a pending SIGINT is delivered here, after the complete line
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+    def close(self) -> None:
+        self.fh.close()
+
+
+def read_results(path: str | Path) -> list[dict[str, str]]:
+    """Rows of a ``results.csv`` (strings, in file order), checking the header."""
+    import csv
+
+    p = Path(path)
+    with open(p, newline="", encoding="utf-8") as fh:
+        rd = csv.reader(fh)
+        header = next(rd, None)
+        if header is None or tuple(header) != COLUMNS:
+            raise InputError(f"expected the sweep columns in {p}, received header {header!r}")
+        return [dict(zip(COLUMNS, r)) for r in rd]
+
+
+def csv_bytes(rows: Sequence[dict[str, str]]) -> bytes:
+    import csv
+    import io
+
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(COLUMNS)
+    for r in rows:
+        w.writerow([r[c] for c in COLUMNS])
+    return buf.getvalue().encode("utf-8")
+
+
+def sort_key(r: dict[str, str]) -> tuple[int, int]:
+    return int(r["graph_index"]), int(r["box_index"])
+
+
+def _check_writable(out: Path) -> None:
+    """Refuse, before any computation, a folder that cannot be created or written."""
+    anc = out.absolute()
+    while not anc.exists() and anc != anc.parent:
+        anc = anc.parent
+    if not anc.is_dir():
+        raise InputError(f"expected a results folder, received {str(out)!r} under the file {str(anc)!r}")
+    if not os.access(anc, os.W_OK | os.X_OK):
+        raise InputError(f"expected a writable results folder, received {str(out)!r} ({str(anc)!r} is "
+                         "not writable)")
+
+
+def check_folder(out: Path, sha: str, *, resume: bool, overwrite: bool) -> str:
+    """'new', 'resume' or 'overwrite' (raises InputError when the folder is not ours)."""
+    man = out / "manifest.json"
+    if out.exists() and not out.is_dir():
+        raise InputError(f"expected a results folder, received the file {str(out)!r}")
+    _check_writable(out)
+    if not man.is_file():
+        if out.is_dir() and any(out.iterdir()):
+            raise InputError(
+                f"expected an empty or new results folder, received {str(out)!r} holding files but no "
+                "manifest.json (nothing overwritten)"
+            )
+        return "new"
+    try:
+        old = json.loads(man.read_text(encoding="utf-8"))
+        old_sha = old["sha256"]
+    except (ValueError, KeyError, TypeError):
+        raise InputError(f"expected a sweep manifest in {man}, received an unreadable file (nothing overwritten)") from None
+    if old_sha != sha:
+        raise InputError(
+            f"expected results of this campaign (sha256 {sha[:12]}) in {str(out)!r}, received a folder "
+            f"written by a different campaign definition (sha256 {str(old_sha)[:12]}); choose another "
+            "--out (nothing overwritten)"
+        )
+    if resume:
+        return "resume"
+    if overwrite:
+        return "overwrite"
+    raise InputError(
+        f"expected a new results folder, received {str(out)!r} already holding this campaign; pass "
+        "--resume to finish it or --overwrite to recompute it (nothing overwritten)"
+    )
+

@@ -1,0 +1,378 @@
+"""``formsync sweep`` end to end: Ctrl-C, cluster failures (exit 3), limits, one spec, bad input.
+
+Independent truths: the rows of an uninterrupted serial run (for interrupted
+and resumed Dask runs), the closed-form conditions of the derivation with K_o
+doubled (Pi > 0 iff 2 K_o > beta lambda_max(L); Theta_i > 0 iff
+K_q + 2 beta K_o > 2 m_i beta^2) for a variant specification, evaluated here in
+exact rationals with the Laplacian spectrum from networkx.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from fractions import Fraction
+from pathlib import Path
+
+import networkx as nx
+import numpy as np
+import pytest
+
+from formsync_design.cli.main import main
+from formsync_design.errors import ClusterError, InputError
+from formsync_design.sweep import campaign_from_dict, run_sweep, run_task
+from formsync_design.sweep.store import read_results
+
+ROOT = Path(__file__).resolve().parents[1]
+EXE = [sys.executable, "-c",
+       "import sys; from formsync_design.cli.main import main; sys.exit(main(sys.argv[1:]))"]
+
+
+def one_line_error(err: str) -> None:
+    assert err.count("\n") == 1 and err.endswith("\n"), err
+    for bad in ("Traceback", "np.float64", "Errno", "KeyboardInterrupt"):
+        assert bad not in err, err
+
+
+# ---------------------------------------------------------------------------
+# Ctrl-C
+# ---------------------------------------------------------------------------
+def test_ctrl_c_on_a_dask_sweep_stops_fast_and_resumes_to_the_same_rows(tmp_path):
+    """SIGINT to the whole process group (what a terminal's Ctrl-C does), Dask workers included."""
+    argv = ["sweep", "--graphs", "atlas:2..5", "--resolution", "2", "--design-betas", "2",
+            "--no-progress"]
+    out = tmp_path / "r"
+    proc = subprocess.Popen([*EXE, *argv, "--workers", "2", "--out", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
+    j = out / "journal.jsonl"
+    deadline = time.monotonic() + 90
+    while time.monotonic() < deadline and proc.poll() is None:
+        if j.exists() and j.read_bytes().count(b"\n") >= 2:
+            break
+        time.sleep(0.02)
+    assert proc.poll() is None, "the sweep finished before it could be interrupted"
+    t0 = time.monotonic()
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err_b = proc.communicate(timeout=30)
+    stopped = time.monotonic() - t0
+    err = err_b.decode()
+    assert proc.returncode == 130, err
+    assert stopped < 5, stopped  # "within a second or two" (loaded CI machines: some slack)
+    one_line_error(err)
+    assert "--resume" in err and "journal.jsonl" in err
+    # the journal is intact: every line a complete row, no results.csv yet
+    lines = j.read_bytes().split(b"\n")
+    assert lines[-1] == b"" and len(lines) >= 3
+    partial = [json.loads(x) for x in lines[:-1]]
+    assert not (out / "results.csv").exists()
+    # no worker process of ours is left running (exited ones may await reaping by init)
+    live: list[str] = ["?"]
+    for _ in range(50):
+        ps = subprocess.run(["ps", "-o", "stat=", "-g", str(proc.pid)], capture_output=True,
+                            text=True).stdout.split()
+        live = [st for st in ps if not st.startswith("Z")]
+        if not live:
+            break
+        time.sleep(0.1)
+    assert not live, live
+    # --resume completes it to the rows of an uninterrupted serial run
+    assert main([*argv, "--workers", "0", "--out", str(tmp_path / "ref")]) == 0
+    assert main([*argv, "--workers", "0", "--out", str(out), "--resume"]) == 0
+    ref = read_results(tmp_path / "ref" / "results.csv")
+    assert (out / "results.csv").read_bytes() == (tmp_path / "ref" / "results.csv").read_bytes()
+    by_task = {r["task"]: r for r in ref}
+    assert all(by_task[r["task"]] == r for r in partial)
+
+
+def test_ctrl_c_in_a_serial_sweep_is_one_line_exit_130(tmp_path, capsys):
+    calls = {"n": 0}
+
+    def interrupting(task):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise KeyboardInterrupt
+        return run_task(task)
+
+    from formsync_design.cli import sweep as cmd_sweep
+
+    original = cmd_sweep.run
+
+    def run(args):
+        import formsync_design.sweep as sw
+
+        real = sw.run_sweep
+
+        def patched(*a, **k):
+            return real(*a, **k, task_fn=interrupting)
+
+        sw.run_sweep = patched
+        try:
+            return original(args)
+        finally:
+            sw.run_sweep = real
+
+    cmd_sweep.run = run
+    try:
+        out = tmp_path / "r"
+        rc = main(["sweep", "--graphs", "ring:3..6", "--resolution", "2", "--design-betas", "2",
+                   "--workers", "0", "--out", str(out)])
+    finally:
+        cmd_sweep.run = original
+    err = capsys.readouterr().err
+    assert rc == 130
+    one_line_error(err)
+    assert (out / "journal.jsonl").read_bytes().count(b"\n") == 2
+
+
+# ---------------------------------------------------------------------------
+# failures that are not the user's input: exit 3
+# ---------------------------------------------------------------------------
+def _dies_on_star(task):  # module level: picklable by reference for the workers
+    if task["graph"] == "star:4":
+        os._exit(17)  # the worker process dies (as when the kernel kills it)
+    return run_task(task)
+
+
+def small(graphs, **extra):
+    doc = {"campaign": {"name": "t", "graphs": list(graphs)}, "region": {"resolution": 2},
+           "design": {"betas": 2}}
+    doc.update(extra)
+    return campaign_from_dict(doc)
+
+
+def test_a_dying_worker_is_a_cluster_error_and_finished_rows_are_kept(tmp_path):
+    import dask
+
+    c = small(["ring:3", "star:4"])
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        with pytest.raises(ClusterError, match=r"worker died while computing task 'star:4@standard'.*--resume"):
+            run_sweep(c, tmp_path / "r", n_workers=1, timeout=30, task_fn=_dies_on_star)
+    assert not (tmp_path / "r" / "results.csv").exists()
+    run_sweep(c, tmp_path / "r", n_workers=0, resume=True)
+    assert len(read_results(tmp_path / "r" / "results.csv")) == 2
+
+
+def test_unreachable_scheduler_exits_3_malformed_address_exits_2(tmp_path, capsys):
+    base = ["sweep", "--graphs", "ring:3", "--timeout", "1", "--out", str(tmp_path / "r")]
+    assert main([*base, "--scheduler", "tcp://127.0.0.1:9"]) == 3
+    err = capsys.readouterr().err
+    one_line_error(err)
+    assert "could not reach the Dask scheduler" in err and "--timeout" in err
+    for bad in ("tcp//127.0.0.1:8786", "tcp://127.0.0.1:99999", "not an address"):
+        assert main([*base, "--scheduler", bad]) == 2
+        err = capsys.readouterr().err
+        one_line_error(err)
+        assert "scheduler address" in err or "port" in err
+    assert not (tmp_path / "r").exists()
+
+
+# ---------------------------------------------------------------------------
+# limits
+# ---------------------------------------------------------------------------
+@pytest.mark.parametrize("argv, words", [
+    (["--graphs", "ring:100000000"], "at most 2000 spacecraft"),
+    (["--graphs", "ring:4..100000000"], "at most 100000 values"),
+    (["--graphs", "random:8:0.5:0..99999", "--graphs", "random:9:0.5:0..99999"],
+     "at most 100000 tasks"),
+    (["--graphs", "ring:3..20", "--mc-runs", "1000000"], "at most 10000000 Monte-Carlo"),
+    (["--graphs", "ring:3", "--workers", "100000"], "workers in 0..256"),
+])
+def test_sizes_that_cannot_fit_are_refused_up_front(tmp_path, capsys, argv, words):
+    t0 = time.monotonic()
+    workers = [] if "--workers" in argv else ["--workers", "0"]
+    rc = main(["sweep", *argv, *workers, "--out", str(tmp_path / "r")])
+    err = capsys.readouterr().err
+    assert rc == 2 and words in err, err
+    one_line_error(err)
+    assert time.monotonic() - t0 < 60
+    assert not (tmp_path / "r").exists()
+
+
+# ---------------------------------------------------------------------------
+# one specification, end to end
+# ---------------------------------------------------------------------------
+VARIANT = '''"""The paper's design with the damping gain doubled (K_o -> 2 K_o everywhere)."""
+NAME = "doubled-ko"
+TITLE = "K_o doubled"
+
+
+def controller(v):
+    tau = v.qd + v.beta * v.s
+    return v.Q.I.T * ((v.B - 2 * v.K_o * v.A) * v.qd - v.K_q * v.A * v.s - v.K_v * v.A * v.sw(tau))
+
+
+def lyapunov(v):
+    c = (v.K_q + 2 * v.beta * v.K_o) / 4
+    return (
+        c * sum((e.dot(e) for e in v.edges), 0)
+        + v.qd.dot(v.qd) / 2
+        + v.beta * sum((e.dot(v.qd) for e in v.edges), 0)
+    )
+'''
+
+
+def _closed_form(h: nx.Graph, ko: Fraction, kq: Fraction, beta: Fraction) -> bool:
+    lmax = float(np.sort(nx.laplacian_spectrum(h))[-1])
+    lmax_q = Fraction(round(lmax))
+    assert abs(lmax - float(lmax_q)) < 1e-9  # integer spectra for the graphs used
+    m = max(d for _, d in h.degree())
+    return ko > beta * lmax_q and kq + beta * ko > 2 * m * beta**2
+
+
+def test_spec_reaches_the_sweep_from_the_flag_and_from_the_campaign_file(tmp_path, capsys):
+    spec = tmp_path / "specs" / "doubled.py"
+    spec.parent.mkdir()
+    spec.write_text(VARIANT)
+    graphs = ["ring:8", "star:6", "complete:5", "complete:8"]  # integer Laplacian spectra
+    flags = ["sweep", *sum((["--graphs", g] for g in graphs), []), "--resolution", "2",
+             "--design-betas", "2", "--workers", "0", "--no-progress"]
+    assert main([*flags, "--out", str(tmp_path / "paper")]) == 0
+    assert main([*flags, "--spec", str(spec), "--out", str(tmp_path / "flag")]) == 0
+    ko, kq, beta = Fraction("1.6"), Fraction("0.4"), Fraction("0.3")
+    paper = read_results(tmp_path / "paper" / "results.csv")
+    variant = read_results(tmp_path / "flag" / "results.csv")
+    for rp, rv in zip(paper, variant):
+        h = nx.Graph([tuple(map(int, e.split("-"))) for e in rp["edge_list"].split()])
+        assert rp["ref_status"] == ("certified" if _closed_form(h, ko, kq, beta) else "refuted")
+        assert rv["ref_status"] == ("certified" if _closed_form(h, 2 * ko, kq, beta) else "refuted")
+    assert [r["ref_status"] for r in paper] != [r["ref_status"] for r in variant]
+    # the folder of one specification is refused for another (nothing overwritten)
+    before = (tmp_path / "paper" / "results.csv").read_bytes()
+    capsys.readouterr()
+    assert main([*flags, "--spec", str(spec), "--out", str(tmp_path / "paper"), "--overwrite"]) == 2
+    assert "different campaign" in capsys.readouterr().err
+    assert (tmp_path / "paper" / "results.csv").read_bytes() == before
+    # a campaign file's spec is relative to the campaign file (run from another folder)
+    camp = tmp_path / "specs" / "c.toml"
+    camp.write_text('[campaign]\nname = "v"\ngraphs = ' + json.dumps(graphs)
+                    + '\nspec = "doubled.py"\n[region]\nresolution = 2\n[design]\nbetas = 2\n')
+    cwd = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        assert main(["sweep", "--campaign", str(camp), "--workers", "0", "--no-progress",
+                     "--out", "fromfile"]) == 0
+    finally:
+        os.chdir(cwd)
+    fromfile = read_results(tmp_path / "fromfile" / "results.csv")
+    assert [r["ref_status"] for r in fromfile] == [r["ref_status"] for r in variant]
+    man = json.loads((tmp_path / "fromfile" / "manifest.json").read_text())
+    assert man["spec"]["name"] == "doubled-ko"
+    # --spec and a campaign spec together are ambiguous
+    capsys.readouterr()
+    assert main(["sweep", "--campaign", str(camp), "--spec", str(spec), "--workers", "0",
+                 "--out", str(tmp_path / "both")]) == 2
+    one_line_error(capsys.readouterr().err)
+
+
+def test_spec_content_not_path_is_hashed(tmp_path):
+    from formsync_design.sweep import campaign_hash, expand_graphs
+
+    spec = tmp_path / "s.py"
+    spec.write_text(VARIANT)
+    doc = {"campaign": {"name": "t", "graphs": ["ring:4"], "spec": "s.py"}}
+    c = campaign_from_dict(doc, spec_dir=tmp_path)
+    gs, _ = expand_graphs(c.graphs)
+    h1 = campaign_hash(c, gs)
+    spec.write_text(VARIANT.replace("2 * v.K_o", "3 * v.K_o"))
+    assert campaign_hash(c, gs) != h1
+    spec.write_text(VARIANT)
+    assert campaign_hash(c, gs) == h1
+    assert campaign_hash(campaign_from_dict({"campaign": {"name": "t", "graphs": ["ring:4"]}}),
+                         gs) != h1
+
+
+# ---------------------------------------------------------------------------
+# bad input: one line, exit 2
+# ---------------------------------------------------------------------------
+@pytest.mark.parametrize("name, data", [
+    ("c.toml", b"\x00\x01binary\xff"),
+    ("c.toml", '[campaign]\nname = "caf\u00e9"\n'.encode("latin-1")),
+])
+def test_binary_or_non_utf8_campaign_file(tmp_path, capsys, name, data):
+    f = tmp_path / name
+    f.write_bytes(data)
+    rc = main(["sweep", "--campaign", str(f), "--workers", "0", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert rc == 2 and str(f) in err, err
+    one_line_error(err)
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("name, data", [
+    ("g.txt", b"1 2\n\x00\x00\xff\xfe"),
+    ("g.edges", "1 2\n# \u00e9\n".encode("latin-1")),
+    ("g.csv", "0,1\n1,0\n# \u00e9\n".encode("latin-1")),
+    ("g.csv", b"0,0.5\n0.5,0\n"),
+])
+def test_bad_graph_files_through_the_cli(tmp_path, capsys, name, data):
+    f = tmp_path / name
+    f.write_bytes(data)
+    rc = main(["sweep", "--graphs", str(f), "--workers", "0", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    one_line_error(err)
+    assert not (tmp_path / "o").exists()
+
+
+def test_unreadable_out_and_campaign_paths_are_one_line(tmp_path, capsys):
+    d = tmp_path / "dir.toml"
+    d.mkdir()
+    rc = main(["sweep", "--campaign", str(d), "--workers", "0", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert rc == 2
+    one_line_error(err)
+    f = tmp_path / "file"
+    f.write_text("x")
+    rc = main(["sweep", "--graphs", "ring:3", "--workers", "0", "--out", str(f)])
+    err = capsys.readouterr().err
+    assert rc == 2 and "results folder" in err
+    one_line_error(err)
+    rc = main(["sweep", "--graphs", "ring:3", "--workers", "0", "--out", str(f / "sub")])
+    err = capsys.readouterr().err
+    assert rc == 2 and "under the file" in err
+    one_line_error(err)
+    if os.geteuid() != 0:  # root writes anywhere
+        ro = tmp_path / "ro"
+        ro.mkdir(mode=0o500)
+        rc = main(["sweep", "--graphs", "ring:3", "--workers", "0", "--out", str(ro / "o")])
+        err = capsys.readouterr().err
+        assert rc == 2 and "not writable" in err
+        one_line_error(err)
+
+
+def test_sweep_library_never_selects_a_backend(tmp_path):
+    import re
+
+    import matplotlib
+
+    from formsync_design.sweep import plot_fraction
+
+    src = "\n".join(p.read_text() for p in (ROOT / "formsync_design" / "sweep").glob("*.py"))
+    assert not re.search(r"^\s*(import matplotlib\.pyplot|from matplotlib import pyplot|"
+                         r"matplotlib\.use\()", src, re.M)
+    old = matplotlib.rcParams["backend"]
+    matplotlib.rcParams["backend"] = "svg"
+    try:
+        fig = plot_fraction([{"box": "b", "lambda_max": "4", "frac_certified": "0.5",
+                              "ref_status": "certified"}], "lambda_max")
+        fig.savefig(tmp_path / "f.png")
+        assert matplotlib.rcParams["backend"] == "svg"
+    finally:
+        matplotlib.rcParams["backend"] = old
+    assert (tmp_path / "f.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_campaign_boxes_are_gain_boxes():
+    from formsync_design.gains import GainBox
+
+    c = small(["ring:3"], box=[{"name": "b", "K_o": ["1/3", 2], "K_q": 0.4, "beta": [0.1, 0.3]}])
+    b = c.boxes[0]
+    assert isinstance(b.box, GainBox) and b.box["K_o"].lo == Fraction(1, 3)
+    assert b.to_dict() == {"name": "b", "K_o": ["1/3", "2"], "K_q": ["2/5", "2/5"],
+                           "beta": ["1/10", "3/10"]}
+    with pytest.raises(InputError):
+        small(["ring:3"], box=[{"name": "b", "K_o": [2, 1], "K_q": 0.4, "beta": 0.3}])
