@@ -38,10 +38,10 @@ from scipy.integrate import solve_ivp
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from formsync_design.sim import simulator as S  # noqa: E402
+from formsync_design.sim import kernels as S  # noqa: E402
 from formsync_design.sim.montecarlo import (  # noqa: E402
-    GainBox,
     MonteCarloSettings,
+    point_box,
     replay,
     run_montecarlo,
 )
@@ -71,7 +71,7 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as td:
         old = os.environ.get("FORMSYNC_CACHE_DIR")
         os.environ["FORMSYNC_CACHE_DIR"] = td
-        S._KERNELS.clear()
+        S.clear_kernel_cache()
         t0 = time.perf_counter()
         S.get_kernel(8, opt.switch, False, opt.substeps, S.CHUNK, opt.inverse, True)
         build_cold = time.perf_counter() - t0
@@ -79,9 +79,9 @@ def main() -> int:
             del os.environ["FORMSYNC_CACHE_DIR"]
         else:
             os.environ["FORMSYNC_CACHE_DIR"] = old
-    S._KERNELS.clear()
+    S.clear_kernel_cache()
     simulate(f, SimOptions(tf=1.0))  # warm the persistent cache
-    S._KERNELS.clear()
+    S.clear_kernel_cache()
     t0 = time.perf_counter()
     S.get_kernel(8, opt.switch, False, opt.substeps, S.CHUNK, opt.inverse, True)
     build_warm = time.perf_counter() - t0
@@ -131,7 +131,7 @@ def main() -> int:
           f"{ratio_wall:.0f}x by median wall time - target >= 40x: {verdict}")
 
     # 4. Monte-Carlo
-    box = GainBox.around(f.gains)
+    box = point_box(f.gains)
     settings = MonteCarloSettings(runs=1000, seed=0)
     mc_opt = SimOptions(tf=tf, step=0.1, output_step=0.5, norm_tol=1e-5)
     run_montecarlo(f, box, MonteCarloSettings(runs=2, seed=99), mc_opt, certify=False)  # build/cached

@@ -317,7 +317,10 @@ def json_number(x: Any) -> Any:
     (0.25, '1/3', 'inf')
     """
     if isinstance(x, Fraction):
-        f = float(x)
+        try:
+            f = float(x)
+        except OverflowError:  # beyond the float range: exact as "p/q"
+            return f"{x.numerator}/{x.denominator}"
         if math.isfinite(f) and Fraction(f) == x:
             return int(x) if x.denominator == 1 and abs(x) < 2**53 else f
         return f"{x.numerator}/{x.denominator}"

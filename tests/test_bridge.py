@@ -160,3 +160,27 @@ def test_matrix_expr_inverse_mapping_and_fallback():
     ff = ca.Function("ff", [Qx, vx], [fallback])
     np.testing.assert_allclose(fm(np.linalg.inv(Qn), vn).full().ravel(), np.linalg.solve(Qn.T, vn), atol=1e-14)
     np.testing.assert_allclose(ff(Qn, vn).full().ravel(), np.linalg.solve(Qn.T, vn), atol=1e-14)
+
+
+def test_controller_follows_the_specification_and_its_key():
+    """The variant's -2 K_q A s term makes its torque at K_q equal the paper's at 2 K_q;
+    both translations are cached under their own content keys."""
+    from pathlib import Path
+
+    from formsync_design.spec.loader import load_spec
+
+    variant = load_spec(Path(__file__).parent / "data" / "controller_variant_spec.py")
+    cv = build_controller(variant, switch="tanh")
+    cp = build_controller(None, switch="tanh")
+    assert cv.spec_key == variant.key and cp.spec_key == load_spec(None).key != cv.spec_key
+    rng = np.random.default_rng(31)
+    for _ in range(5):
+        q, q0, qd, J = _random_state(rng)
+        s = rng.normal(size=3)
+        args = dict(q=q, q0=q0, qd=qd, J=J, s=s, K_o=1.6, beta=0.3, K_v=0.02, phi=0.05)
+        uv = cv.function(K_q=0.4, **args)["u"].full().ravel()
+        up2 = cp.function(K_q=0.8, **args)["u"].full().ravel()
+        up1 = cp.function(K_q=0.4, **args)["u"].full().ravel()
+        np.testing.assert_allclose(uv, up2, rtol=1e-12, atol=1e-12)
+        assert np.abs(uv - up1).max() > 1e-3
+    assert build_controller(variant, switch="tanh").function is cv.function  # cache hit

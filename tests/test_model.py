@@ -82,3 +82,41 @@ def test_symbol_order_is_documented():
     m = derive_attitude_model()
     assert [str(s) for s in m.state_symbols] == ["q1", "q2", "q3", "q0", "qd1", "qd2", "qd3"]
     assert [str(s) for s in m.inertia_symbols] == ["J11", "J12", "J13", "J22", "J23", "J33"]
+
+
+# -- the one inertia validator -----------------------------------------------------------
+
+
+def test_check_inertia_against_constructed_spectra():
+    """Matrices built as R diag(ev) R^T with a random rotation: accepted exactly when every
+    constructed eigenvalue is > 0 (independent of the validator's own eigen-solver)."""
+    import numpy as np
+    import pytest
+
+    from formsync_design.errors import InputError
+    from formsync_design.models.inertia import check_inertia, check_inertias
+
+    rng = np.random.default_rng(2024)
+    for _ in range(40):
+        Rm, _r = np.linalg.qr(rng.normal(size=(3, 3)))
+        eig = rng.uniform(0.5, 50, size=3)
+        if rng.random() < 0.5:
+            eig[rng.integers(3)] *= -1
+        J = Rm @ np.diag(eig) @ Rm.T
+        J = (J + J.T) / 2
+        if (eig > 0).all():
+            np.testing.assert_array_equal(check_inertia(J), J)
+        else:
+            with pytest.raises(InputError, match="positive definite") as ei:
+                check_inertia(J, k=3)
+            assert "spacecraft 3" in str(ei.value) and "np.float64" not in str(ei.value)
+    with pytest.raises(InputError, match="symmetric"):
+        check_inertia([[1, 0.5, 0], [0, 1, 0], [0, 0, 1]])
+    with pytest.raises(InputError, match="3x3"):
+        check_inertia(np.eye(2))
+    with pytest.raises(InputError, match="NaN/inf"):
+        check_inertia(np.diag([1.0, np.inf, 1.0]))
+    with pytest.raises(InputError, match="numeric"):
+        check_inertia("heavy")
+    with pytest.raises(InputError, match="spacecraft 2 in f.txt"):
+        check_inertias([np.eye(3), -np.eye(3)], 2, src="f.txt")

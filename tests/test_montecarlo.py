@@ -9,8 +9,17 @@ import pytest
 
 from formsync_design.cli.main import main
 from formsync_design.errors import InputError
+from formsync_design.gains import GainBox
 from formsync_design.models.disturbances import constant_disturbance
-from formsync_design.sim.montecarlo import GainBox, MonteCarloSettings, replay, run_montecarlo
+from formsync_design.sim.montecarlo import (
+    MAX_RUNS,
+    MonteCarloSettings,
+    RunStatus,
+    mc_box,
+    point_box,
+    replay,
+    run_montecarlo,
+)
 from formsync_design.sim.simulator import Formation, Gains, SimOptions, simulate
 from formsync_design.verify.case import load_case
 
@@ -24,7 +33,7 @@ def base():
 
 @pytest.fixture(scope="module")
 def campaign(base):
-    box = GainBox((1.4, 1.8), (0.35, 0.45), (0.25, 0.3), (0.01, 0.02))
+    box = mc_box({"K_o": "1.4:1.8", "K_q": "0.35:0.45", "beta": "0.25:0.3", "K_v": "0.01:0.02"})
     return run_montecarlo(base, box, MonteCarloSettings(runs=6, seed=11), OPT, certify=False)
 
 
@@ -64,7 +73,7 @@ def test_singular_runs_are_reported(base):
     """A large constant torque drives the common mode through q0 = 0 (K_v = 0 cannot reject it)."""
     f = Formation(base.graph, base.inertias, base.attitudes, base.rates, Gains(1.6, 0.4, 0.3, (0.0,)),
                   constant_disturbance(np.tile([40.0, 0, 0], (8, 1))))
-    res = run_montecarlo(f, GainBox.around(f.gains), MonteCarloSettings(runs=3, seed=2, phases=False),
+    res = run_montecarlo(f, point_box(f.gains), MonteCarloSettings(runs=3, seed=2, phases=False),
                          OPT, certify=False)
     assert res.counts["singular"] == 3
     assert all(r.event_time is not None and 0 < r.event_time < 20 for r in res.failures)
@@ -80,9 +89,14 @@ def test_converging_campaign_and_certification(base):
 
 def test_bad_settings():
     with pytest.raises(InputError):
-        GainBox((2.0, 1.0), (0.4, 0.4), (0.3, 0.3), (0.01, 0.01))
-    with pytest.raises(InputError):
-        GainBox((0.0, 1.0), (0.4, 0.4), (0.3, 0.3), (0.01, 0.01))
+        mc_box({"K_o": (2.0, 1.0), "K_q": 0.4, "beta": 0.3, "K_v": 0.01})
+    with pytest.raises(InputError):  # K_o must be > 0
+        mc_box({"K_o": (0.0, 1.0), "K_q": 0.4, "beta": 0.3, "K_v": 0.01})
+    with pytest.raises(InputError):  # K_v may be 0, not negative
+        mc_box({"K_o": 1, "K_q": 0.4, "beta": 0.3, "K_v": -0.01})
+    assert isinstance(mc_box({"K_o": 1, "K_q": 0.4, "beta": 0.3, "K_v": 0}), GainBox)
+    with pytest.raises(InputError, match=str(MAX_RUNS)):
+        MonteCarloSettings(runs=MAX_RUNS + 1)
     with pytest.raises(InputError):
         MonteCarloSettings(runs=0)
     with pytest.raises(InputError):
@@ -106,12 +120,33 @@ def test_cli_montecarlo(capsys):
     assert main(["montecarlo", "--max-angle", "200"]) == 2
 
 
+def test_cli_refuses_huge_campaign_up_front(capsys, tmp_path):
+    """--runs 100000000 is refused before any sampling, with the limit named (exit 2)."""
+    import time
+
+    out = tmp_path / "mc"
+    t0 = time.perf_counter()
+    rc = main(["montecarlo", "--runs", "100000000", "--no-compile", "--out", str(out)])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and time.perf_counter() - t0 < 30
+    assert str(MAX_RUNS) in err and len(err.splitlines()) == 1 and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_run_statuses_are_an_enum_and_json(campaign):
+    r = campaign.runs[0]
+    assert isinstance(r.status, RunStatus)
+    d = r.to_dict()
+    assert d["status"] == "not-converged" and d["convergence_time"] is None
+    json.dumps(d, allow_nan=False)  # no NaN/inf leaks into JSON
+
+
 def test_phases_randomised_and_zoh_campaign(base):
     from formsync_design.sim.montecarlo import sample_formation
 
     s = MonteCarloSettings(runs=2, seed=4)
-    a = sample_formation(base, GainBox.around(base.gains), s, 1)
-    b = sample_formation(base, GainBox.around(base.gains), s, 2)
+    a = sample_formation(base, point_box(base.gains), s, 1)
+    b = sample_formation(base, point_box(base.gains), s, 2)
     assert not np.array_equal(a.disturbance.harmonic, b.disturbance.harmonic)
     assert a.disturbance.orbit.phase != b.disturbance.orbit.phase
     # frequencies are kept, only phases move

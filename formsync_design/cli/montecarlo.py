@@ -6,7 +6,6 @@ import argparse
 import csv
 import json
 from dataclasses import replace
-from pathlib import Path
 from typing import Any
 
 from formsync_design.cli.options import (
@@ -15,14 +14,25 @@ from formsync_design.cli.options import (
     Progress,
     add_format_option,
     emit_json,
-    parse_gain_range,
 )
-from formsync_design.cli.simulate import options_from_args
+from formsync_design.cli.simulate import (
+    add_spec_option,
+    check_out_dir,
+    options_from_args,
+    resolve_cli_spec,
+)
 from formsync_design.errors import InputError
+from formsync_design.gains import parse_gain_range, parse_number
 from formsync_design.graphs.build import GRAPH_SPEC_HELP
 from formsync_design.models.disturbances import DISTURBANCES
 from formsync_design.sim.bridge import SWITCHES
-from formsync_design.sim.montecarlo import GainBox, MonteCarloSettings, replay, run_montecarlo
+from formsync_design.sim.montecarlo import (
+    MAX_RUNS,
+    MonteCarloSettings,
+    mc_box,
+    replay,
+    run_montecarlo,
+)
 from formsync_design.sim.simulator import simulate
 from formsync_design.verify.case import load_case
 
@@ -42,8 +52,13 @@ same box and settings) re-simulates that run with `simulate` in full.  When the
 certification module is available the sampled (K_o, K_q, beta) box is certified with the
 derived conditions and the smallest K_v is checked against the disturbance bound.
 
+At most 100000 runs per campaign (each sampled formation is kept in memory); split
+larger campaigns over several seeds.
+
 exit status: 0 every run converged; 1 some run failed (not converged, q0 singularity,
-divergence or norm drift; listed with seeds); 2 bad input.
+divergence or norm drift; listed with seeds); 2 bad input (malformed case or
+specification, an option that cannot be honoured, too many runs); 3 a failure that is
+not the input (a C compiler failure).
 """
 
 
@@ -62,10 +77,11 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument("--case", metavar="FILE", default=None, help="case TOML (default: the paper's)")
     p.add_argument("--graph", metavar="SPEC", default=None, help=f"graph ({GRAPH_SPEC_HELP})")
+    add_spec_option(p)
     for flag, name in (("--ko", "K_o"), ("--kq", "K_q"), ("--beta", "beta"), ("--kv", "K_v")):
         p.add_argument(flag, metavar="X|LO:HI", default=None,
                        help=f"{name} value or interval to sample (default: the case's)")
-    p.add_argument("--runs", default="1000", help="number of runs (default 1000)")
+    p.add_argument("--runs", default="1000", help=f"number of runs (default 1000, at most {MAX_RUNS})")
     p.add_argument("--seed", default="0", help="master seed (default 0)")
     p.add_argument("--max-angle", metavar="DEG", default="100",
                    help="initial attitudes: rotation angle uniform in [0, DEG] degrees, DEG < 180 (default 100)")
@@ -95,35 +111,32 @@ def _int(text: str, name: str, lo: int) -> int:
     try:
         v = int(str(text).strip())
     except ValueError:
-        raise InputError(f"expected an integer for {name}, received {text!r}") from None
+        raise InputError(f"expected an integer for {name}, received {text}") from None
     if v < lo:
         raise InputError(f"expected {name} >= {lo}, received {v}")
     return v
 
 
 def _float(text: str, name: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise InputError(f"expected a number for {name}, received {text!r}") from None
-    return v
+    return float(parse_number(text, name))
 
 
 def run(args: argparse.Namespace) -> int:
+    out_dir = check_out_dir(args.out)
     case = load_case(args.case)
+    spec = resolve_cli_spec(args, case)
     graph = case.graph(args.graph)
     base = case.formation(graph, args.disturbance)
     g = base.gains
-    iv: dict[str, tuple[float, float]] = {}
+    iv: dict[str, Any] = {}
     for attr, name, default in (("ko", "K_o", (g.K_o, g.K_o)), ("kq", "K_q", (g.K_q, g.K_q)),
                                 ("beta", "beta", (g.beta, g.beta)), ("kv", "K_v", (min(g.K_v), max(g.K_v)))):
         text = getattr(args, attr)
         if text is None:
             iv[name] = default
         else:
-            r = parse_gain_range(text, name, positive=name != "K_v")
-            iv[name] = (float(r.lo), float(r.hi))
-    box = GainBox(**iv)
+            iv[name] = parse_gain_range(text, name, positive=name != "K_v", nonnegative=name == "K_v")
+    box = mc_box(iv)
     settings = MonteCarloSettings(
         runs=_int(args.runs, "--runs", 1), seed=_int(args.seed, "--seed", 0),
         max_angle_deg=_float(args.max_angle, "--max-angle"), max_rate=_float(args.max_rate, "--max-rate"),
@@ -133,9 +146,9 @@ def run(args: argparse.Namespace) -> int:
     if args.replay is not None:
         seed = _int(args.replay, "--replay", 0)
         f = replay(base, box, settings, seed)
-        r = simulate(f, opt)
+        r = simulate(f, opt, spec=spec)
         out = {"seed": seed, "gains": {"K_o": f.gains.K_o, "K_q": f.gains.K_q, "beta": f.gains.beta,
-                                       "K_v": f.gains.K_v[0]}, **r.summary()}
+                                       "K_v": f.gains.K_v[0]}, **r.to_dict()}
         if args.format == "json":
             emit_json(out)
         else:
@@ -145,21 +158,21 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_OK if r.converged else EXIT_NEGATIVE
     threads = _int(args.threads, "--threads", 1) if args.threads is not None else None
     prog = Progress(1, "montecarlo", enabled=args.format == "text")
-    res = run_montecarlo(base, box, settings, opt, threads=threads, certify=not args.no_certify)
+    res = run_montecarlo(base, box, settings, opt, threads=threads,
+                         certify=not args.no_certify, spec=spec)
     prog.update(1)
-    summ = {"case": case.name, "graph": graph.name, "disturbance": base.disturbance.kind, **res.summary()}
+    summ = {"case": case.name, "specification": spec.name, "graph": graph.name,
+            "disturbance": base.disturbance.kind, **res.to_dict()}
     written = []
-    if args.out is not None:
-        d = Path(args.out)
-        if d.exists() and not d.is_dir():
-            raise InputError(f"expected --out to be a directory, received the file {str(d)!r}")
+    if out_dir is not None:
+        d = out_dir
         d.mkdir(parents=True, exist_ok=True)
-        (d / "summary.json").write_text(json.dumps(summ, indent=2) + "\n")
+        (d / "summary.json").write_text(json.dumps(summ, indent=2, allow_nan=False) + "\n")
         with open(d / "runs.csv", "w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=list(res.runs[0].to_dict()))
             w.writeheader()
-            for r in res.runs:
-                w.writerow(r.to_dict())
+            for run_ in res.runs:
+                w.writerow(run_.to_dict())
         written = [str(d / "summary.json"), str(d / "runs.csv")]
     if args.format == "json":
         emit_json({**summ, "written": written})
@@ -171,12 +184,12 @@ def run(args: argparse.Namespace) -> int:
 def _text(case: Any, graph: Any, base: Any, res: Any, written: list[str]) -> str:
     s = res.settings
     o = res.options
-    bx = res.box
+    bx = res.box.as_floats()
     fmt = lambda iv: f"{iv[0]:g}" if iv[0] == iv[1] else f"[{iv[0]:g}, {iv[1]:g}]"  # noqa: E731
     lines = [
         f"Monte-Carlo: case {case.name}, graph {graph.name}, {len(res.runs)} runs, seed {s.seed}, "
         f"tf = {o.tf:g} s, switch {o.switch}, disturbance {base.disturbance.kind}",
-        f"  box: K_o {fmt(bx.K_o)}, K_q {fmt(bx.K_q)}, beta {fmt(bx.beta)}, K_v {fmt(bx.K_v)}; "
+        f"  box: K_o {fmt(bx['K_o'])}, K_q {fmt(bx['K_q'])}, beta {fmt(bx['beta'])}, K_v {fmt(bx['K_v'])}; "
         f"initial angle <= {s.max_angle_deg:g} deg, |rate_k| <= {s.max_rate:g} rad/s, "
         f"random phases {'on' if s.phases else 'off'}",
         "  outcomes: " + ", ".join(f"{k} {v}" for k, v in res.counts.items()),
@@ -187,7 +200,7 @@ def _text(case: Any, graph: Any, base: Any, res: Any, written: list[str]) -> str
                      f"p95 {ct['p95']:.1f}, max {ct['max']:.1f}")
     sm = res.summary()
     lines.append(f"  worst final Q_m {_g(sm['worst_final_q_m'])}, worst final Omega_m {_g(sm['worst_final_omega_m'])} rad/s, "
-                 f"min q0 {sm['min_q0']:.4f}, max |u| {sm['max_peak_torque']:.3g} N m")
+                 f"min q0 {_g(sm['min_q0'], '.4f')}, max |u| {_g(sm['max_peak_torque'], '.3g')} N m")
     lines.append(f"  time: {res.wall_seconds:.2f} s for the batch (+ build {res.build_seconds:.2f} s)")
     c = res.certification
     if c.get("status") in ("skipped", "unavailable"):
@@ -212,5 +225,5 @@ def _text(case: Any, graph: Any, base: Any, res: Any, written: list[str]) -> str
     return "\n".join(lines)
 
 
-def _g(v: float | None) -> str:
-    return "n/a" if v is None else f"{v:.3e}"
+def _g(v: float | None, fmt: str = ".3e") -> str:
+    return "n/a" if v is None else format(v, fmt)

@@ -15,16 +15,16 @@ from formsync_design.cli.options import (
     EXIT_OK,
     add_format_option,
     emit_json,
-    parse_positive,
 )
 from formsync_design.errors import InputError
+from formsync_design.gains import parse_number
 from formsync_design.graphs.build import GRAPH_SPEC_HELP
 from formsync_design.models.disturbances import DISTURBANCES
 from formsync_design.sim.bridge import SWITCHES
 from formsync_design.sim.simulator import INTEGRATORS, simulate
-from formsync_design.verify.case import default_case_path, load_case
+from formsync_design.verify.case import load_case
 
-__all__ = ["add_parser", "run"]
+__all__ = ["add_parser", "run", "options_from_args", "add_spec_option", "resolve_cli_spec", "check_out_dir"]
 
 _EPILOG = """\
 examples:
@@ -33,15 +33,23 @@ examples:
   formsync simulate --switch tanh --boundary-layer 0.05 --torque-limit 5 --out out/
   formsync simulate --sample-period 0.1 --disturbance gravity-gradient --format json
   formsync simulate --case my_case.toml --integrator cvodes --rtol 1e-9
+  formsync simulate --spec my_design.py               # another controller (own cached kernel)
 
 outputs (with --out DIR): summary.json, trajectory.npz (t, x, u, omega_m, q_m, names)
 and/or trajectory.csv, and figures omega_m, q_m, torques_1-4, torques_5-8 (.png or .svg).
 State layout: x = (q1_1,q2_1,q3_1,q0_1, ..., q0_N, w1_1,w2_1,w3_1, ..., w3_N).
 
+Options that cannot be honoured are errors: --step longer than the output step (or the
+sample period), --tf not a whole multiple of it, more than 1e7 output intervals.
+
+environment: FORMSYNC_CACHE_DIR (compiled kernels, default ~/.cache/formsync-design),
+FORMSYNC_NO_COMPILE=1 (CasADi virtual machine instead of compiled C).
+
 exit status: 0 converged (Q_m <= q-tol and Omega_m <= omega-tol from some time to tf);
 1 not converged within --tf, or q0 of some spacecraft reached the singularity floor
-(spacecraft and time named); 2 bad input (malformed case, graph size mismatch, ...) or
-a numerical failure (NaN/inf, named with its time).
+(spacecraft and time named); 2 bad input (malformed case or specification, graph size
+mismatch, an option that cannot be honoured, ...); 3 a failure that is not the input
+(NaN/inf away from the singularity, named with its time; a C compiler failure).
 """
 
 
@@ -60,9 +68,10 @@ def add_parser(sub: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--case", metavar="FILE", default=None,
-                   help=f"case TOML (default {default_case_path().relative_to(default_case_path().parent.parent)})")
+                   help="case TOML (default: the shipped case verification/liang2016.toml)")
     p.add_argument("--graph", metavar="SPEC", default=None,
                    help=f"communication graph overriding the case's ({GRAPH_SPEC_HELP})")
+    add_spec_option(p)
     p.add_argument("--tf", metavar="S", default=None, help="horizon in seconds (case default 200)")
     p.add_argument("--switch", choices=SWITCHES, default=None,
                    help="switching term: sgn (the paper's (4)), sat(tau/phi) or tanh(tau/phi)")
@@ -93,8 +102,48 @@ def add_parser(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
+def add_spec_option(p: argparse.ArgumentParser) -> None:
+    """``--spec FILE``: the controller/Lyapunov specification (default: the case's, else the paper's)."""
+    p.add_argument("--spec", metavar="FILE", default=None,
+                   help="controller specification .py (default: the case's [case] spec, else the "
+                        "paper's derivations/liang2016.py)")
+
+
+def resolve_cli_spec(args: argparse.Namespace, case: Any) -> Any:
+    """The specification of a run: ``--spec``, else the case's, else the paper's (validated
+    now, before any output is written)."""
+    from formsync_design.spec.loader import load_spec
+
+    given = getattr(args, "spec", None)
+    return load_spec(given if given is not None else getattr(case, "spec", None))
+
+
+def check_out_dir(out: str | None) -> Path | None:
+    """Validate ``--out`` before any computation (created only when results are written)."""
+    if out is None:
+        return None
+    d = Path(out)
+    if d.exists() and not d.is_dir():
+        raise InputError(f"expected --out to be a directory, received the file {str(d)!r}")
+    parent = next((a for a in (d, *d.parents) if a.exists()), Path("."))
+    if not parent.is_dir():
+        raise InputError(f"expected --out under a directory, received {str(d)!r}")
+    import os
+
+    if not os.access(parent, os.W_OK):
+        raise InputError(f"expected a writable --out, received {str(d)!r} ({str(parent)!r} is read-only)")
+    return d
+
+
+def _positive(text: str, name: str) -> float:
+    v = parse_number(text, name)
+    if v <= 0:
+        raise InputError(f"expected a positive {name}, received {text}")
+    return float(v)
+
+
 def _opt_num(v: str | None, name: str) -> float | None:
-    return None if v is None else parse_positive(v, name)
+    return None if v is None else _positive(v, name)
 
 
 def _opt_none_or_num(v: str | None, name: str) -> tuple[bool, float | None]:
@@ -102,7 +151,7 @@ def _opt_none_or_num(v: str | None, name: str) -> tuple[bool, float | None]:
         return False, None
     if v.strip().lower() == "none":
         return True, None
-    return True, parse_positive(v, name)
+    return True, _positive(v, name)
 
 
 def options_from_args(args: argparse.Namespace, base: Any) -> Any:
@@ -126,10 +175,18 @@ def options_from_args(args: argparse.Namespace, base: Any) -> Any:
             kw["sample_period"] = None
     if args.no_compile:
         kw["compile"] = False
-    return replace(base, **kw)
+    try:
+        return replace(base, **kw)
+    except InputError as e:  # name the command-line option that cannot be honoured
+        msg = str(e)
+        for needle, flag in (("RK4 step", "--step"), ("expected tf", "--tf"),
+                             ("output intervals", "--tf / --output-step")):
+            if needle in msg:
+                raise InputError(f"{flag}: {msg}") from None
+        raise
 
 
-def _text(case: Any, graph: Any, f: Any, r: Any, written: list[str]) -> str:
+def _text(case: Any, graph: Any, f: Any, r: Any, written: list[str], spec: Any = None) -> str:
     o = r.options
     ctl = "continuous control" if o.sample_period is None else f"ZOH control Ts = {o.sample_period:g} s"
     sw = o.switch if o.switch == "sgn" else f"{o.switch} (phi = {o.phi:g})"
@@ -137,6 +194,7 @@ def _text(case: Any, graph: Any, f: Any, r: Any, written: list[str]) -> str:
     lines = [
         f"case {case.name} ({Path(case.path).name}): {r.n} spacecraft, graph {graph.name}, tf = {o.tf:g} s",
         f"  switch {sw}, {lim}, {ctl}, disturbance {f.disturbance.kind}",
+        *([f"  specification {spec.name} ({spec.source})"] if spec is not None and spec.name != "liang2016" else []),
         f"status: {r.status} - {r.message()}",
         f"final metrics: Q_m = {r.final_q_m:.3e}, Omega_m = {r.final_omega_m:.3e} rad/s",
     ]
@@ -175,24 +233,26 @@ def _text(case: Any, graph: Any, f: Any, r: Any, written: list[str]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    out_dir = check_out_dir(args.out)
     case = load_case(args.case)
+    spec = resolve_cli_spec(args, case)
     graph = case.graph(args.graph)
     opt = options_from_args(args, case.options)
     f = case.formation(graph, args.disturbance)
-    r = simulate(f, opt)
+    r = simulate(f, opt, spec=spec)
     written: list[str] = []
     summary = {
         "case": case.name,
         "case_file": case.path,
+        "specification": spec.name,
+        "specification_source": spec.source,
         "graph": graph.name,
         "disturbance": f.disturbance.kind,
         "assumptions": list(case.assumptions),
-        **r.summary(),
+        **r.to_dict(),
     }
-    if args.out is not None:
-        out = Path(args.out)
-        if out.exists() and not out.is_dir():
-            raise InputError(f"expected --out to be a directory, received the file {str(out)!r}")
+    if out_dir is not None:
+        out = out_dir
         out.mkdir(parents=True, exist_ok=True)
         p = out / "summary.json"
         p.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
@@ -209,5 +269,5 @@ def run(args: argparse.Namespace) -> int:
     if args.format == "json":
         emit_json({**summary, "written": written})
     else:
-        print(_text(case, graph, f, r, written))
+        print(_text(case, graph, f, r, written, spec))
     return EXIT_OK if r.converged else EXIT_NEGATIVE

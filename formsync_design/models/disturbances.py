@@ -86,7 +86,8 @@ class Orbit:
         for name in ("altitude", "mu", "earth_radius", "phase"):
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise InputError(f"expected a finite number for orbit {name}, received {v!r}")
+                shown = f"{v:g}" if isinstance(v, (int, float)) else type(v).__name__
+                raise InputError(f"expected a finite number for orbit {name}, received {shown}")
         if self.altitude < 0 or self.mu <= 0 or self.earth_radius <= 0:
             raise InputError(
                 f"expected altitude >= 0, mu > 0, earth_radius > 0, received "
@@ -193,7 +194,7 @@ def paper_disturbance(
     J = _inertias(inertias)
     sg = np.asarray(signs, dtype=float)
     if sg.shape != (3,) or not np.all(np.isin(sg, (-1.0, 1.0))):
-        raise InputError(f"expected three signs +-1, received {signs!r}")
+        raise InputError(f"expected three signs +-1, received {sg.ravel().tolist()}")
     h = np.zeros((len(J), 3, 6))
     for i, Ji in enumerate(J):
         umg = paper_umg_magnitude(Ji, orb) * sg

@@ -1,6 +1,19 @@
-"""Stage 6 — simulation: the SymPy-to-CasADi bridge, compiled kernels, Monte-Carlo, figures."""
+"""Stage 6 — simulation: the SymPy-to-CasADi bridge, compiled kernels, Monte-Carlo, figures.
 
-from formsync_design.sim.montecarlo import MonteCarloResult, MonteCarloSettings, run_montecarlo
+Modules: :mod:`~.bridge` (SymPy -> CasADi), :mod:`~.formation` (inputs, options,
+statuses), :mod:`~.kernels` (building, compiling and caching the closed loop, keyed
+by the specification's content), :mod:`~.metrics`, :mod:`~.result`,
+:mod:`~.simulator` (the driver; re-exports the public names), :mod:`~.montecarlo`,
+:mod:`~.figures`.
+"""
+
+from formsync_design.sim.formation import SimStatus
+from formsync_design.sim.montecarlo import (
+    MonteCarloResult,
+    MonteCarloSettings,
+    RunStatus,
+    run_montecarlo,
+)
 from formsync_design.sim.simulator import Formation, Gains, SimOptions, SimResult, simulate
 
 __all__ = [
@@ -8,8 +21,10 @@ __all__ = [
     "Gains",
     "SimOptions",
     "SimResult",
+    "SimStatus",
     "simulate",
     "MonteCarloSettings",
     "MonteCarloResult",
+    "RunStatus",
     "run_montecarlo",
 ]

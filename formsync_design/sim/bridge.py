@@ -44,6 +44,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import casadi as ca
@@ -355,18 +356,21 @@ class ControllerBridge:
     function : casadi.Function
         ``formsync_controller(q, q0, qd, J, s, K_o, K_q, beta, K_v, phi) -> (u, tau, sigma)``.
     spec_name : str
+    spec_key : str
+        The specification's content key.
     switch : str
     inverse : str
     """
 
     function: ca.Function
     spec_name: str
+    spec_key: str
     switch: str
     inverse: str
 
 
 def build_controller(
-    spec: Spec | None = None,
+    spec: Spec | str | Path | None = None,
     model: AttitudeModel | None = None,
     switch: str = "sat",
     inverse: str = "E",
@@ -375,8 +379,9 @@ def build_controller(
 
     Parameters
     ----------
-    spec : Spec, optional
-        Default: the paper's (``load_spec()``).
+    spec : Spec, str, Path or None
+        Default: the paper's (resolved with ``load_spec``); the translation is
+        cached by ``spec.key`` (the specification's content).
     model : AttitudeModel, optional
         Default: ``derive_attitude_model()``.
     switch : {"sgn", "sat", "tanh"}
@@ -398,10 +403,12 @@ def build_controller(
         raise InputError(f"expected a switch in {SWITCHES}, received {switch!r}")
     if inverse not in ("E", "solve"):
         raise InputError(f"expected inverse 'E' or 'solve', received {inverse!r}")
-    sp_spec = spec if spec is not None else load_spec()
+    sp_spec = load_spec(spec)
     m = model if model is not None else derive_attitude_model()
     fn = _controller_cached(sp_spec, m, switch, inverse)
-    return ControllerBridge(function=fn, spec_name=sp_spec.name, switch=switch, inverse=inverse)
+    return ControllerBridge(
+        function=fn, spec_name=sp_spec.name, spec_key=sp_spec.key, switch=switch, inverse=inverse
+    )
 
 
 def controller_function(switch: str = "sat", inverse: str = "E") -> ca.Function:
@@ -417,7 +424,7 @@ _SPEC_CACHE: dict = {}
 
 
 def _controller_cached(spec: Spec, m: AttitudeModel, switch: str, inverse: str) -> ca.Function:
-    key = (spec.path, spec.name, id(m), switch, inverse)
+    key = (spec.key, id(m), switch, inverse)
     hit = _SPEC_CACHE.get(key)
     if hit is not None:
         return hit

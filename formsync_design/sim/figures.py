@@ -4,8 +4,11 @@ Fig. 3: relative angular-velocity metric ``Omega_m`` (log scale);
 Fig. 4: relative attitude metric ``Q_m`` (log scale);
 Figs. 5-6: control torques of spacecraft 1-4 and 5-8 (one panel per spacecraft).
 
-Every function returns :class:`matplotlib.figure.Figure` objects and never
-calls ``plt.show()``; :func:`save_figure` writes byte-reproducible files.
+Every function returns :class:`matplotlib.figure.Figure` objects built
+without :mod:`matplotlib.pyplot`: nothing here selects or changes the
+backend, opens a window or registers global figure state, so a notebook
+renders the returned figures inline and a script may save them with any
+backend; :func:`save_figure` writes byte-reproducible files.
 """
 
 from __future__ import annotations
@@ -13,14 +16,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-
-from formsync_design.errors import InputError  # noqa: E402
-from formsync_design.sim.simulator import SimResult  # noqa: E402
+from formsync_design.errors import InputError
+from formsync_design.sim.result import SimResult
 
 __all__ = ["metric_figure", "torque_figures", "all_figures", "save_figure"]
 
@@ -40,11 +40,11 @@ def metric_figure(result: SimResult, which: str = "omega") -> Figure:
     >>> r = simulate(load_case().formation(), SimOptions(tf=5.0, compile=False))
     >>> fig = metric_figure(r, "q"); fig.axes[0].get_yscale()
     'log'
-    >>> plt.close(fig)
     """
     if which not in ("omega", "q"):
         raise InputError(f"expected which = 'omega' or 'q', received {which!r}")
-    fig, ax = plt.subplots(figsize=(6.4, 3.6))
+    fig = Figure(figsize=(6.4, 3.6))
+    ax = fig.subplots()
     o = result.options
     if which == "omega":
         y, tol, label = result.omega_m, o.omega_tol, r"$\Omega_m$ (rad/s)"
@@ -79,7 +79,8 @@ def torque_figures(result: SimResult, per_figure: int = 4) -> list[Figure]:
     lim = result.options.torque_limit
     for start in range(0, result.n, per_figure):
         idx = list(range(start, min(start + per_figure, result.n)))
-        fig, axes = plt.subplots(len(idx), 1, figsize=(6.4, 1.9 * len(idx) + 0.6), sharex=True, squeeze=False)
+        fig = Figure(figsize=(6.4, 1.9 * len(idx) + 0.6))
+        axes = fig.subplots(len(idx), 1, sharex=True, squeeze=False)
         for ax, i in zip(axes[:, 0], idx):
             for k in range(3):
                 ax.plot(result.t, U[:, i, k], lw=0.9, label=f"$u_{{{k + 1}}}$")
@@ -109,7 +110,7 @@ def all_figures(result: SimResult) -> dict[str, Figure]:
 
 def save_figure(fig: Figure, path: str | Path) -> Path:
     """Save reproducibly: PNG without the Software stamp, SVG without date and
-    with a fixed hash salt; closes the figure."""
+    with a fixed hash salt."""
     p = Path(path)
     suffix = p.suffix.lower()
     if suffix == ".png":
@@ -119,5 +120,4 @@ def save_figure(fig: Figure, path: str | Path) -> Path:
             fig.savefig(p, metadata={"Date": None, "Creator": None})
     else:
         raise InputError(f"expected a .png or .svg figure path, received {str(p)!r}")
-    plt.close(fig)
     return p

@@ -26,28 +26,32 @@ norm drift above ``norm_tol``) is reported with its ``seed``;
 
 from __future__ import annotations
 
+import enum
 import math
 import os
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
 from formsync_design.errors import InputError
-from formsync_design.sim.simulator import (
-    CHUNK,
-    Formation,
-    Gains,
-    SimOptions,
-    convergence_time,
-    get_kernel,
-    pack_params,
-)
+from formsync_design.gains import GainBox, json_number
+from formsync_design.sim.formation import Formation, Gains, SimOptions
+from formsync_design.sim.kernels import CHUNK, get_kernel, pack_params
+from formsync_design.sim.metrics import convergence_time, metrics_expr
+from formsync_design.spec.loader import Spec, load_spec
 
 __all__ = [
     "GainBox",
+    "MC_GAINS",
+    "MAX_RUNS",
+    "RunStatus",
+    "RUN_STATUSES",
+    "mc_box",
+    "point_box",
     "MonteCarloSettings",
     "MonteCarloRun",
     "MonteCarloResult",
@@ -57,38 +61,53 @@ __all__ = [
     "certify_sampled_box",
 ]
 
-RUN_STATUSES = ("converged", "not-converged", "singular", "diverged", "inaccurate")
+#: The gains of a Monte-Carlo box, in order (``K_v`` may be 0, the others must be > 0).
+MC_GAINS = ("K_o", "K_q", "beta", "K_v")
+
+#: Largest number of runs of one campaign: every sampled formation is kept in memory
+#: (about 3 kB each for N = 8) and each run of the paper's case takes ~10 ms of CPU
+#: with the compiled kernel, so 100 000 runs are ~300 MB and ~20 CPU-minutes.
+MAX_RUNS = 100_000
 
 
-@dataclass(frozen=True)
-class GainBox:
-    """Closed intervals ``(lo, hi)`` for ``K_o, K_q, beta, K_v`` (a point when ``lo == hi``).
+class RunStatus(enum.StrEnum):
+    """How one Monte-Carlo run ended.
 
-    >>> GainBox((1.5, 1.7), (0.4, 0.4), (0.3, 0.3), (0.01, 0.01)).as_dict()["K_o"]
-    (1.5, 1.7)
+    ``converged`` / ``not-converged`` (horizon reached, ``convergence_time``
+    None) as in :class:`~formsync_design.sim.formation.SimStatus`; ``singular``:
+    some ``q0`` reached ``q0_floor`` (``event_time``); ``diverged``: NaN/inf
+    (``event_time``); ``inaccurate``: quaternion norm drift above ``norm_tol``.
     """
 
-    K_o: tuple[float, float]
-    K_q: tuple[float, float]
-    beta: tuple[float, float]
-    K_v: tuple[float, float]
+    CONVERGED = "converged"
+    NOT_CONVERGED = "not-converged"
+    SINGULAR = "singular"
+    DIVERGED = "diverged"
+    INACCURATE = "inaccurate"
 
-    def __post_init__(self) -> None:
-        for name in ("K_o", "K_q", "beta", "K_v"):
-            lo, hi = (float(v) for v in getattr(self, name))
-            if not (math.isfinite(lo) and math.isfinite(hi)) or hi < lo:
-                raise InputError(f"expected a finite interval lo <= hi for {name}, received {(lo, hi)}")
-            if (lo <= 0 and name != "K_v") or lo < 0:
-                raise InputError(f"expected positive {name} (K_v >= 0), received lower bound {lo:g}")
-            object.__setattr__(self, name, (lo, hi))
 
-    def as_dict(self) -> dict[str, tuple[float, float]]:
-        return {"K_o": self.K_o, "K_q": self.K_q, "beta": self.beta, "K_v": self.K_v}
+RUN_STATUSES = tuple(s.value for s in RunStatus)
 
-    @staticmethod
-    def around(g: Gains) -> GainBox:
-        """The point box of the gains ``g`` (``K_v`` from its min to max over spacecraft)."""
-        return GainBox((g.K_o,) * 2, (g.K_q,) * 2, (g.beta,) * 2, (min(g.K_v), max(g.K_v)))
+
+def mc_box(box: Any) -> GainBox:
+    """``box`` as the one gain-box type over ``K_o, K_q, beta, K_v`` (``K_v >= 0``).
+
+    Accepts a :class:`~formsync_design.gains.GainBox` or anything
+    :meth:`GainBox.parse <formsync_design.gains.GainBox.parse>` accepts.
+
+    >>> mc_box({"K_o": "1.5:1.7", "K_q": 0.4, "beta": 0.3, "K_v": 0}).as_floats()["K_o"]
+    (1.5, 1.7)
+    """
+    return GainBox.parse(box, MC_GAINS, positive=MC_GAINS[:3])
+
+
+def point_box(g: Gains) -> GainBox:
+    """The point box of the gains ``g`` (``K_v`` from its min to max over spacecraft).
+
+    >>> point_box(Gains(1.6, 0.4, 0.3, (0.01, 0.02))).as_floats()["K_v"]
+    (0.01, 0.02)
+    """
+    return mc_box({"K_o": g.K_o, "K_q": g.K_q, "beta": g.beta, "K_v": (min(g.K_v), max(g.K_v))})
 
 
 @dataclass(frozen=True)
@@ -102,16 +121,22 @@ class MonteCarloSettings:
     phases: bool = True
 
     def __post_init__(self) -> None:
-        if not isinstance(self.runs, int) or self.runs < 1:
-            raise InputError(f"expected runs >= 1, received {self.runs!r}")
-        if not isinstance(self.seed, int) or self.seed < 0:
-            raise InputError(f"expected a non-negative integer seed, received {self.seed!r}")
+        if isinstance(self.runs, bool) or not isinstance(self.runs, int) or self.runs < 1:
+            raise InputError(f"expected an integer number of runs >= 1, received {self.runs}")
+        if self.runs > MAX_RUNS:
+            raise InputError(
+                f"expected at most {MAX_RUNS} runs per campaign (each sampled formation is kept in "
+                f"memory, ~3 kB and ~10 ms of CPU per run for N = 8), received {self.runs}; split "
+                "the campaign over several seeds"
+            )
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise InputError(f"expected a non-negative integer seed, received {self.seed}")
         if not (0 <= self.max_angle_deg < 180):
             raise InputError(
-                f"expected 0 <= max_angle_deg < 180 (q0 > 0 initially), received {self.max_angle_deg!r}"
+                f"expected 0 <= max_angle_deg < 180 (q0 > 0 initially), received {self.max_angle_deg:g}"
             )
         if not (math.isfinite(self.max_rate) and self.max_rate >= 0):
-            raise InputError(f"expected max_rate >= 0 (rad/s), received {self.max_rate!r}")
+            raise InputError(f"expected max_rate >= 0 (rad/s), received {self.max_rate:g}")
 
 
 def _run_seeds(settings: MonteCarloSettings) -> np.ndarray:
@@ -120,20 +145,21 @@ def _run_seeds(settings: MonteCarloSettings) -> np.ndarray:
     return ss.generate_state(settings.runs, dtype=np.uint64) >> np.uint64(1)
 
 
-def sample_formation(base: Formation, box: GainBox, settings: MonteCarloSettings, run_seed: int) -> Formation:
+def sample_formation(base: Formation, box: Any, settings: MonteCarloSettings, run_seed: int) -> Formation:
     """The formation of one run (deterministic in ``run_seed``).
 
     >>> from formsync_design.verify.case import load_case
     >>> f = load_case().formation()
-    >>> box = GainBox.around(f.gains); s = MonteCarloSettings(runs=1)
+    >>> box = point_box(f.gains); s = MonteCarloSettings(runs=1)
     >>> a = sample_formation(f, box, s, 12345); b = sample_formation(f, box, s, 12345)
     >>> bool(np.array_equal(a.attitudes, b.attitudes)), bool((a.attitudes[:, 3] > 0).all())
     (True, True)
     """
     rng = np.random.default_rng(int(run_seed))
     n = base.n
-    lo = np.array([box.K_o[0], box.K_q[0], box.beta[0], box.K_v[0]])
-    hi = np.array([box.K_o[1], box.K_q[1], box.beta[1], box.K_v[1]])
+    b = mc_box(box).as_floats()
+    lo = np.array([b[g][0] for g in MC_GAINS])
+    hi = np.array([b[g][1] for g in MC_GAINS])
     g = rng.uniform(lo, hi)
     gains = Gains(float(g[0]), float(g[1]), float(g[2]), (float(g[3]),) * n)
     axis = rng.normal(size=(n, 3))
@@ -146,7 +172,7 @@ def sample_formation(base: Formation, box: GainBox, settings: MonteCarloSettings
     return Formation(base.graph, base.inertias, att, rates, gains, dist)
 
 
-def replay(base: Formation, box: GainBox, settings: MonteCarloSettings, run_seed: int) -> Formation:
+def replay(base: Formation, box: Any, settings: MonteCarloSettings, run_seed: int) -> Formation:
     """Alias of :func:`sample_formation`: rebuild a flagged run from its seed."""
     return sample_formation(base, box, settings, run_seed)
 
@@ -161,7 +187,7 @@ class MonteCarloRun:
     K_q: float
     beta: float
     K_v: float
-    status: str
+    status: RunStatus
     convergence_time: float | None
     final_q_m: float
     final_omega_m: float
@@ -171,7 +197,8 @@ class MonteCarloRun:
     event_time: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        return dict(self.__dict__)
+        """JSON-ready (numbers by :func:`~formsync_design.gains.json_number`; NaN as "nan")."""
+        return {k: (str(v) if k == "status" else json_number(v)) for k, v in self.__dict__.items()}
 
 
 @dataclass(frozen=True)
@@ -187,10 +214,11 @@ class MonteCarloResult:
     wall_seconds: float
     build_seconds: float
     certification: dict
+    spec_key: str = ""
 
     @property
     def failures(self) -> tuple[MonteCarloRun, ...]:
-        return tuple(r for r in self.runs if r.status != "converged")
+        return tuple(r for r in self.runs if r.status != RunStatus.CONVERGED)
 
     @property
     def all_converged(self) -> bool:
@@ -205,9 +233,9 @@ class MonteCarloResult:
                 math.isfinite(r.final_q_m) for r in self.runs) else None,
             "worst_final_omega_m": max(r.final_omega_m for r in self.runs if math.isfinite(r.final_omega_m)) if any(
                 math.isfinite(r.final_omega_m) for r in self.runs) else None,
-            "min_q0": min(r.min_q0 for r in self.runs),
-            "max_peak_torque": max(r.peak_torque for r in self.runs),
-            "box": self.box.as_dict(),
+            "min_q0": _finite_min([r.min_q0 for r in self.runs]),
+            "max_peak_torque": _finite_max([r.peak_torque for r in self.runs]),
+            "box": self.box.as_floats(),
             "settings": self.settings.__dict__,
             "options": {
                 "tf": self.options.tf, "switch": self.options.switch, "phi": self.options.phi,
@@ -222,9 +250,35 @@ class MonteCarloResult:
         }
 
 
-def certify_sampled_box(base: Formation, box: GainBox) -> dict[str, Any]:
-    """Certification status of the sampled ``(K_o, K_q, beta)`` box with the derived
-    conditions and of the smallest ``K_v`` against the disturbance bound, when
+    def to_dict(self) -> dict[str, Any]:
+        """:meth:`summary` with every number by :func:`~formsync_design.gains.json_number`
+        (NaN of a diverged run as "nan"; None where nothing finite was observed)."""
+        return _jsonable(self.summary())
+
+
+def _finite_min(v: list[float]) -> float | None:
+    f = [x for x in v if math.isfinite(x)]
+    return min(f) if f else None
+
+
+def _finite_max(v: list[float]) -> float | None:
+    f = [x for x in v if math.isfinite(x)]
+    return max(f) if f else None
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, enum.Enum):
+        return str(x.value)
+    return json_number(x)
+
+
+def certify_sampled_box(base: Formation, box: Any, spec: Spec | str | Path | None = None) -> dict[str, Any]:
+    """Certification status of the sampled ``(K_o, K_q, beta)`` box with the conditions
+    derived for ``spec`` (default: the paper's) and of the smallest ``K_v`` against the disturbance bound, when
     :mod:`formsync_design.certify.engine` is available; ``{"status": "unavailable"}`` otherwise."""
     try:
         from formsync_design.certify.engine import certify_box, check_kv
@@ -232,8 +286,9 @@ def certify_sampled_box(base: Formation, box: GainBox) -> dict[str, Any]:
     except ImportError as e:  # pragma: no cover - depends on the other modules
         return {"status": "unavailable", "reason": str(e)}
     ubar = float(np.max(base.disturbance.bound(base.inertias)))
-    kv = check_kv(box.K_v[0], list(base.inertias), ubar)
-    res = certify_box(derive_conditions(base.graph), {"K_o": box.K_o, "K_q": box.K_q, "beta": box.beta})
+    b = mc_box(box)
+    kv = check_kv(float(b["K_v"].lo), list(base.inertias), ubar)
+    res = certify_box(derive_conditions(base.graph, load_spec(spec)), {g: (b[g].lo, b[g].hi) for g in MC_GAINS[:3]})
     status = res.status
     return {
         "status": status,
@@ -247,12 +302,14 @@ def certify_sampled_box(base: Formation, box: GainBox) -> dict[str, Any]:
 
 def run_montecarlo(
     base: Formation,
-    box: GainBox | None = None,
+    box: Any = None,
     settings: MonteCarloSettings | None = None,
     options: SimOptions | None = None,
     threads: int | None = None,
     batch: int = 2000,
     certify: bool = True,
+    *,
+    spec: Spec | str | Path | None = None,
 ) -> MonteCarloResult:
     """Run a seeded Monte-Carlo campaign.
 
@@ -260,8 +317,9 @@ def run_montecarlo(
     ----------
     base : Formation
         Graph, inertias and disturbance model (its gains/attitudes/rates are replaced).
-    box : GainBox, optional
-        Default: the point box of ``base.gains``.
+    box : GainBox or mapping, optional
+        Over ``K_o, K_q, beta, K_v`` (see :func:`mc_box`).  Default: the point box of
+        ``base.gains``.
     settings : MonteCarloSettings, optional
     options : SimOptions, optional
         Default ``SimOptions(step=0.1, output_step=0.5, norm_tol=1e-5)``.
@@ -270,7 +328,10 @@ def run_montecarlo(
     batch : int
         Runs per mapped call.
     certify : bool
-        Also report :func:`certify_sampled_box`.
+        Also report :func:`certify_sampled_box` (the paper's conditions).
+    spec : Spec, str, Path or None
+        The specification whose controller is simulated (default: the paper's); its
+        kernel is cached under ``spec.key``.
 
     Examples
     --------
@@ -279,19 +340,20 @@ def run_montecarlo(
     >>> r = run_montecarlo(f, settings=MonteCarloSettings(runs=2, seed=1),
     ...                    options=SimOptions(tf=5.0, step=0.1, output_step=0.5, norm_tol=1e-5,
     ...                                       compile=False), certify=False)
-    >>> len(r.runs), r.runs[0].status  # 5 s is too short to synchronise
+    >>> len(r.runs), str(r.runs[0].status)  # 5 s is too short to synchronise
     (2, 'not-converged')
     """
-    bx = box if box is not None else GainBox.around(base.gains)
+    bx = mc_box(box) if box is not None else point_box(base.gains)
+    sp_spec = load_spec(spec)
     st = settings if settings is not None else MonteCarloSettings()
     opt = options if options is not None else SimOptions(step=0.1, output_step=0.5, norm_tol=1e-5)
     if opt.integrator != "rk4":
         raise InputError(f"expected the rk4 integrator for Monte-Carlo runs, received {opt.integrator!r}")
     nthreads = int(threads) if threads is not None else (os.cpu_count() or 1)
     if nthreads < 1:
-        raise InputError(f"expected threads >= 1, received {threads!r}")
+        raise InputError(f"expected threads >= 1, received {threads}")
     if batch < 1:
-        raise InputError(f"expected batch >= 1, received {batch!r}")
+        raise InputError(f"expected batch >= 1, received {batch}")
     n = base.n
     Ktot = round(opt.tf / opt.interval)
     if Ktot < 1 or abs(Ktot * opt.interval - opt.tf) > 1e-9 * max(1.0, opt.tf):
@@ -299,7 +361,9 @@ def run_montecarlo(
     M = opt.substeps
     h = opt.interval / M
     Kc = CHUNK  # fixed, so one compiled kernel serves every horizon (extra intervals are dropped)
-    kern = get_kernel(n, opt.switch, opt.sample_period is not None, M, Kc, opt.inverse, opt.compile)
+    kern = get_kernel(
+        n, opt.switch, opt.sample_period is not None, M, Kc, opt.inverse, opt.compile, spec=sp_spec
+    )
     seeds = _run_seeds(st)
     forms = [sample_formation(base, bx, st, int(s)) for s in seeds]
     t_grid = np.arange(Ktot + 1) * opt.interval
@@ -329,8 +393,10 @@ def run_montecarlo(
          "max": float(ct.max())}
         if ct.size else {"min": None, "median": None, "p95": None, "max": None}
     )
-    cert = certify_sampled_box(base, bx) if certify else {"status": "skipped"}
-    return MonteCarloResult(tuple(runs), bx, st, opt, counts, ct_stats, wall, kern.compile_seconds, cert)
+    cert = certify_sampled_box(base, bx, sp_spec) if certify else {"status": "skipped"}
+    return MonteCarloResult(
+        tuple(runs), bx, st, opt, counts, ct_stats, wall, kern.compile_seconds, cert, sp_spec.key
+    )
 
 
 def _summarize_run(index: int, seed: int, f: Formation, S: np.ndarray, t: np.ndarray, opt: SimOptions) -> MonteCarloRun:
@@ -342,11 +408,11 @@ def _summarize_run(index: int, seed: int, f: Formation, S: np.ndarray, t: np.nda
     event = None
     ctime = None
     if sing.size and (not bad.size or sing[0] <= bad[0]):
-        status, event = "singular", float(t[sing[0] + 1])
+        status, event = RunStatus.SINGULAR, float(t[sing[0] + 1])
     elif bad.size:
-        status, event = "diverged", float(t[bad[0] + 1])
+        status, event = RunStatus.DIVERGED, float(t[bad[0] + 1])
     elif np.nanmax(nerr) > opt.norm_tol:
-        status = "inaccurate"
+        status = RunStatus.INACCURATE
     else:
         x0 = f.initial_state()
         # metric at t = 0 from the initial state (numpy, same definition as the kernel's)
@@ -354,7 +420,7 @@ def _summarize_run(index: int, seed: int, f: Formation, S: np.ndarray, t: np.nda
         qm_all = np.concatenate([[np.nan], qm])
         om_all[0], qm_all[0] = _metrics0(x0, f.n)
         ctime = convergence_time(t, om_all, qm_all, opt.q_tol, opt.omega_tol)
-        status = "converged" if ctime is not None else "not-converged"
+        status = RunStatus.CONVERGED if ctime is not None else RunStatus.NOT_CONVERGED
     fin = lambda a: float(a[-1]) if np.isfinite(a[-1]) else float("nan")  # noqa: E731
     return MonteCarloRun(
         index=index, seed=seed, K_o=f.gains.K_o, K_q=f.gains.K_q, beta=f.gains.beta, K_v=f.gains.K_v[0],
@@ -368,12 +434,10 @@ _M0: dict = {}
 
 
 def _metrics0(x0: np.ndarray, n: int) -> tuple[float, float]:
-    from formsync_design.sim.simulator import _metrics_expr
-
     fn = _M0.get(n)
     if fn is None:
         x = ca.SX.sym("x", 7 * n)
-        fn = _M0[n] = ca.Function("m0", [x], [_metrics_expr(x, n)])
+        fn = _M0[n] = ca.Function("m0", [x], [metrics_expr(x, n)])
     m = fn(x0).full().ravel()
     return float(m[0]), float(m[1])
 

@@ -1,4 +1,5 @@
-"""Fast nonlinear simulation of a spacecraft formation under controller (4).
+"""Fast nonlinear simulation of a spacecraft formation under a specification's controller
+(default: the paper's controller (4); ``simulate(..., spec=...)`` for another).
 
 Plant (per spacecraft ``i``, paper eqs. 1-2)::
 
@@ -45,9 +46,14 @@ with a CVODES rtol 1e-12 reference to 3e-7 and the norm drift is 1e-7),
 compiled to C with CasADi code generation and gcc ``-O3 -march=native``,
 cached in the user cache dir (``$FORMSYNC_CACHE_DIR``, else
 ``$XDG_CACHE_HOME/formsync-design`` or ``~/.cache/formsync-design``; keyed
-by the generated source, flags, CasADi version and host); the first build of
-a kernel takes 5-10 s, later ones load it.  Without gcc (or with
-``compile=False``) the same kernel runs in CasADi's virtual machine.
+by the specification's content key ``spec.key``, the generated source, flags,
+CasADi version and host - the in-memory cache by ``spec.key`` and the sizes, so a
+variant controller never reuses another's kernel); the first build of a kernel
+takes 5-10 s, later ones load it.  Without a C compiler the same kernel runs in
+CasADi's virtual machine with a :class:`RuntimeWarning`; ``compile=False`` or
+``FORMSYNC_NO_COMPILE=1`` choose the virtual machine silently; a compiler that
+fails raises :class:`~formsync_design.errors.CompilerError`
+(:mod:`formsync_design.sim.kernels`).
 ``"cvodes"``: CasADi's adaptive SUNDIALS CVODES (BDF) with ``rtol``/``atol``
 (defaults 1e-8/1e-10), for reference runs; continuous control only.
 ``sgn`` is simulated as the discontinuous law it is: with a fixed step the
@@ -63,14 +69,8 @@ integrated with sub-steps ``<= step``; the output grid is then the sample grid.
 
 from __future__ import annotations
 
-import hashlib
 import math
-import os
-import shutil
-import subprocess
-import tempfile
 import time
-from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -78,21 +78,32 @@ import casadi as ca
 import numpy as np
 
 from formsync_design.errors import InputError, SimulationError
-from formsync_design.graphs.build import Graph
-from formsync_design.models.disturbances import (
-    DisturbanceModel,
-    disturbance_torque,
-    disturbance_trig,
-    kernel_parameters,
+from formsync_design.sim.formation import (
+    INTEGRATORS,
+    MAX_GRID_POINTS,
+    STATUSES,
+    Formation,
+    Gains,
+    SimOptions,
+    SimStatus,
+    pack_state,
+    state_names,
+    unpack_state,
 )
-from formsync_design.sim.bridge import SWITCHES, build_controller, model_function
+from formsync_design.sim.kernels import CHUNK, Kernel, cache_dir, get_kernel, pack_params
+from formsync_design.sim.metrics import convergence_time, formation_metrics
+from formsync_design.sim.result import SimResult
+from formsync_design.spec.loader import Spec, load_spec
 
 __all__ = [
     "Gains",
     "Formation",
     "SimOptions",
     "SimResult",
+    "SimStatus",
     "INTEGRATORS",
+    "STATUSES",
+    "MAX_GRID_POINTS",
     "simulate",
     "state_names",
     "pack_state",
@@ -105,724 +116,23 @@ __all__ = [
     "CHUNK",
 ]
 
-INTEGRATORS = ("rk4", "cvodes")
-STATUSES = ("converged", "not-converged", "singular")
 
-
-def state_names(n: int) -> list[str]:
-    """Names of the state entries (module docstring for the layout).
-
-    >>> state_names(2)[:4], state_names(2)[8:11]
-    (['q1_1', 'q2_1', 'q3_1', 'q0_1'], ['w1_1', 'w2_1', 'w3_1'])
-    """
-    quat = [f"{c}_{i}" for i in range(1, n + 1) for c in ("q1", "q2", "q3", "q0")]
-    rates = [f"{c}_{i}" for i in range(1, n + 1) for c in ("w1", "w2", "w3")]
-    return quat + rates
-
-
-def pack_state(quaternions: np.ndarray, rates: np.ndarray) -> np.ndarray:
-    """``(N, 4)`` quaternions ``(q1, q2, q3, q0)`` and ``(N, 3)`` rates -> state vector.
-
-    >>> pack_state(np.array([[0, 0, 0, 1.0]]), np.array([[1.0, 2, 3]])).tolist()
-    [0.0, 0.0, 0.0, 1.0, 1.0, 2.0, 3.0]
-    """
-    return np.concatenate([np.asarray(quaternions, float).ravel(), np.asarray(rates, float).ravel()])
-
-
-def unpack_state(x: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """State vector(s) ``(..., 7N)`` -> quaternions ``(..., N, 4)`` and rates ``(..., N, 3)``."""
-    x = np.asarray(x, dtype=float)
-    return x[..., : 4 * n].reshape(*x.shape[:-1], n, 4), x[..., 4 * n :].reshape(*x.shape[:-1], n, 3)
-
-
-# ---------------------------------------------------------------------------
-# inputs
-
-
-@dataclass(frozen=True)
-class Gains:
-    """Controller gains: scalars ``K_o, K_q, beta`` and ``K_v`` per spacecraft.
-
-    >>> Gains(1.6, 0.4, 0.3, (0.01,) * 8).K_v[0]
-    0.01
-    """
-
-    K_o: float
-    K_q: float
-    beta: float
-    K_v: tuple[float, ...]
-
-    def __post_init__(self) -> None:
-        for name in ("K_o", "K_q", "beta"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise InputError(f"expected a positive finite gain {name}, received {v!r}")
-        kv = tuple(float(k) for k in np.atleast_1d(np.asarray(self.K_v, dtype=float)))
-        if not all(math.isfinite(k) and k >= 0 for k in kv):
-            raise InputError(f"expected finite K_v >= 0, received {self.K_v!r}")
-        object.__setattr__(self, "K_v", kv)
-        for name in ("K_o", "K_q", "beta"):
-            object.__setattr__(self, name, float(getattr(self, name)))
-
-
-@dataclass(frozen=True)
-class Formation:
-    """Everything physical about a formation run.
-
-    Attributes
-    ----------
-    graph : Graph
-    inertias : numpy.ndarray, shape (N, 3, 3), kg m^2, symmetric positive definite
-    attitudes : numpy.ndarray, shape (N, 4), ``(q1, q2, q3, q0)``, unit, ``q0 > 0``
-    rates : numpy.ndarray, shape (N, 3), rad/s (body frame)
-    gains : Gains
-    disturbance : DisturbanceModel
-    """
-
-    graph: Graph
-    inertias: np.ndarray
-    attitudes: np.ndarray
-    rates: np.ndarray
-    gains: Gains
-    disturbance: DisturbanceModel
-
-    def __post_init__(self) -> None:
-        n = self.graph.n
-        J = _array(self.inertias, "inertias")
-        if J.shape != (n, 3, 3):
-            raise InputError(f"expected {n} inertias (graph size) of shape 3x3, received shape {J.shape}")
-        for i, Ji in enumerate(J):
-            if not np.allclose(Ji, Ji.T, rtol=0, atol=1e-12 * max(1.0, float(np.abs(Ji).max()))):
-                raise InputError(f"expected a symmetric inertia for spacecraft {i + 1}, received {Ji.tolist()}")
-            if np.linalg.eigvalsh(Ji)[0] <= 0:
-                raise InputError(
-                    f"expected a positive definite inertia for spacecraft {i + 1}, received eigenvalues "
-                    f"{np.linalg.eigvalsh(Ji).round(6).tolist()}"
-                )
-        Q = _array(self.attitudes, "attitudes")
-        if Q.shape != (n, 4):
-            raise InputError(f"expected {n} quaternions (q1, q2, q3, q0), received shape {Q.shape}")
-        for i, qb in enumerate(Q):
-            nrm = float(np.linalg.norm(qb))
-            if abs(nrm - 1) > 1e-9:
-                raise InputError(f"expected a unit quaternion for spacecraft {i + 1}, received norm {nrm!r}")
-            if qb[3] <= 0:
-                raise InputError(
-                    f"expected q0 > 0 for spacecraft {i + 1} (controller (4) needs q0 != 0), "
-                    f"received q0 = {qb[3]!r}"
-                )
-        W = _array(self.rates, "rates")
-        if W.shape != (n, 3):
-            raise InputError(f"expected {n} rate vectors of length 3, received shape {W.shape}")
-        if len(self.gains.K_v) == 1:
-            object.__setattr__(self, "gains", replace(self.gains, K_v=self.gains.K_v * n))
-        if len(self.gains.K_v) != n:
-            raise InputError(f"expected {n} values of K_v (one per spacecraft), received {len(self.gains.K_v)}")
-        if self.disturbance.n != n:
-            raise InputError(f"expected a disturbance for {n} spacecraft, received {self.disturbance.n}")
-        for name, a in (("inertias", J), ("attitudes", Q), ("rates", W)):
-            a.setflags(write=False)
-            object.__setattr__(self, name, a)
-
-    @property
-    def n(self) -> int:
-        return self.graph.n
-
-    def initial_state(self) -> np.ndarray:
-        """The state vector (module docstring for the layout)."""
-        return pack_state(self.attitudes, self.rates)
-
-
-def _array(a: Any, name: str) -> np.ndarray:
-    try:
-        out = np.array(a, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"expected a numeric array for {name}, received {a!r}") from None
-    if not np.all(np.isfinite(out)):
-        raise InputError(f"expected finite {name}, received NaN/inf")
-    return out
-
-
-@dataclass(frozen=True)
-class SimOptions:
-    """Simulation options (defaults documented per field).
-
-    Attributes
-    ----------
-    tf : float
-        Horizon (s), default 200.
-    switch : {"sgn", "sat", "tanh"}
-        Switching term, default ``sat``.
-    phi : float
-        Boundary layer of ``sat``/``tanh`` (default 0.01; the paper does not print it).
-    torque_limit : float or None
-        Per-axis actuator limit ``|u_k| <= torque_limit`` (N m); None = unlimited.
-    sample_period : float or None
-        Zero-order-hold control period Ts (s); None = continuous control.
-    integrator : {"rk4", "cvodes"}
-    step : float
-        RK4 step (s), default 0.05 (also the maximum sub-step under ZOH).
-    output_step : float
-        Output grid spacing (s), default 0.1 (the sample period under ZOH).
-    rtol, atol : float
-        CVODES tolerances (defaults 1e-8, 1e-10).
-    q_tol, omega_tol : float
-        Convergence thresholds on Q_m (-) and Omega_m (rad/s), defaults 1e-4, 1e-5.
-    q0_floor : float
-        Singularity detection: stop when some ``q0_i <= q0_floor`` (default 0.02, where
-        ``|omega| ~ 2|q'|/q0`` is 100 |q'| and ``cond(Q) = 1/q0`` is 50).
-    norm_tol : float
-        Maximum tolerated quaternion norm drift (default 1e-5; the paper's case with
-        ``sat`` drifts 1e-7 at the default step, ``sgn`` chattering ~1e-6 over 200 s).
-    compile : bool
-        Compile the RK4 kernel to C (default True); False uses CasADi's VM.
-    inverse : {"E", "solve"}
-        How the bridge evaluates ``Q^{-1}``.
-    """
-
-    tf: float = 200.0
-    switch: str = "sat"
-    phi: float = 0.01
-    torque_limit: float | None = None
-    sample_period: float | None = None
-    integrator: str = "rk4"
-    step: float = 0.05
-    output_step: float = 0.1
-    rtol: float = 1e-8
-    atol: float = 1e-10
-    q_tol: float = 1e-4
-    omega_tol: float = 1e-5
-    q0_floor: float = 0.02
-    norm_tol: float = 1e-5
-    compile: bool = True
-    inverse: str = "E"
-
-    def __post_init__(self) -> None:
-        if self.switch not in SWITCHES:
-            raise InputError(f"expected switch in {SWITCHES}, received {self.switch!r}")
-        if self.integrator not in INTEGRATORS:
-            raise InputError(f"expected integrator in {INTEGRATORS}, received {self.integrator!r}")
-        for name in ("tf", "phi", "step", "output_step", "rtol", "atol", "q_tol", "omega_tol", "norm_tol"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise InputError(f"expected a positive finite {name}, received {v!r}")
-        if not (isinstance(self.q0_floor, (int, float)) and 0 <= self.q0_floor < 1):
-            raise InputError(f"expected 0 <= q0_floor < 1, received {self.q0_floor!r}")
-        for name in ("torque_limit", "sample_period"):
-            v = getattr(self, name)
-            if v is not None and (not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0):
-                raise InputError(f"expected a positive finite {name} or none, received {v!r}")
-        if self.sample_period is not None and self.integrator != "rk4":
-            raise InputError(
-                f"expected integrator 'rk4' with a sample period (zero-order hold), received {self.integrator!r}"
-            )
-        if self.inverse not in ("E", "solve"):
-            raise InputError(f"expected inverse 'E' or 'solve', received {self.inverse!r}")
-
-    @property
-    def interval(self) -> float:
-        """Output-grid spacing actually used (the sample period under ZOH)."""
-        return float(self.sample_period) if self.sample_period is not None else float(self.output_step)
-
-    @property
-    def substeps(self) -> int:
-        """RK4 sub-steps per output interval (``ceil(interval/step)``)."""
-        return max(1, math.ceil(self.interval / self.step - 1e-9))
-
-
-# ---------------------------------------------------------------------------
-# parameter vector
-
-
-def _param_layout(n: int) -> dict[str, slice]:
-    sizes = [
-        ("gains", 3),  # K_o, K_q, beta
-        ("K_v", n),
-        ("phi", 1),
-        ("umax", 3 * n),
-        ("J", 9 * n),
-        ("Jinv", 9 * n),
-        ("L", n * n),
-        ("freq", 6),  # shared disturbance frequencies (w1[3], w2[3])
-        ("harm", 18 * n),
-        ("gg", 1),
-        ("orbit", 4),  # mu, R, n, theta0
-    ]
-    out, k = {}, 0
-    for name, s in sizes:
-        out[name] = slice(k, k + s)
-        k += s
-    out["_size"] = slice(0, k)
-    return out
-
-
-def pack_params(f: Formation, opt: SimOptions) -> np.ndarray:
-    """The flat parameter vector of the compiled kernel for ``f`` and ``opt``."""
-    n = f.n
-    lay = _param_layout(n)
-    p = np.zeros(lay["_size"].stop)
-    g = f.gains
-    p[lay["gains"]] = (g.K_o, g.K_q, g.beta)
-    p[lay["K_v"]] = g.K_v
-    p[lay["phi"]] = opt.phi
-    p[lay["umax"]] = np.inf if opt.torque_limit is None else opt.torque_limit
-    J = np.asarray(f.inertias, dtype=float)
-    p[lay["J"]] = J.transpose(0, 2, 1).ravel()  # column-major per matrix (CasADi)
-    p[lay["Jinv"]] = np.linalg.inv(J).transpose(0, 2, 1).ravel()
-    p[lay["L"]] = f.graph.laplacian.astype(float).T.ravel()
-    freq, harm = kernel_parameters(f.disturbance)
-    p[lay["freq"]] = freq
-    p[lay["harm"]] = harm.ravel()
-    p[lay["gg"]] = 1.0 if f.disturbance.gravity_gradient else 0.0
-    o = f.disturbance.orbit
-    p[lay["orbit"]] = (o.mu, o.radius, o.mean_motion, o.phase)
-    return p
-
-
-# ---------------------------------------------------------------------------
-# symbolic kernel
-
-
-def _metrics_expr(x: ca.SX, n: int) -> ca.SX:
-    """``(Omega_m, Q_m)`` (paper section 3) as CasADi expressions of the state.
-
-    ``q_ij`` = vector part of ``q_bar_j^* (x) q_bar_i`` (paper's product):
-    ``q0_j q_i - q0_i q_j - q_j x q_i``; ``omega_ij = omega_i - omega_j`` (body
-    components, as in the paper's objective ``omega_i -> omega_j``).  Sums run
-    over ordered pairs ``i != j`` and are normalised by ``n(n-1)``.
-    """
-    sw = 0
-    sq = 0
-    for i in range(n):
-        qi, q0i = x[4 * i : 4 * i + 3], x[4 * i + 3]
-        wi = x[4 * n + 3 * i : 4 * n + 3 * i + 3]
-        for j in range(i + 1, n):
-            qj, q0j = x[4 * j : 4 * j + 3], x[4 * j + 3]
-            wj = x[4 * n + 3 * j : 4 * n + 3 * j + 3]
-            qij = q0j * qi - q0i * qj - ca.cross(qj, qi)
-            sq = sq + ca.sumsqr(qij)
-            sw = sw + ca.sumsqr(wi - wj)
-    # ordered pairs: each unordered pair twice (|q_ji| = |q_ij|)
-    norm = n * (n - 1)
-    return ca.vertcat(ca.sqrt(2 * sw / norm), ca.sqrt(2 * sq / norm))
-
-
-@dataclass
-class Kernel:
-    """CasADi functions of one formation size / controller variant (internal).
-
-    ``ctrl(x, t, p) -> u`` (3N torques, limited), ``plant(x, u, t, p) -> xdot``,
-    ``rhs(x, t, p) -> xdot`` (continuous closed loop), ``metrics(x) -> (Omega_m, Q_m)``,
-    ``chunk(xa, h, p) -> (XA, U, MINQ0, MET)`` - ``K`` output intervals of ``M`` RK4
-    sub-steps each, ``xa = (x, t)``; ``mc_chunk(xa, h, p) -> (XA_end, S)`` with
-    per-interval summaries ``S = (Omega_m, Q_m, min q0, max|u|, max norm error)``.
-    """
-
-    n: int
-    switch: str
-    zoh: bool
-    M: int
-    K: int
-    inverse: str
-    ctrl: ca.Function
-    plant: ca.Function
-    rhs: ca.Function
-    metrics: ca.Function
-    chunk: ca.Function
-    mc_chunk: ca.Function
-    compiled: bool = False
-    compile_seconds: float = 0.0
-    sources: dict = field(default_factory=dict)
-
-
-def _build_symbolic(n: int, switch: str, inverse: str) -> tuple[ca.Function, ca.Function, ca.Function, ca.Function]:
-    lay = _param_layout(n)
-    x = ca.SX.sym("x", 7 * n)
-    u_in = ca.SX.sym("u", 3 * n)
-    t = ca.SX.sym("t")
-    p = ca.SX.sym("p", lay["_size"].stop)
-    K_o, K_q, beta = p[lay["gains"]][0], p[lay["gains"]][1], p[lay["gains"]][2]
-    Kv = p[lay["K_v"]]
-    phi = p[lay["phi"]]
-    umax = p[lay["umax"]]
-    Jall = p[lay["J"]]
-    Jinv_all = p[lay["Jinv"]]
-    L = ca.reshape(p[lay["L"]], n, n)
-    harm = p[lay["harm"]]
-    freq = p[lay["freq"]]
-    gg = p[lay["gg"]]
-    orbit = p[lay["orbit"]]
-    mf = model_function()
-    ctrl_fn = build_controller(switch=switch, inverse=inverse).function
-    q = [x[4 * i : 4 * i + 3] for i in range(n)]
-    q0 = [x[4 * i + 3] for i in range(n)]
-    w = [x[4 * n + 3 * i : 4 * n + 3 * i + 3] for i in range(n)]
-    J = [ca.reshape(Jall[9 * i : 9 * i + 9], 3, 3) for i in range(n)]
-    Jinv = [ca.reshape(Jinv_all[9 * i : 9 * i + 9], 3, 3) for i in range(n)]
-    zero3 = ca.SX.zeros(3)
-    E = [mf(q[i], q0[i], zero3, J[i])[0] for i in range(n)]  # E depends on (q, q0) only
-    qd = [ca.mtimes(E[i], w[i]) for i in range(n)]
-    Qmat = ca.horzcat(*q)  # 3 x n
-    S = ca.mtimes(Qmat, L.T)  # column i = sum_j L_ij q_j = s_i
-    us = []
-    for i in range(n):
-        out = ctrl_fn(q[i], q0[i], qd[i], J[i], S[:, i], K_o, K_q, beta, Kv[i], phi)
-        ui = out[0]
-        lim = umax[3 * i : 3 * i + 3]
-        us.append(ca.fmin(lim, ca.fmax(-lim, ui)))
-    u = ca.vertcat(*us)
-    ctrl = ca.Function("fs_ctrl", [x, t, p], [u], ["x", "t", "p"], ["u"])
-
-    trig = disturbance_trig(t, freq, orbit)  # time-only terms, once for the formation
-
-    def plant_expr(uv: ca.SX) -> ca.SX:
-        dq, dw = [], []
-        for i in range(n):
-            ud = disturbance_torque(trig, q[i], q0[i], J[i], harm[18 * i : 18 * i + 18], gg)
-            dq.append(ca.vertcat(qd[i], -0.5 * ca.dot(q[i], w[i])))  # eq. (1)
-            Jw = ca.mtimes(J[i], w[i])
-            dw.append(ca.mtimes(Jinv[i], -ca.cross(w[i], Jw) + uv[3 * i : 3 * i + 3] + ud))  # eq. (2)
-        return ca.vertcat(*dq, *dw)
-
-    plant = ca.Function("fs_plant", [x, u_in, t, p], [plant_expr(u_in)], ["x", "u", "t", "p"], ["xdot"])
-    rhs = ca.Function("fs_rhs", [x, t, p], [plant_expr(u), u], ["x", "t", "p"], ["xdot", "u"])
-    metrics = ca.Function("fs_metrics", [x], [_metrics_expr(x, n)], ["x"], ["m"])
-    return ctrl, plant, rhs, metrics
-
-
-#: Output intervals per call of the compiled kernel.
-CHUNK = 100
-
-#: Sub-steps per output interval up to which the RK4 loop is unrolled in the kernel.
-UNROLL_MAX = 10
-
-
-def _build_kernel(n: int, switch: str, zoh: bool, M: int, K: int, inverse: str) -> Kernel:
-    ctrl, plant, rhs, metrics = _build_symbolic(n, switch, inverse)
-    nx = 7 * n
-    npar = plant.size1_in(3)
-    # one RK4 sub-step (MX calling the SX right-hand side once per stage, so the C code
-    # holds the closed loop once whatever the number of sub-steps)
-    xa = ca.MX.sym("xa", nx + 1)
-    h = ca.MX.sym("h")
-    p = ca.MX.sym("p", npar)
-    u0 = ca.MX.sym("u0", 3 * n)
-    x, t = xa[:nx], xa[nx]
-
-    def f(xx: Any, tt: Any) -> Any:
-        return plant(xx, u0, tt, p) if zoh else rhs(xx, tt, p)[0]
-
-    if zoh:
-        k1, u1 = f(x, t), u0
-    else:
-        k1, u1 = rhs(x, t, p)  # the torque at the sub-step start comes with the first stage
-    k2 = f(x + h / 2 * k1, t + h / 2)
-    k3 = f(x + h / 2 * k2, t + h / 2)
-    k4 = f(x + h * k3, t + h)
-    xn = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    q0n = ca.vertcat(*[xn[4 * i + 3] for i in range(n)])
-    nerr = ca.mmax(ca.vertcat(*[ca.fabs(ca.sumsqr(xn[4 * i : 4 * i + 4]) - 1) for i in range(n)]))
-    step = ca.Function("fs_step", [xa, h, p, u0], [ca.vertcat(xn, t + h), q0n, nerr, u1])
-    # one output interval: the control at its start (held under ZOH), M sub-steps;
-    # unrolled up to UNROLL_MAX sub-steps (fastest), a mapaccum loop beyond (compile time)
-    xa = ca.MX.sym("xa", nx + 1)
-    h = ca.MX.sym("h")
-    p = ca.MX.sym("p", npar)
-    # under ZOH the held control; otherwise unused (the first stage computes the torque)
-    uhold = ctrl(xa[:nx], xa[nx], p) if zoh else ca.MX.zeros(3 * n)
-    if M <= UNROLL_MAX:
-        xk, q0s, nes, us = xa, [], [], []
-        for _ in range(M):
-            xk, q0k, nek, uk = step(xk, h, p, uhold)
-            q0s.append(q0k)
-            nes.append(nek)
-            us.append(uk)
-        xa_end, Q0, NE, ustart = xk, ca.horzcat(*q0s), ca.horzcat(*nes), us[0]
-    else:
-        XA, Q0, NE, US = step.mapaccum("fs_steps", M)(xa, h, p, uhold)
-        xa_end, ustart = XA[:, -1], US[:, 0]
-    minq0 = ca.vertcat(*[ca.mmin(Q0[i, :]) for i in range(n)])
-    interval = ca.Function(
-        "fs_interval", [xa, h, p], [xa_end, ustart, minq0, metrics(xa_end[:nx])], ["xa", "h", "p"],
-        ["xa_next", "u", "minq0", "m"],
-    )
-    chunk = interval.mapaccum("fs_chunk", K)
-    summ = ca.vertcat(metrics(xa_end[:nx]), ca.mmin(minq0), ca.mmax(ca.fabs(ustart)), ca.mmax(NE))
-    mc_interval = ca.Function("fs_mc_interval", [xa, h, p], [xa_end, summ], ["xa", "h", "p"], ["xa_next", "s"])
-    mc_acc = mc_interval.mapaccum("fs_mc_acc", K)
-    xa2 = ca.MX.sym("xa", nx + 1)
-    h2 = ca.MX.sym("h")
-    p2 = ca.MX.sym("p", npar)
-    XA2, Ssum = mc_acc(xa2, h2, p2)
-    mc_chunk = ca.Function("fs_mc_chunk", [xa2, h2, p2], [XA2[:, -1], Ssum], ["xa", "h", "p"], ["xa_end", "s"])
-    return Kernel(n, switch, zoh, M, K, inverse, ctrl, plant, rhs, metrics, chunk, mc_chunk)
-
-
-def cache_dir() -> Path:
-    """User cache directory of compiled kernels (never inside the repository).
-
-    ``$FORMSYNC_CACHE_DIR``, else ``$XDG_CACHE_HOME/formsync-design``, else
-    ``~/.cache/formsync-design``.
-    """
-    env = os.environ.get("FORMSYNC_CACHE_DIR")
-    if env:
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "formsync-design"
-
-
-#: gcc flags of the kernels.  ``-march=native`` (27% faster than plain ``-O2`` here) makes
-#: the objects machine-specific, so the cache key includes the host and its CPU.
-_CFLAGS = ["-O3", "-march=native", "-fPIC", "-shared"]
-
-
-def _host_tag() -> str:
-    import platform
-
-    cpu = ""
-    try:
-        with open("/proc/cpuinfo") as fh:
-            cpu = next((ln for ln in fh if ln.startswith("model name")), "")
-    except OSError:  # pragma: no cover - not Linux
-        pass
-    return f"{platform.node()}|{platform.machine()}|{cpu.strip()}"
-
-
-def _compile(fn: ca.Function) -> tuple[ca.Function, bool]:
-    """C code generation + gcc, cached by the hash of the generated source."""
-    cc = shutil.which("gcc") or shutil.which("cc")
-    if cc is None:
-        return fn, False
-    name = fn.name()
-    with tempfile.TemporaryDirectory() as td:
-        cg = ca.CodeGenerator(f"{name}.c", {"with_header": False})
-        cg.add(fn)
-        cg.generate(td + os.sep)
-        src = Path(td, f"{name}.c").read_text()
-    key = hashlib.sha256((src + " ".join(_CFLAGS) + ca.__version__ + _host_tag()).encode()).hexdigest()[:20]
-    d = cache_dir() / "kernels"
-    so = d / f"{name}_{key}.so"
-    if not so.is_file():
-        d.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory(dir=d) as td:
-            c = Path(td, f"{name}.c")
-            c.write_text(src)
-            tmp_so = Path(td, so.name)
-            r = subprocess.run([cc, *_CFLAGS, str(c), "-o", str(tmp_so), "-lm"], capture_output=True, text=True)
-            if r.returncode != 0:  # pragma: no cover - compiler trouble
-                raise SimulationError(f"expected the C kernel to compile, {cc} said: {r.stderr[-500:]}")
-            os.replace(tmp_so, so)  # atomic: concurrent processes never see half a file
-    return ca.external(name, str(so)), True
-
-
-_KERNELS: dict = {}
-
-
-def get_kernel(n: int, switch: str, zoh: bool, M: int, K: int = 100, inverse: str = "E", compile: bool = True) -> Kernel:
-    """Build (and compile, cached on disk and in memory) the kernel of a formation size."""
-    key = (n, switch, zoh, M, K, inverse, compile)
-    hit = _KERNELS.get(key)
-    if hit is not None:
-        return hit
-    t0 = time.perf_counter()
-    k = _build_kernel(n, switch, zoh, M, K, inverse)
-    if compile:
-        k.chunk, ok1 = _compile(k.chunk)
-        k.mc_chunk, ok2 = _compile(k.mc_chunk)
-        k.compiled = ok1 and ok2
-    k.compile_seconds = time.perf_counter() - t0
-    _KERNELS[key] = k
-    return k
-
-
-# ---------------------------------------------------------------------------
-# metrics in numpy (post-processing on a grid)
-
-
-def formation_metrics(kernel_or_n: Kernel | int, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(Omega_m, Q_m)`` at every row of ``X`` (shape ``(T, 7N)``), via the CasADi metric."""
-    if isinstance(kernel_or_n, Kernel):
-        mf = kernel_or_n.metrics
-    else:
-        x = ca.SX.sym("x", 7 * int(kernel_or_n))
-        mf = ca.Function("fs_metrics", [x], [_metrics_expr(x, int(kernel_or_n))])
-    X = np.atleast_2d(X)
-    out = mf.map(X.shape[0])(X.T).full()
-    return out[0], out[1]
-
-
-def convergence_time(t: np.ndarray, omega_m: np.ndarray, q_m: np.ndarray, q_tol: float, omega_tol: float) -> float | None:
-    """First grid time after which ``Q_m <= q_tol`` and ``Omega_m <= omega_tol`` hold to the end.
-
-    ``None`` if the last sample violates either bound.
-
-    >>> convergence_time(np.arange(4.0), np.array([1, 0, 1, 0.0]), np.zeros(4), 1e-4, 1e-5)
-    3.0
-    """
-    ok = (np.asarray(q_m) <= q_tol) & (np.asarray(omega_m) <= omega_tol)
-    if ok.size == 0 or not ok[-1]:
-        return None
-    bad = np.flatnonzero(~ok)
-    k = 0 if bad.size == 0 else int(bad[-1]) + 1
-    return float(t[k])
-
-
-# ---------------------------------------------------------------------------
-# result
-
-
-@dataclass(frozen=True)
-class SimResult:
-    """A finished simulation (frozen).
-
-    Attributes
-    ----------
-    status : {"converged", "not-converged", "singular"}
-    t : (T,) grid (s); x : (T, 7N) states (module docstring); u : (T, 3N) torques (N m),
-        ``u[k]`` acts on ``[t_k, t_{k+1})`` (exactly under ZOH; the value at ``t_k`` otherwise)
-    omega_m, q_m : (T,) the paper's metrics
-    convergence_time : float or None
-    final_omega_m, final_q_m : float
-    peak_torque : (N, 3) max |u| per spacecraft and axis (N m)
-    min_q0 : (N,) over all sub-steps; singular_spacecraft (1-based) / singular_time when hit
-    saturation_end_time : last grid time with some torque component at ``torque_limit``
-        (None without a limit or if never reached)
-    final_rates : (N, 3) absolute body rates at the end (rad/s);
-    common_rate : (3,) their mean (a common drift if nonzero)
-    stats : dict - integrator, steps, rhs evaluations, wall/compile seconds, max norm error
-    options : SimOptions; n : int; names : list of state names
-    """
-
-    status: str
-    t: np.ndarray
-    x: np.ndarray
-    u: np.ndarray
-    omega_m: np.ndarray
-    q_m: np.ndarray
-    convergence_time: float | None
-    final_omega_m: float
-    final_q_m: float
-    peak_torque: np.ndarray
-    min_q0: np.ndarray
-    singular_spacecraft: int | None
-    singular_time: float | None
-    saturation_end_time: float | None
-    final_rates: np.ndarray
-    common_rate: np.ndarray
-    stats: dict
-    options: SimOptions
-    n: int
-    names: tuple[str, ...]
-
-    @property
-    def converged(self) -> bool:
-        return self.status == "converged"
-
-    @property
-    def quaternions(self) -> np.ndarray:
-        """(T, N, 4) ``(q1, q2, q3, q0)``."""
-        return unpack_state(self.x, self.n)[0]
-
-    @property
-    def rates(self) -> np.ndarray:
-        """(T, N, 3) body rates (rad/s)."""
-        return unpack_state(self.x, self.n)[1]
-
-    @property
-    def torques(self) -> np.ndarray:
-        """(T, N, 3) control torques (N m)."""
-        return self.u.reshape(len(self.t), self.n, 3)
-
-    def message(self) -> str:
-        """One line a user can act on."""
-        if self.status == "singular":
-            i = int(self.singular_spacecraft or 1)
-            q0 = float(self.min_q0[i - 1])
-            if q0 <= self.options.q0_floor:
-                return (
-                    f"q0 of spacecraft {i} reached {self.options.q0_floor:g} at t = {self.singular_time:.4f} s: "
-                    f"Q is singular at q0 = 0 and controller (4) undefined"
-                )
-            return (
-                f"q0 of spacecraft {i} fell to {q0:.3g} at t = {self.singular_time:.4f} s and the "
-                f"integration blew up there (|omega| ~ 2|q'|/q0): the q0 -> 0 singularity of Q, "
-                f"where controller (4) is undefined"
-            )
-        if self.status == "converged":
-            return (
-                f"converged at t = {self.convergence_time:.2f} s (Q_m <= {self.options.q_tol:g}, "
-                f"Omega_m <= {self.options.omega_tol:g} rad/s to the end)"
-            )
-        return (
-            f"not converged within tf = {self.t[-1]:g} s: final Q_m = {self.final_q_m:.3e}, "
-            f"Omega_m = {self.final_omega_m:.3e} rad/s (tolerances {self.options.q_tol:g}, "
-            f"{self.options.omega_tol:g})"
-        )
-
-    def summary(self) -> dict:
-        """JSON-ready summary (no trajectories)."""
-        o = self.options
-        return {
-            "status": self.status,
-            "message": self.message(),
-            "n": self.n,
-            "tf": float(self.t[-1]),
-            "convergence_time": self.convergence_time,
-            "final_omega_m": self.final_omega_m,
-            "final_q_m": self.final_q_m,
-            "peak_torque": self.peak_torque.tolist(),
-            "min_q0": self.min_q0.tolist(),
-            "singular_spacecraft": self.singular_spacecraft,
-            "singular_time": self.singular_time,
-            "saturation_end_time": self.saturation_end_time,
-            "final_rates": self.final_rates.tolist(),
-            "common_rate": self.common_rate.tolist(),
-            "options": {
-                "switch": o.switch,
-                "phi": o.phi,
-                "torque_limit": o.torque_limit,
-                "sample_period": o.sample_period,
-                "integrator": o.integrator,
-                "step": o.step,
-                "output_step": o.interval,
-                "rtol": o.rtol,
-                "atol": o.atol,
-                "q_tol": o.q_tol,
-                "omega_tol": o.omega_tol,
-                "q0_floor": o.q0_floor,
-            },
-            "stats": self.stats,
-        }
-
-    def to_npz(self, path: str | Path) -> Path:
-        """Write ``t, x, u, omega_m, q_m, names`` to a compressed NPZ file."""
-        p = Path(path)
-        np.savez_compressed(
-            p, t=self.t, x=self.x, u=self.u, omega_m=self.omega_m, q_m=self.q_m, names=np.array(self.names)
-        )
-        return p
-
-    def to_csv(self, path: str | Path) -> Path:
-        """Write one row per grid time: ``t, <state names>, u1_1.., Omega_m, Q_m``."""
-        p = Path(path)
-        unames = [f"u{k}_{i}" for i in range(1, self.n + 1) for k in (1, 2, 3)]
-        header = ",".join(["t", *self.names, *unames, "Omega_m", "Q_m"])
-        data = np.column_stack([self.t, self.x, self.u, self.omega_m, self.q_m])
-        np.savetxt(p, data, delimiter=",", header=header, comments="", fmt="%.17g")
-        return p
-
-
-# ---------------------------------------------------------------------------
-# driver
-
-
-def simulate(formation: Formation, options: SimOptions | None = None) -> SimResult:
+def simulate(
+    formation: Formation,
+    options: SimOptions | None = None,
+    *,
+    spec: Spec | str | Path | None = None,
+) -> SimResult:
     """Simulate the closed-loop formation.
 
     Parameters
     ----------
     formation : Formation
     options : SimOptions, optional
+    spec : Spec, str, Path or None
+        The specification whose controller is simulated (default: the paper's,
+        ``liang2016``; resolved with :func:`~formsync_design.spec.loader.load_spec`).
+        Its kernel is cached under ``spec.key``.
 
     Returns
     -------
@@ -844,13 +154,18 @@ def simulate(formation: Formation, options: SimOptions | None = None) -> SimResu
     >>> f = Formation(make_graph("path:2"), np.array([np.eye(3)] * 2), att, np.zeros((2, 3)),
     ...               Gains(1.6, 0.4, 0.3, (0.0, 0.0)), no_disturbance(2))
     >>> r = simulate(f, SimOptions(tf=60.0, compile=False))
-    >>> r.status, r.final_q_m < 1e-4
+    >>> str(r.status), r.final_q_m < 1e-4
     ('converged', True)
     """
     opt = options if options is not None else SimOptions()
+    if not isinstance(formation, Formation):
+        raise InputError(f"expected a Formation, received a {type(formation).__name__}")
+    if not isinstance(opt, SimOptions):
+        raise InputError(f"expected SimOptions, received a {type(opt).__name__}")
+    sp_spec = load_spec(spec)
     if opt.integrator == "cvodes":
-        return _simulate_cvodes(formation, opt)
-    return _simulate_rk4(formation, opt)
+        return _simulate_cvodes(formation, opt, sp_spec)
+    return _simulate_rk4(formation, opt, sp_spec)
 
 
 def _grid_count(opt: SimOptions) -> int:
@@ -864,14 +179,16 @@ def _grid_count(opt: SimOptions) -> int:
     return max(1, int(Kr))
 
 
-def _simulate_rk4(f: Formation, opt: SimOptions) -> SimResult:
+def _simulate_rk4(f: Formation, opt: SimOptions, spec: Spec) -> SimResult:
     n = f.n
     nx = 7 * n
     Ktot = _grid_count(opt)
     M = opt.substeps
     h = opt.interval / M
     Kc = CHUNK  # fixed, so one compiled kernel serves every horizon (extra intervals are dropped)
-    kern = get_kernel(n, opt.switch, opt.sample_period is not None, M, Kc, opt.inverse, opt.compile)
+    kern = get_kernel(
+        n, opt.switch, opt.sample_period is not None, M, Kc, opt.inverse, opt.compile, spec=spec
+    )
     p = pack_params(f, opt)
     xa = np.concatenate([f.initial_state(), [0.0]])
     Xs = [xa[:nx][None, :]]
@@ -1003,9 +320,9 @@ def _locate_event(
                         best_i, best_t = int(i), tc
                 return best_i + 1, float(best_t), float(floor)
             if not (np.all(np.isfinite(xn)) and drift <= allowed):
-                i = int(np.argmin(q0a))
-                sc = i + 1 if q0a[i] < SINGULAR_BLOWUP_Q0 else None
-                result = (sc, float(tk), float(q0a[i]))
+                imin = int(np.argmin(q0a))
+                sc = imin + 1 if q0a[imin] < SINGULAR_BLOWUP_Q0 else None
+                result = (sc, float(tk), float(q0a[imin]))
                 blew = True
                 break
             xk, tk = xn, tk + hh
@@ -1042,11 +359,11 @@ def _finish(
             f"{norm_err:.3e}; tighten the step/tolerances"
         )
     if sing_sc is not None:
-        status = "singular"
+        status = SimStatus.SINGULAR
         ct = None
     else:
         ct = convergence_time(t, om, qm, opt.q_tol, opt.omega_tol)
-        status = "converged" if ct is not None else "not-converged"
+        status = SimStatus.CONVERGED if ct is not None else SimStatus.NOT_CONVERGED
     sat_end = None
     if opt.torque_limit is not None:
         at = np.flatnonzero((np.abs(U) >= opt.torque_limit * (1 - 1e-12)).any(axis=1))
@@ -1073,14 +390,15 @@ def _finish(
         stats=stats,
         options=opt,
         n=n,
+        spec_key=kern.spec_key,
         names=tuple(state_names(n)),
     )
 
 
-def _simulate_cvodes(f: Formation, opt: SimOptions) -> SimResult:
+def _simulate_cvodes(f: Formation, opt: SimOptions, spec: Spec) -> SimResult:
     n = f.n
     Ktot = _grid_count(opt)
-    kern = get_kernel(n, opt.switch, False, 1, 1, opt.inverse, compile=False)
+    kern = get_kernel(n, opt.switch, False, 1, 1, opt.inverse, compile=False, spec=spec)
     p = pack_params(f, opt)
     x = ca.SX.sym("x", 7 * n)
     t = ca.SX.sym("t")

@@ -7,6 +7,15 @@ from formsync_design.spec.loader import (
     default_spec_path,
     gain_symbols,
     load_spec,
+    validate_spec,
 )
 
-__all__ = ["ControllerView", "LyapunovView", "Spec", "load_spec", "default_spec_path", "gain_symbols"]
+__all__ = [
+    "ControllerView",
+    "LyapunovView",
+    "Spec",
+    "load_spec",
+    "validate_spec",
+    "default_spec_path",
+    "gain_symbols",
+]

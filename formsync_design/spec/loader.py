@@ -18,11 +18,28 @@ A specification is a Python module (the paper's is
     neighbours ``j``), with ``view.s = sum(view.edges)`` and the gains.
 
 Optional module attributes: ``NAME`` (short id), ``TITLE`` (one line).
+
+A specification is a *value* (:class:`Spec`): loaded from a file with
+:func:`load_spec`, or built in Python with :meth:`Spec.from_functions`.  Every
+cache that depends on the controller or the Lyapunov candidate (derivations,
+compiled simulation kernels, findings) is keyed by :attr:`Spec.key`, the
+SHA-256 digest of the specification's content, never by a path.
+
+Both functions are validated when the specification is loaded, by calling
+them on the views (cheap): a malformed specification (the file does not
+import, lacks a function, a function raises, returns the wrong shape, uses an
+attribute of the view that does not exist or a symbol the view does not
+provide) is a one-line :class:`~formsync_design.errors.DerivationError`
+naming the file, the function and what was expected, before any command
+creates output.
 """
 
 from __future__ import annotations
 
-import importlib.util
+import hashlib
+import inspect
+import itertools
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,6 +55,7 @@ __all__ = [
     "LyapunovView",
     "Spec",
     "load_spec",
+    "validate_spec",
     "default_spec_path",
     "gain_symbols",
 ]
@@ -112,51 +130,371 @@ class LyapunovView:
 
 @dataclass(frozen=True)
 class Spec:
-    """A loaded controller + Lyapunov-candidate specification."""
+    """A controller + Lyapunov-candidate specification (a value).
+
+    Attributes
+    ----------
+    name, title : str
+        Short id and one-line description.
+    path : str
+        The file it was loaded from (equal to ``source``), or ``"<python>"``.
+    controller, lyapunov : callable
+        The two functions of the module docstring.
+    key : str
+        SHA-256 hex digest of the content: a file's bytes; for
+        :meth:`from_functions`, the name, the functions' source text and the
+        expressions they return on the views (or, without source, a
+        per-object unique token).  Caches are keyed by it.
+    source : str
+        The file path, or ``"<python>"``.
+
+    Examples
+    --------
+    >>> spec = load_spec()
+    >>> spec.name, len(spec.key), spec.source == spec.path
+    ('liang2016', 64, True)
+    """
 
     name: str
     title: str
     path: str
     controller: Callable[[ControllerView], Any]
     lyapunov: Callable[[LyapunovView], Any]
+    key: str = ""
+    source: str = ""
+
+    @classmethod
+    def from_functions(
+        cls,
+        controller: Callable[[ControllerView], Any],
+        lyapunov: Callable[[LyapunovView], Any],
+        *,
+        name: str = "custom",
+        title: str | None = None,
+    ) -> Spec:
+        """A specification from two Python callables (e.g. written in a notebook).
+
+        The functions are validated like a file's (see :func:`validate_spec`).
+
+        Examples
+        --------
+        >>> def controller(v):
+        ...     return v.Q.I.T * ((v.B - v.K_o * v.A) * v.qd - v.K_q * v.A * v.s
+        ...                       - v.K_v * v.A * v.sw(v.qd + v.beta * v.s))
+        >>> def lyapunov(v):
+        ...     return v.qd.dot(v.qd) / 2 + (v.K_q + v.beta * v.K_o) / 4 * sum(
+        ...         (e.dot(e) for e in v.edges), 0) + v.beta * sum((e.dot(v.qd) for e in v.edges), 0)
+        >>> spec = Spec.from_functions(controller, lyapunov, name="inline")
+        >>> spec.source, spec.name, len(spec.key)
+        ('<python>', 'inline', 64)
+        >>> spec.key == Spec.from_functions(controller, lyapunov, name="inline").key
+        True
+        """
+        for fn, f in (("controller", controller), ("lyapunov", lyapunov)):
+            if not callable(f):
+                raise DerivationError(
+                    f"<python>: expected {fn} to be a function {fn}(view), received "
+                    f"{type(f).__name__}"
+                )
+        outputs = validate_spec(controller, lyapunov, "<python>")
+        h = hashlib.sha256()
+        h.update(f"name:{name}\n".encode())
+        for f in (controller, lyapunov):
+            h.update(_source_token(f).encode())
+            h.update(b"\n")
+        h.update(outputs.encode())
+        return cls(
+            name=str(name),
+            title=str(title if title is not None else name),
+            path=PYTHON_SOURCE,
+            controller=controller,
+            lyapunov=lyapunov,
+            key=h.hexdigest(),
+            source=PYTHON_SOURCE,
+        )
+
+
+#: ``Spec.source`` of a specification built in Python.
+PYTHON_SOURCE = "<python>"
+
+_tokens: weakref.WeakKeyDictionary[Any, str] = weakref.WeakKeyDictionary()
+_token_counter = itertools.count()
+
+
+def _source_token(f: Callable[..., Any]) -> str:
+    """The source text of ``f`` plus its closure values, or a per-object unique token."""
+    try:
+        text = inspect.getsource(f)
+    except (OSError, TypeError):
+        try:
+            tok = _tokens.get(f)
+            if tok is None:
+                tok = _tokens[f] = f"token:{next(_token_counter)}:{id(f)}"
+        except TypeError:  # not weak-referenceable
+            tok = f"token:{next(_token_counter)}:{id(f)}"
+        return tok
+    cells = getattr(f, "__closure__", None) or ()
+    vals = []
+    for c in cells:
+        try:
+            vals.append(repr(c.cell_contents))
+        except ValueError:  # empty cell
+            vals.append("<empty>")
+    return text + "\nclosure:" + "|".join(vals)
+
+
+def _one_line(e: BaseException) -> str:
+    msg = " ".join(str(e).split())
+    return f"{type(e).__name__}: {msg}" if msg else type(e).__name__
+
+
+def _call(fn_name: str, f: Callable[[Any], Any], view: Any, where: str) -> Any:
+    """Call a user's function on a view; any failure is a one-line DerivationError."""
+    what = "a 3x1 matrix expression" if fn_name == "controller" else "a scalar expression"
+    try:
+        return f(view)
+    except DerivationError as e:
+        raise DerivationError(f"{where}: {fn_name}(view): {e}") from None
+    except AttributeError as e:
+        attr = getattr(e, "name", None)
+        if getattr(e, "obj", None) is view and attr:
+            raise DerivationError(
+                f"{where}: {fn_name}(view): expected an attribute of the view "
+                f"({_view_attributes(view)}), received view.{attr}"
+            ) from None
+        raise DerivationError(
+            f"{where}: {fn_name}(view): expected {what}, the function raised {_one_line(e)}"
+        ) from None
+    except NameError as e:
+        raise DerivationError(
+            f"{where}: {fn_name}(view): expected only the view's names and symbols, "
+            f"received the unknown name {getattr(e, 'name', None) or _one_line(e)}"
+        ) from None
+    except RecursionError:
+        raise DerivationError(
+            f"{where}: {fn_name}(view): expected {what}, the function recursed without end"
+        ) from None
+    except Exception as e:  # a user's function: report, don't crash
+        raise DerivationError(
+            f"{where}: {fn_name}(view): expected {what}, the function raised {_one_line(e)}"
+        ) from None
+
+
+def _view_attributes(view: Any) -> str:
+    if isinstance(view, ControllerView):
+        return "A, B, Q, qd, s, K_o, K_q, beta, K_v, sw"
+    return "m, qd, edges, s, K_o, K_q, beta"
+
+
+def _controller_symbols(v: ControllerView) -> set[Any]:
+    return {v.A, v.B, v.Q, v.qd, v.s, v.sigma, v.K_o, v.K_q, v.beta, v.K_v}
+
+
+def validate_spec(
+    controller: Callable[[ControllerView], Any],
+    lyapunov: Callable[[LyapunovView], Any],
+    where: str,
+) -> str:
+    """Call both functions on the views and check what they return.
+
+    Parameters
+    ----------
+    controller, lyapunov : callable
+        The specification's functions.
+    where : str
+        The file (or ``"<python>"``) named in error messages.
+
+    Returns
+    -------
+    str
+        A canonical text (``sympy.srepr``) of what the functions returned,
+        usable as part of a content key.
+
+    Raises
+    ------
+    DerivationError
+        One line naming ``where``, the function and what was expected, if a
+        function raises, uses an attribute of the view that does not exist or
+        an unknown symbol, or returns the wrong shape.
+
+    Examples
+    --------
+    >>> validate_spec(lambda v: v.qd, lambda v: v.qd.dot(v.qd), "demo")[:10]
+    'MatrixSymb'
+    >>> validate_spec(lambda v: v.A, lambda v: 0, "demo")
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.DerivationError: demo: controller(view): expected a 3x1 matrix expression, received shape (3, 3)
+    """
+    v = ControllerView()
+    u = _call("controller", controller, v, where)
+    shape = getattr(u, "shape", None)
+    if shape != (3, 1) or not isinstance(u, (sp.MatrixBase, sp.MatrixExpr)):
+        got = f"shape {tuple(shape)}" if shape is not None else f"a {type(u).__name__}"
+        raise DerivationError(
+            f"{where}: controller(view): expected a 3x1 matrix expression, received {got}"
+        )
+    extra = {str(x) for x in u.free_symbols} - {str(x) for x in _controller_symbols(v)}
+    if extra:
+        raise DerivationError(
+            f"{where}: controller(view): expected only the view's symbols "
+            f"({_view_attributes(v)}), received unknown symbols {sorted(extra)}"
+        )
+    parts = [sp.srepr(u)]
+    for m in (1, 2):
+        lv = LyapunovView(m)
+        V = _call("lyapunov", lyapunov, lv, where)
+        try:
+            Vs = sp.sympify(V)
+        except (sp.SympifyError, TypeError, ValueError):
+            raise DerivationError(
+                f"{where}: lyapunov(view): expected a scalar expression, received a "
+                f"{type(V).__name__}"
+            ) from None
+        if isinstance(Vs, (sp.MatrixBase, sp.MatrixExpr)):
+            if Vs.shape == (1, 1):
+                Vs = Vs[0, 0]
+            else:
+                raise DerivationError(
+                    f"{where}: lyapunov(view): expected a scalar expression, received shape "
+                    f"{tuple(Vs.shape)}"
+                )
+        if not isinstance(Vs, sp.Expr):
+            raise DerivationError(
+                f"{where}: lyapunov(view): expected a scalar expression, received a "
+                f"{type(V).__name__}"
+            )
+        allowed = set(lv.qd) | {x for e in lv.edges for x in e} | {lv.K_o, lv.K_q, lv.beta}
+        extra = {str(x) for x in Vs.free_symbols - allowed}
+        if extra:
+            raise DerivationError(
+                f"{where}: lyapunov(view): expected V_i in view.qd, view.edges and the gains "
+                f"K_o, K_q, beta only, received unknown symbols {sorted(extra)}"
+            )
+        parts.append(sp.srepr(Vs))
+    return "\n".join(parts)
 
 
 def default_spec_path() -> Path:
     """Path of the paper's specification, ``derivations/liang2016.py``.
 
     Shipped inside the package as ``formsync_design.derivations``.
+
+    >>> default_spec_path().name
+    'liang2016.py'
     """
     from formsync_design.resources import design_file
 
     return design_file("liang2016")
 
 
-def load_spec(path: str | Path | None = None) -> Spec:
-    """Load a specification module (default: the paper's).
+#: Loaded files by (resolved path, content digest): a file loaded twice gives the same value.
+_LOADED: dict[tuple[str, str], Spec] = {}
 
+
+def _load_file(p: Path) -> Spec:
+    where = str(p)
+    if not p.exists():
+        raise InputError(f"expected a specification .py file, received {where!r} (no such file)")
+    if not p.is_file():
+        raise InputError(f"expected a specification .py file, received {where!r} (not a file)")
+    try:
+        data = p.read_bytes()
+    except OSError as e:
+        raise InputError(
+            f"expected a readable specification file, received {where!r} ({e.strerror or e})"
+        ) from None
+    key = hashlib.sha256(data).hexdigest()
+    cache_key = (str(p.resolve()), key)
+    if cache_key in _LOADED:
+        return _LOADED[cache_key]
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise DerivationError(
+            f"{where}: expected a UTF-8 Python specification, received non-UTF-8 bytes "
+            f"(byte {e.start})"
+        ) from None
+    if "\x00" in text:
+        raise DerivationError(
+            f"{where}: expected a UTF-8 Python specification, received a binary file (NUL byte)"
+        )
+    try:
+        code = compile(text, where, "exec")
+    except SyntaxError as e:
+        raise DerivationError(
+            f"{where}: expected valid Python, received a syntax error at line {e.lineno}: {e.msg}"
+        ) from None
+    except (ValueError, MemoryError, RecursionError) as e:
+        raise DerivationError(f"{where}: expected valid Python, received {_one_line(e)}") from None
+    mod = ModuleType(f"_formsync_spec_{key[:16]}")
+    mod.__file__ = where
+    try:
+        exec(code, mod.__dict__)
+    except BaseException as e:  # a user's file: report, don't crash
+        if isinstance(e, KeyboardInterrupt):
+            raise
+        raise DerivationError(
+            f"{where}: expected the specification module to import, it raised {_one_line(e)}"
+        ) from None
+    for fn in ("controller", "lyapunov"):
+        if not callable(getattr(mod, fn, None)):
+            got = "none" if not hasattr(mod, fn) else f"a {type(getattr(mod, fn)).__name__}"
+            raise DerivationError(f"{where}: expected a function {fn}(view), received {got}")
+    validate_spec(mod.controller, mod.lyapunov, where)
+    spec = Spec(
+        name=str(getattr(mod, "NAME", p.stem)),
+        title=str(getattr(mod, "TITLE", p.stem)),
+        path=where,
+        controller=mod.controller,
+        lyapunov=mod.lyapunov,
+        key=key,
+        source=where,
+    )
+    _LOADED[cache_key] = spec
+    return spec
+
+
+def load_spec(spec: Spec | str | Path | None = None) -> Spec:
+    """The specification ``spec`` resolves to.
+
+    Parameters
+    ----------
+    spec : Spec, str, Path or None
+        ``None``: the paper's design (``liang2016``); a path: that file,
+        loaded and validated; a :class:`Spec`: returned unchanged.
+
+    Returns
+    -------
+    Spec
+
+    Raises
+    ------
+    InputError
+        The file does not exist or cannot be read, or ``spec`` is of another type.
+    DerivationError
+        The specification is malformed (one line naming the file, the function
+        and what was expected; see :func:`validate_spec`).
+
+    Examples
+    --------
     >>> spec = load_spec()
     >>> spec.name
     'liang2016'
+    >>> load_spec(spec) is spec
+    True
+    >>> load_spec(spec.path).key == spec.key
+    True
     """
-    p = Path(path) if path is not None else default_spec_path()
-    if not p.is_file():
-        raise InputError(f"expected a specification .py file, received {str(p)!r} (no such file)")
-    mod_name = f"_formsync_spec_{abs(hash(str(p.resolve())))}"
-    s = importlib.util.spec_from_file_location(mod_name, p)
-    if s is None or s.loader is None:
-        raise InputError(f"expected an importable Python file, received {str(p)!r}")
-    mod: ModuleType = importlib.util.module_from_spec(s)
-    try:
-        s.loader.exec_module(mod)
-    except Exception as e:  # a user's file: report, don't crash
-        raise InputError(f"expected a loadable specification, {p} raised {type(e).__name__}: {e}") from None
-    for fn in ("controller", "lyapunov"):
-        if not callable(getattr(mod, fn, None)):
-            raise InputError(f"expected a function {fn}(view) in {p}, received none")
-    return Spec(
-        name=str(getattr(mod, "NAME", p.stem)),
-        title=str(getattr(mod, "TITLE", p.stem)),
-        path=str(p),
-        controller=mod.controller,
-        lyapunov=mod.lyapunov,
+    if isinstance(spec, Spec):
+        return spec
+    if spec is None:
+        return _load_file(default_spec_path())
+    if isinstance(spec, (str, Path)):
+        if isinstance(spec, str) and not spec.strip():
+            raise InputError("expected a specification .py file, received an empty string")
+        return _load_file(Path(spec))
+    raise InputError(
+        "expected a specification (a Spec, a .py file path, or None), received a "
+        f"{type(spec).__name__}"
     )

@@ -1,0 +1,301 @@
+"""Inputs of a simulation: the formation (graph, inertias, initial state, gains,
+disturbance), the options, the state layout and the run statuses.
+
+State layout (pydy style: coordinates, then speeds): ``x = (q1_1, q2_1, q3_1,
+q0_1, ..., q1_N, q2_N, q3_N, q0_N, w1_1, w2_1, w3_1, ..., w1_N, w2_N, w3_N)``.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from formsync_design.errors import InputError
+from formsync_design.graphs.build import Graph
+from formsync_design.models.disturbances import DisturbanceModel
+from formsync_design.models.inertia import check_inertias
+from formsync_design.sim.bridge import SWITCHES
+
+__all__ = [
+    "Gains",
+    "Formation",
+    "SimOptions",
+    "SimStatus",
+    "INTEGRATORS",
+    "STATUSES",
+    "MAX_GRID_POINTS",
+    "state_names",
+    "pack_state",
+    "unpack_state",
+]
+
+INTEGRATORS = ("rk4", "cvodes")
+
+
+class SimStatus(enum.StrEnum):
+    """How a simulation ended.
+
+    ``converged``: ``Q_m <= q_tol`` and ``Omega_m <= omega_tol`` from
+    ``convergence_time`` to the horizon; ``not-converged``: the horizon was
+    reached without that (``convergence_time`` is None: not reached within
+    the horizon); ``singular``: stopped early at the ``q0 -> 0`` singularity
+    (``singular_spacecraft``, ``singular_time``; every metric describes the
+    trajectory up to the stop only).
+    """
+
+    CONVERGED = "converged"
+    NOT_CONVERGED = "not-converged"
+    SINGULAR = "singular"
+
+
+STATUSES = tuple(s.value for s in SimStatus)
+
+#: Largest number of output grid points of one run (``tf / output_step``): the
+#: trajectory is kept in memory (7N + 3N floats per point).
+MAX_GRID_POINTS = 10_000_000
+
+
+def state_names(n: int) -> list[str]:
+    """Names of the state entries (module docstring for the layout).
+
+    >>> state_names(2)[:4], state_names(2)[8:11]
+    (['q1_1', 'q2_1', 'q3_1', 'q0_1'], ['w1_1', 'w2_1', 'w3_1'])
+    """
+    quat = [f"{c}_{i}" for i in range(1, n + 1) for c in ("q1", "q2", "q3", "q0")]
+    rates = [f"{c}_{i}" for i in range(1, n + 1) for c in ("w1", "w2", "w3")]
+    return quat + rates
+
+
+def pack_state(quaternions: np.ndarray, rates: np.ndarray) -> np.ndarray:
+    """``(N, 4)`` quaternions ``(q1, q2, q3, q0)`` and ``(N, 3)`` rates -> state vector.
+
+    >>> pack_state(np.array([[0, 0, 0, 1.0]]), np.array([[1.0, 2, 3]])).tolist()
+    [0.0, 0.0, 0.0, 1.0, 1.0, 2.0, 3.0]
+    """
+    return np.concatenate([np.asarray(quaternions, float).ravel(), np.asarray(rates, float).ravel()])
+
+
+def unpack_state(x: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """State vector(s) ``(..., 7N)`` -> quaternions ``(..., N, 4)`` and rates ``(..., N, 3)``."""
+    x = np.asarray(x, dtype=float)
+    return x[..., : 4 * n].reshape(*x.shape[:-1], n, 4), x[..., 4 * n :].reshape(*x.shape[:-1], n, 3)
+
+
+# ---------------------------------------------------------------------------
+# inputs
+
+
+@dataclass(frozen=True)
+class Gains:
+    """Controller gains: scalars ``K_o, K_q, beta`` and ``K_v`` per spacecraft.
+
+    >>> Gains(1.6, 0.4, 0.3, (0.01,) * 8).K_v[0]
+    0.01
+    """
+
+    K_o: float
+    K_q: float
+    beta: float
+    K_v: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        for name in ("K_o", "K_q", "beta"):
+            v = getattr(self, name)
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.number)):
+                raise InputError(f"expected a positive finite gain {name}, received {type(v).__name__}")
+            if not math.isfinite(float(v)) or v <= 0:
+                raise InputError(f"expected a positive finite gain {name}, received {float(v):g}")
+        try:
+            kv = tuple(float(k) for k in np.atleast_1d(np.asarray(self.K_v, dtype=float)))
+        except (TypeError, ValueError):
+            raise InputError(f"expected numeric K_v values, received {type(self.K_v).__name__}") from None
+        bad = [k for k in kv if not (math.isfinite(k) and k >= 0)]
+        if bad:
+            raise InputError(f"expected finite K_v >= 0, received {bad[0]:g}")
+        object.__setattr__(self, "K_v", kv)
+        for name in ("K_o", "K_q", "beta"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+
+
+@dataclass(frozen=True)
+class Formation:
+    """Everything physical about a formation run.
+
+    Attributes
+    ----------
+    graph : Graph
+    inertias : numpy.ndarray, shape (N, 3, 3), kg m^2, symmetric positive definite
+    attitudes : numpy.ndarray, shape (N, 4), ``(q1, q2, q3, q0)``, unit, ``q0 > 0``
+    rates : numpy.ndarray, shape (N, 3), rad/s (body frame)
+    gains : Gains
+    disturbance : DisturbanceModel
+    """
+
+    graph: Graph
+    inertias: np.ndarray
+    attitudes: np.ndarray
+    rates: np.ndarray
+    gains: Gains
+    disturbance: DisturbanceModel
+
+    def __post_init__(self) -> None:
+        n = self.graph.n
+        J = check_inertias(self.inertias, n)
+        Q = _array(self.attitudes, "attitudes")
+        if Q.shape != (n, 4):
+            raise InputError(f"expected {n} quaternions (q1, q2, q3, q0), received shape {Q.shape}")
+        for i, qb in enumerate(Q):
+            nrm = float(np.linalg.norm(qb))
+            if abs(nrm - 1) > 1e-9:
+                raise InputError(f"expected a unit quaternion for spacecraft {i + 1}, received norm {nrm:.12g}")
+            if qb[3] <= 0:
+                raise InputError(
+                    f"expected q0 > 0 for spacecraft {i + 1} (controller (4) needs q0 != 0), "
+                    f"received q0 = {float(qb[3]):g}"
+                )
+        W = _array(self.rates, "rates")
+        if W.shape != (n, 3):
+            raise InputError(f"expected {n} rate vectors of length 3, received shape {W.shape}")
+        if len(self.gains.K_v) == 1:
+            object.__setattr__(self, "gains", replace(self.gains, K_v=self.gains.K_v * n))
+        if len(self.gains.K_v) != n:
+            raise InputError(f"expected {n} values of K_v (one per spacecraft), received {len(self.gains.K_v)}")
+        if self.disturbance.n != n:
+            raise InputError(f"expected a disturbance for {n} spacecraft, received {self.disturbance.n}")
+        for name, a in (("inertias", J), ("attitudes", Q), ("rates", W)):
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
+
+    @property
+    def n(self) -> int:
+        return self.graph.n
+
+    def initial_state(self) -> np.ndarray:
+        """The state vector (module docstring for the layout)."""
+        return pack_state(self.attitudes, self.rates)
+
+
+def _array(a: Any, name: str) -> np.ndarray:
+    try:
+        out = np.array(a, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"expected a numeric array for {name}, received a {type(a).__name__}") from None
+    if not np.all(np.isfinite(out)):
+        raise InputError(f"expected finite {name}, received NaN/inf")
+    return out
+
+
+@dataclass(frozen=True)
+class SimOptions:
+    """Simulation options (defaults documented per field).
+
+    Attributes
+    ----------
+    tf : float
+        Horizon (s), default 200.
+    switch : {"sgn", "sat", "tanh"}
+        Switching term, default ``sat``.
+    phi : float
+        Boundary layer of ``sat``/``tanh`` (default 0.01; the paper does not print it).
+    torque_limit : float or None
+        Per-axis actuator limit ``|u_k| <= torque_limit`` (N m); None = unlimited.
+    sample_period : float or None
+        Zero-order-hold control period Ts (s); None = continuous control.
+    integrator : {"rk4", "cvodes"}
+    step : float
+        Largest RK4 step (s), default 0.05; each output interval is split into
+        ``ceil(interval / step)`` equal sub-steps.  A step longer than the output
+        interval cannot be honoured and is an error (not clamped).
+    output_step : float
+        Output grid spacing (s), default 0.1 (the sample period under ZOH).  ``tf``
+        must be a whole multiple of it (of the sample period under ZOH), and
+        ``tf / interval`` at most :data:`MAX_GRID_POINTS`.
+    rtol, atol : float
+        CVODES tolerances (defaults 1e-8, 1e-10).
+    q_tol, omega_tol : float
+        Convergence thresholds on Q_m (-) and Omega_m (rad/s), defaults 1e-4, 1e-5.
+    q0_floor : float
+        Singularity detection: stop when some ``q0_i <= q0_floor`` (default 0.02, where
+        ``|omega| ~ 2|q'|/q0`` is 100 |q'| and ``cond(Q) = 1/q0`` is 50).
+    norm_tol : float
+        Maximum tolerated quaternion norm drift (default 1e-5; the paper's case with
+        ``sat`` drifts 1e-7 at the default step, ``sgn`` chattering ~1e-6 over 200 s).
+    compile : bool
+        Compile the RK4 kernel to C (default True); False uses CasADi's VM.
+    inverse : {"E", "solve"}
+        How the bridge evaluates ``Q^{-1}``.
+    """
+
+    tf: float = 200.0
+    switch: str = "sat"
+    phi: float = 0.01
+    torque_limit: float | None = None
+    sample_period: float | None = None
+    integrator: str = "rk4"
+    step: float = 0.05
+    output_step: float = 0.1
+    rtol: float = 1e-8
+    atol: float = 1e-10
+    q_tol: float = 1e-4
+    omega_tol: float = 1e-5
+    q0_floor: float = 0.02
+    norm_tol: float = 1e-5
+    compile: bool = True
+    inverse: str = "E"
+
+    def __post_init__(self) -> None:
+        if self.switch not in SWITCHES:
+            raise InputError(f"expected switch in {SWITCHES}, received {self.switch!r}")
+        if self.integrator not in INTEGRATORS:
+            raise InputError(f"expected integrator in {INTEGRATORS}, received {self.integrator!r}")
+        for name in ("tf", "phi", "step", "output_step", "rtol", "atol", "q_tol", "omega_tol", "norm_tol"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                shown = f"{v:g}" if isinstance(v, (int, float)) else type(v).__name__
+                raise InputError(f"expected a positive finite {name}, received {shown}")
+        if not (isinstance(self.q0_floor, (int, float)) and 0 <= self.q0_floor < 1):
+            raise InputError(f"expected 0 <= q0_floor < 1, received {self.q0_floor}")
+        for name in ("torque_limit", "sample_period"):
+            v = getattr(self, name)
+            if v is not None and (not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0):
+                shown = f"{v:g}" if isinstance(v, (int, float)) else type(v).__name__
+                raise InputError(f"expected a positive finite {name} or none, received {shown}")
+        if self.sample_period is not None and self.integrator != "rk4":
+            raise InputError(
+                f"expected integrator 'rk4' with a sample period (zero-order hold), received {self.integrator!r}"
+            )
+        if self.inverse not in ("E", "solve"):
+            raise InputError(f"expected inverse 'E' or 'solve', received {self.inverse!r}")
+        iv = self.interval
+        if self.integrator == "rk4" and self.step > iv * (1 + 1e-12):
+            what = "sample period" if self.sample_period is not None else "output step"
+            raise InputError(
+                f"expected an RK4 step <= the {what} ({iv:g} s), received step {self.step:g} s; "
+                f"use a smaller step or a longer {what}"
+            )
+        ratio = self.tf / iv
+        if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
+            what = "sample period" if self.sample_period is not None else "output step"
+            raise InputError(
+                f"expected tf to be a whole multiple of the {what} ({iv:g} s), received tf = "
+                f"{self.tf:g} s ({ratio:.6g} intervals)"
+            )
+        if ratio > MAX_GRID_POINTS:
+            raise InputError(
+                f"expected at most {MAX_GRID_POINTS:g} output intervals (tf / output step), received "
+                f"{ratio:.4g}; use a longer output step or a shorter tf"
+            )
+
+    @property
+    def interval(self) -> float:
+        """Output-grid spacing actually used (the sample period under ZOH)."""
+        return float(self.sample_period) if self.sample_period is not None else float(self.output_step)
+
+    @property
+    def substeps(self) -> int:
+        """RK4 sub-steps per output interval (``ceil(interval/step)``)."""
+        return max(1, math.ceil(self.interval / self.step - 1e-9))

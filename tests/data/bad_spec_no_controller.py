@@ -1,0 +1,5 @@
+"""Bad specification: no controller()."""
+
+
+def lyapunov(v):
+    return v.qd.dot(v.qd) / 2
