@@ -132,18 +132,15 @@ def test_graph_rejects_invalid_direct_construction():
 # ---------------------------------------------------------------------------
 def test_size_cap_is_enforced_before_allocation():
     import resource
-    import time
 
     from formsync_design.graphs.build import MAX_SPACECRAFT
 
     before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    t0 = time.monotonic()
     for spec in ("ring:100000000", "complete:1000000", f"path:{MAX_SPACECRAFT + 1}",
                  "random:50000000:0.5:1"):
         with pytest.raises(GraphError, match=f"at most {MAX_SPACECRAFT} spacecraft"):
             make_graph(spec)
-    # refused up front: no N x N allocation (80 PB for ring:1e8), no O(N^2) loop
-    assert time.monotonic() - t0 < 2
+    # refused up front: no N x N allocation (80 PB for ring:1e8)
     assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200_000  # KB
     # the cap itself is accepted, and its Laplacian is right (independent: networkx)
     g = make_graph(f"path:{MAX_SPACECRAFT}")

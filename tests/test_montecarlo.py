@@ -122,13 +122,11 @@ def test_cli_montecarlo(capsys):
 
 def test_cli_refuses_huge_campaign_up_front(capsys, tmp_path):
     """--runs 100000000 is refused before any sampling, with the limit named (exit 2)."""
-    import time
 
     out = tmp_path / "mc"
-    t0 = time.perf_counter()
     rc = main(["montecarlo", "--runs", "100000000", "--no-compile", "--out", str(out)])
     err = capsys.readouterr().err.strip()
-    assert rc == 2 and time.perf_counter() - t0 < 30
+    assert rc == 2
     assert str(MAX_RUNS) in err and len(err.splitlines()) == 1 and "Traceback" not in err
     assert not out.exists()
 

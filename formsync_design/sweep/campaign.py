@@ -401,17 +401,13 @@ def resolve_spec(campaign: Campaign, spec: Any = None) -> Any:
 
 
 def spec_key(spec: Any) -> str:
-    """sha256 of a specification's content (``spec.key`` of the Spec-value contract;
-    for a file without it, the sha256 of the file's bytes, which is the same value).
+    """sha256 of a specification's content (its ``key``; for a file, the sha256 of its bytes).
 
     >>> from formsync_design.spec.loader import load_spec
     >>> len(spec_key(load_spec(None)))
     64
     """
-    key = getattr(spec, "key", None)
-    if key:
-        return str(key)
-    return hashlib.sha256(Path(spec.path).read_bytes()).hexdigest()
+    return str(spec.key)
 
 
 def _digest(obj: Any) -> str:

@@ -92,23 +92,10 @@ def _task_spec(task: dict[str, Any]) -> Any:
     return sp if isinstance(sp, Spec) else load_spec(sp)
 
 
-def _montecarlo_spec_kwargs(run_montecarlo: Any, spec: Any, default: bool) -> dict[str, Any]:
-    """``{"spec": spec}`` for :func:`run_montecarlo` (Spec-value contract)."""
-    import inspect
-
-    if "spec" in inspect.signature(run_montecarlo).parameters:
-        return {"spec": spec}
-    if default:
-        return {}
-    from formsync_design.errors import InputError
-
-    raise InputError("expected the paper's controller for Monte-Carlo in this installation, "
-                     f"received the specification {spec.path}")
-
-
 def _run_mc(graph: Graph, mc: dict, gains: Sequence[Fraction] | None,
-            spec: Any = None, default_spec: bool = True) -> dict[str, Any]:
-    from formsync_design.sim.montecarlo import GainBox, MonteCarloSettings, run_montecarlo
+            spec: Any = None) -> dict[str, Any]:
+    from formsync_design.gains import GainBox
+    from formsync_design.sim.montecarlo import MonteCarloSettings, run_montecarlo
     from formsync_design.sim.simulator import SimOptions
 
     out: dict[str, Any] = {"mc_gains": mc["gains"]}
@@ -116,16 +103,11 @@ def _run_mc(graph: Graph, mc: dict, gains: Sequence[Fraction] | None,
         out["mc_status"] = "skipped (no recommended gains)"
         return out
     base, kv = _mc_formation(graph, mc, gains)
-    box_type: Any = GainBox
-    if hasattr(box_type, "parse"):  # the one gain-box type (formsync_design.gains.GainBox)
-        box = box_type.parse({**dict(zip(GAINS, gains)), "K_v": kv}, positive=GAINS)
-    else:
-        box = box_type(**{g: (float(v), float(v)) for g, v in zip(GAINS, gains)}, K_v=(kv, kv))
+    box = GainBox.parse({**dict(zip(GAINS, gains)), "K_v": kv}, positive=GAINS)
     st = MonteCarloSettings(runs=mc["runs"], seed=mc["seed"], max_angle_deg=mc["max_angle_deg"],
                             max_rate=mc["max_rate"], phases=mc["phases"])
     opt = SimOptions(tf=mc["tf"], step=mc["step"], output_step=mc["output_step"], norm_tol=1e-5)
-    r = run_montecarlo(base, box, st, opt, threads=1, certify=False,
-                       **_montecarlo_spec_kwargs(run_montecarlo, spec, default_spec))
+    r = run_montecarlo(base, box, st, opt, threads=1, certify=False, spec=spec)
     ct = r.convergence_time_stats
     fails = [str(x.seed) for x in r.failures][:20]
     out.update({
@@ -209,7 +191,6 @@ def run_task(task: dict[str, Any]) -> dict[str, str]:
             row["cbox_status"] = des.box_result.status if des.box_result is not None else None
     mc = task["montecarlo"]
     if mc is not None:
-        row.update(_run_mc(g, mc, ref if mc["gains"] == "reference" else rec, spec,
-                           task.get("spec") is None))
+        row.update(_run_mc(g, mc, ref if mc["gains"] == "reference" else rec, spec))
     return {c: fmt_cell(row[c]) for c in COLUMNS}
 
