@@ -1,0 +1,249 @@
+"""Building a :class:`~formsync_design.graphs.digraph.Digraph` from files, arrays and networkx.
+
+Accepted inputs (:func:`make_digraph`, :func:`digraph_from_edges`)
+------------------------------------------------------------------
+* an edge-list text file or a sequence of triples ``i j w`` (1-based, weight
+  ``w > 0``, default 1): ``i`` receives from ``j`` with weight ``w``;
+  ``j = 0`` denotes the leader, so ``i 0 b`` sets the pinning gain ``b_i``;
+  ``#`` starts a comment and ``# n = N`` declares the number of spacecraft;
+* an adjacency CSV file (``.csv``) or a square array: entry ``(i, j)`` is ``a_ij``;
+* a :class:`networkx.DiGraph` whose arc ``u -> v`` (attribute ``weight``,
+  default 1) means ``v`` receives from ``u`` (arcs from the node ``leader``
+  give pinning gains); an undirected :class:`networkx.Graph` gives both arcs;
+* an undirected :class:`~formsync_design.graphs.build.Graph` or a graph spec
+  such as ``ring:6`` (every edge becomes two arcs of weight 1).
+
+Weights are parsed exactly with :func:`formsync_design.gains.parse_number`.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from collections.abc import Iterable, Mapping, Sequence
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from formsync_design.errors import GraphError, InputError
+from formsync_design.gains import parse_number
+from formsync_design.graphs.build import Graph, check_size, make_graph
+from formsync_design.graphs.digraph import Arc, Digraph
+
+__all__ = ["make_digraph", "digraph_from_edges", "read_edge_list"]
+
+
+def _pinning(pinning: Any, n: int, name: str) -> tuple[Fraction, ...]:
+    if pinning is None:
+        return ()
+    if isinstance(pinning, Mapping):
+        b = [Fraction(0)] * n
+        for k, v in pinning.items():
+            if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 1 <= k <= n:
+                raise GraphError(f"expected pinned spacecraft numbers in 1..{n}, received {k!r} in {name!r}")
+            b[int(k) - 1] = parse_number(v, f"b_{k}")
+        return tuple(b)
+    vals = list(pinning)
+    if len(vals) != n:
+        raise GraphError(f"expected {n} pinning gains b_i, received {len(vals)} in {name!r}")
+    return tuple(parse_number(v, f"b_{k + 1}") for k, v in enumerate(vals))
+
+
+def digraph_from_edges(
+    edges: Iterable[Sequence[Any]], n: int | None = None, pinning: Any = None, name: str = "edges"
+) -> Digraph:
+    """Build from 1-based triples ``(i, j, w)`` (``i`` receives from ``j``; ``j = 0`` pins ``i`` to the leader).
+
+    Parameters
+    ----------
+    edges : iterable of (int, int, number)
+        Pairs ``(i, j)`` take weight 1.
+    n : int, optional
+        Number of spacecraft (default: the largest number used).
+    pinning : sequence or mapping, optional
+        ``b_1..b_N``, or ``{i: b_i}``; overrides ``j = 0`` triples.
+    name : str
+        Shown in messages.
+
+    Examples
+    --------
+    The paper 002 formation (Fig. 1):
+
+    >>> g = digraph_from_edges([(1, 4, "0.58"), (2, 3, "0.33"), (2, 5, "0.11"), (3, 2, "0.25"),
+    ...                         (4, 1, "0.21"), (4, 3, "0.4"), (5, 1, "0.37")], name="paper002")
+    >>> [r + 1 for r in g.spanning_tree_roots], g.is_strongly_connected, g.is_balanced
+    ([1, 2, 3, 4, 5], True, False)
+    """
+    arcs: list[Arc] = []
+    pins: dict[int, Fraction] = {}
+    nmax = 0
+    for e in edges:
+        e = tuple(e)
+        if len(e) not in (2, 3):
+            raise GraphError(f"expected an arc (i, j) or (i, j, w), received {e!r} in {name!r}")
+        i, j = e[0], e[1]
+        if any(isinstance(v, bool) or not isinstance(v, (int, np.integer)) for v in (i, j)):
+            raise GraphError(f"expected integer spacecraft numbers, received {e!r} in {name!r}")
+        w = parse_number(e[2], f"weight of ({i}, {j})") if len(e) == 3 else Fraction(1)
+        if i < 1 or j < 0:
+            raise GraphError(f"expected 1-based spacecraft numbers (0 = leader as sender), received {e!r} in {name!r}")
+        if w <= 0:
+            raise GraphError(f"expected a positive weight, received {float(w):g} on ({i}, {j}) in {name!r}")
+        nmax = max(nmax, int(i), int(j))
+        check_size(nmax, name)
+        if j == 0:
+            if int(i) in pins:
+                raise GraphError(f"expected one pinning gain for spacecraft {i}, received two in {name!r}")
+            pins[int(i)] = w
+        else:
+            arcs.append((int(i) - 1, int(j) - 1, w))
+    if n is None:
+        n = nmax
+    if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < max(nmax, 1):
+        raise GraphError(f"expected n >= {max(nmax, 1)} spacecraft, received n={n!r} in {name!r}")
+    b = _pinning(pinning if pinning is not None else (pins or None), int(n), name)
+    return Digraph(n=int(n), arcs=tuple(sorted(arcs)), pinning=b, name=name)
+
+
+def read_edge_list(path: str | os.PathLike[str], pinning: Any = None) -> Digraph:
+    """Read an edge-list file of ``i j [w]`` lines (module docstring).
+
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "g.txt"
+    >>> _ = p.write_text("# n = 3\\n2 1 0.5  # 2 hears 1\\n3 2\\n1 0 2\\n")
+    >>> g = read_edge_list(p)
+    >>> g.edge_list_1based(), g.leader_reachable
+    ([[2, 1, 0.5], [3, 2, 1], [1, 0, 2]], True)
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise GraphError(f"expected a readable UTF-8 edge-list file, received {str(p)!r} ({e})") from None
+    triples: list[tuple[int, int, Any]] = []
+    declared: int | None = None
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        line, _, comment = raw.partition("#")
+        line = line.strip()
+        if not line:
+            c = comment.replace(" ", "").lower()
+            if c.startswith("n="):
+                try:
+                    declared = int(c[2:])
+                except ValueError:
+                    raise GraphError(f"expected '# n = N' with an integer N, received {raw.strip()!r} at {p}:{lineno}") from None
+            continue
+        f = line.replace(",", " ").split()
+        try:
+            if len(f) not in (2, 3):
+                raise ValueError
+            triples.append((int(f[0]), int(f[1]), f[2] if len(f) == 3 else 1))
+        except ValueError:
+            raise GraphError(f"expected 'i j' or 'i j w' with integer i, j, received {raw.strip()!r} at {p}:{lineno}") from None
+        try:
+            parse_number(triples[-1][2], "w")
+        except InputError:
+            raise GraphError(f"expected a numeric weight w, received {raw.strip()!r} at {p}:{lineno}") from None
+    if not triples:
+        raise GraphError(f"expected at least one arc in {str(p)!r}, received none")
+    return digraph_from_edges(triples, n=declared, pinning=pinning, name=str(p))
+
+
+def _from_matrix(a: Any, pinning: Any, name: str) -> Digraph:
+    rows = [list(r) for r in a] if not isinstance(a, np.ndarray) else a.tolist()
+    n = len(rows)
+    if n == 0 or any(len(r) != n for r in rows):
+        raise GraphError(f"expected a square adjacency matrix, received rows of lengths {sorted({len(r) for r in rows})} in {name!r}")
+    check_size(n, name)
+    arcs: list[Arc] = []
+    for i in range(n):
+        for j in range(n):
+            v = rows[i][j]
+            w = parse_number(v.strip() if isinstance(v, str) else v, f"a_{i + 1},{j + 1}")
+            if w < 0:
+                raise GraphError(f"expected nonnegative weights, received a_{i + 1},{j + 1} = {float(w):g} in {name!r}")
+            if w > 0 and i == j:
+                raise GraphError(f"expected no self-loops, received a_{i + 1},{i + 1} = {float(w):g} in {name!r}")
+            if w > 0:
+                arcs.append((i, j, w))
+    return Digraph(n=n, arcs=tuple(arcs), pinning=_pinning(pinning, n, name), name=name)
+
+
+def _from_networkx(g: Any, pinning: Any, leader: Any) -> Digraph:
+    name = str(getattr(g, "name", "") or "networkx")
+    if g.is_multigraph():
+        raise GraphError(f"expected a simple graph, received a networkx multigraph {name!r}")
+    nodes = sorted(v for v in g.nodes() if leader is None or v != leader)
+    idx = {v: k for k, v in enumerate(nodes)}
+    pairs = list(g.edges(data="weight", default=1))
+    if not g.is_directed():  # both arcs of each edge, but the leader only sends
+        both = [(u, v, w) for u, v, w in pairs] + [(v, u, w) for u, v, w in pairs]
+        pairs = [(u, v, w) for u, v, w in both if leader is None or v != leader]
+    arcs: list[Arc] = []
+    pins: dict[int, Any] = {}
+    for u, v, w in pairs:
+        if leader is not None and v == leader:
+            raise GraphError(f"expected the leader {leader!r} only to send, received an arc {u!r} -> {v!r} in {name!r}")
+        if leader is not None and u == leader:
+            pins[idx[v] + 1] = w
+        else:
+            arcs.append((idx[v] + 1, idx[u] + 1, w))
+    return digraph_from_edges(
+        arcs + [(i, 0, b) for i, b in pins.items()], n=len(nodes), pinning=pinning, name=name
+    )
+
+
+def make_digraph(obj: Any, pinning: Any = None, *, leader: Any = None) -> Digraph:
+    """Build a :class:`Digraph` from any supported input (module docstring).
+
+    Parameters
+    ----------
+    obj : str, os.PathLike, networkx graph, array_like, Graph or Digraph
+        An edge-list or ``.csv`` adjacency file, an undirected graph spec
+        (``ring:6``), a networkx graph, a square adjacency array, an
+        undirected :class:`~formsync_design.graphs.build.Graph`.
+    pinning : sequence or mapping, optional
+        Pinning gains ``b_1..b_N`` or ``{i: b_i}`` (replaces any in ``obj``).
+    leader : hashable, optional
+        The networkx node that is the leader (its arcs give pinning gains).
+
+    Examples
+    --------
+    >>> g = make_digraph("path:3", pinning={1: 1})
+    >>> g.is_undirected, g.leader_reachable, g.laplacian.tolist()
+    (True, True, [[1.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])
+    >>> make_digraph([[0, 1], [0, 0]]).spanning_tree_roots
+    (1,)
+    """
+    if isinstance(obj, Digraph):
+        if pinning is None:
+            return obj
+        return Digraph(obj.n, obj.arcs, _pinning(pinning, obj.n, obj.name), obj.name)
+    if isinstance(obj, Graph):
+        arcs = [(i + 1, j + 1, 1) for i, j in obj.edges] + [(j + 1, i + 1, 1) for i, j in obj.edges]
+        return digraph_from_edges(arcs, n=obj.n, pinning=pinning, name=obj.name)
+    if isinstance(obj, (str, os.PathLike)):
+        p = Path(os.fspath(obj))
+        if p.is_file() and p.suffix.lower() == ".csv":
+            try:
+                lines = p.read_text(encoding="utf-8").splitlines()
+            except (OSError, UnicodeDecodeError) as e:
+                raise GraphError(f"expected a readable UTF-8 adjacency CSV file, received {str(p)!r} ({e})") from None
+            rows = [r for r in csv.reader(lines) if r and any(c.strip() for c in r) and not r[0].strip().startswith("#")]
+            return _from_matrix(rows, pinning, str(p))
+        if p.is_file():
+            return read_edge_list(p, pinning)
+        return make_digraph(make_graph(os.fspath(obj)), pinning)
+    try:
+        import networkx as nx
+    except ImportError:  # pragma: no cover - networkx is a dependency
+        nx = None
+    if nx is not None and isinstance(obj, nx.Graph):
+        return _from_networkx(obj, pinning, leader)
+    if isinstance(obj, (np.ndarray, list, tuple)):
+        return _from_matrix(obj, pinning, "adjacency")
+    raise GraphError(
+        f"expected an edge-list or CSV file, graph spec, networkx graph, adjacency array or Graph, received {type(obj).__name__}"
+    )
