@@ -1,18 +1,40 @@
 """formsync-design: derive, certify and simulate decentralized attitude
 synchronization controllers for spacecraft formations.
 
-The curated public surface (``import formsync_design as fs``):
+The curated public surface (``import formsync_design as fs``), in the order
+data flows through the stages:
+
+* graphs: :func:`make_graph`, :class:`Graph`;
+* the specification (controller law + Lyapunov candidate): :func:`load_spec`,
+  :class:`Spec` (from a file, or ``Spec.from_functions`` in a notebook);
+* derivation: :func:`derive_closed_loop`, :func:`derive_conditions`,
+  :func:`paper_conditions`, :func:`closed_form_conditions`,
+  :func:`required_kv`, :func:`lyapunov_findings`,
+  :func:`write_derivation_report`;
+* certification: :class:`GainBox` (the one gain-box type), :func:`certify_box`,
+  :func:`region_map`, :func:`plot_slices`, :func:`design_gains`;
+* simulation: :class:`Formation`, :class:`Gains`, :class:`SimOptions`,
+  :func:`simulate`, :func:`metric_figure`, :func:`torque_figures`,
+  :func:`monte_carlo`;
+* verification of a published case: :func:`load_case`, :func:`verify_case`;
+* campaigns: :func:`load_campaign`, :func:`run_sweep`;
+* numbers: :func:`parse_number` (the exact-number parser) and
+  :func:`json_number` (the JSON number convention);
+* errors: :class:`FormsyncError` and its subclasses (bad input derives from
+  :class:`ValueError`, other failures from :class:`RuntimeError`).
 
 >>> import formsync_design as fs
 >>> g = fs.make_graph("ring:8")
 >>> conds = fs.derive_conditions(g)
 >>> str(fs.certify_box(conds, {"K_o": 1.6, "K_q": 0.4, "beta": 0.3}).status)
 'certified'
+>>> "simulate" in dir(fs) and "simulate" in fs.__all__
+True
 
-The stages live in subpackages, in the order data flows: ``graphs`` →
-``models`` → ``spec`` → ``derive`` → ``certify`` → ``sim`` → ``verify`` →
-``sweep``, with ``cli`` on top.  Heavy stages (cvxpy, CasADi, Dask) are
-imported on first use of one of their names.
+Heavy stages (SymPy, cvxpy, CasADi, Dask, matplotlib) are imported on first
+use of one of their names (PEP 562), so ``import formsync_design`` and
+``formsync --help`` stay fast.  Figures are returned, never shown, and no
+function of the package selects a matplotlib backend.
 """
 
 from __future__ import annotations
@@ -21,6 +43,8 @@ from importlib import import_module
 from typing import Any
 
 from formsync_design.errors import (
+    ClusterError,
+    CompilerError,
     DerivationError,
     FormsyncError,
     GraphError,
@@ -33,35 +57,59 @@ from formsync_design.graphs import Graph, make_graph
 
 __version__ = "0.1.0"
 
-# public name -> module that defines it (imported lazily, PEP 562)
-_LAZY = {
-    "AttitudeModel": "formsync_design.models.attitude",
-    "derive_attitude_model": "formsync_design.models.attitude",
-    "Spec": "formsync_design.spec.loader",
-    "load_spec": "formsync_design.spec.loader",
-    "MatrixFamily": "formsync_design.derive.families",
-    "LyapunovConditions": "formsync_design.derive.conditions",
-    "derive_conditions": "formsync_design.derive.conditions",
-    "paper_conditions": "formsync_design.derive.conditions",
-    "closed_form_conditions": "formsync_design.derive.conditions",
-    "required_kv": "formsync_design.derive.conditions",
+# public name -> where it is defined (imported lazily, PEP 562).  A stage's
+# subpackage is named where it re-exports the name, so modules may move inside
+# a stage without changing the surface.
+_LAZY: dict[str, str | tuple[str, str]] = {
+    # models and specification
+    "AttitudeModel": "formsync_design.models",
+    "derive_attitude_model": "formsync_design.models",
+    "Spec": "formsync_design.spec",
+    "load_spec": "formsync_design.spec",
+    # derivation
+    "ClosedLoop": "formsync_design.derive",
+    "MatrixFamily": "formsync_design.derive",
+    "LyapunovConditions": "formsync_design.derive",
+    "derive_closed_loop": "formsync_design.derive",
+    "derive_conditions": "formsync_design.derive",
+    "paper_conditions": "formsync_design.derive",
+    "closed_form_conditions": "formsync_design.derive",
+    "required_kv": "formsync_design.derive",
+    "lyapunov_findings": "formsync_design.derive.compare",
     "write_derivation_report": "formsync_design.derive.report",
-    "CertificationResult": "formsync_design.certify.engine",
-    "certify_box": "formsync_design.certify.engine",
-    "region_map": "formsync_design.certify.region",
-    "design_gains": "formsync_design.certify.design",
-    "Formation": "formsync_design.sim.simulator",
-    "Gains": "formsync_design.sim.simulator",
-    "SimOptions": "formsync_design.sim.simulator",
-    "SimResult": "formsync_design.sim.simulator",
-    "simulate": "formsync_design.sim.simulator",
-    "monte_carlo": ("formsync_design.sim.montecarlo", "run_montecarlo"),
-    "MonteCarloSettings": "formsync_design.sim.montecarlo",
-    "Case": "formsync_design.verify.case",
-    "load_case": "formsync_design.verify.case",
-    "verify_case": "formsync_design.verify.verification",
-    "run_sweep": "formsync_design.sweep.campaign",
-    "load_campaign": "formsync_design.sweep.campaign",
+    # gains and numbers
+    "GainBox": "formsync_design.gains",
+    "GainRange": "formsync_design.gains",
+    "parse_gain_range": "formsync_design.gains",
+    "parse_number": "formsync_design.gains",
+    "json_number": "formsync_design.gains",
+    # certification
+    "CertificationResult": "formsync_design.certify",
+    "certify_box": "formsync_design.certify",
+    "RegionMap": "formsync_design.certify",
+    "region_map": "formsync_design.certify",
+    "plot_slices": "formsync_design.certify.plots",
+    "DesignResult": "formsync_design.certify",
+    "design_gains": "formsync_design.certify",
+    # simulation
+    "Formation": "formsync_design.sim",
+    "Gains": "formsync_design.sim",
+    "SimOptions": "formsync_design.sim",
+    "SimResult": "formsync_design.sim",
+    "simulate": "formsync_design.sim",
+    "metric_figure": "formsync_design.sim.figures",
+    "torque_figures": "formsync_design.sim.figures",
+    "MonteCarloSettings": "formsync_design.sim",
+    "MonteCarloResult": "formsync_design.sim",
+    "monte_carlo": ("formsync_design.sim", "run_montecarlo"),
+    # verification of a published case
+    "Case": "formsync_design.verify",
+    "load_case": "formsync_design.verify",
+    "VerificationResult": "formsync_design.verify",
+    "verify_case": "formsync_design.verify",
+    # campaigns
+    "load_campaign": "formsync_design.sweep",
+    "run_sweep": "formsync_design.sweep",
 }
 
 __all__ = [
@@ -72,6 +120,8 @@ __all__ = [
     "DerivationError",
     "SolverError",
     "SimulationError",
+    "CompilerError",
+    "ClusterError",
     "PackagingError",
     "Graph",
     "make_graph",
