@@ -27,6 +27,22 @@ def test_report_mode(tmp_path, capsys):
     assert main(["derive", "--graph", "path:3", "--out", str(tmp_path)]) == 0
     assert (tmp_path / "liang2016-derivation-path3.md").is_file()
     assert (tmp_path / "liang2016-derivation-path3.tex").is_file()
+    assert "decided by" in capsys.readouterr().out
+
+
+def _verdicts(graph, tmp_path, capsys):
+    assert main(["derive", "--graph", graph, "--out", str(tmp_path / graph.replace(":", "")),
+                 "--format", "json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert all(f["computation"]["kind"] and f["meaning"] for f in doc["findings"])
+    return {f["key"]: f["verdict"] for f in doc["findings"]}
+
+
+def test_large_graph_verdicts_are_computed_like_small_ones(tmp_path, capsys):
+    """ring:41 exceeds the old 40-spacecraft dense limit; Pi-N must be compared, not assumed."""
+    small = _verdicts("ring:8", tmp_path, capsys)
+    large = _verdicts("ring:41", tmp_path, capsys)
+    assert large == small and large["Pi-N"] == "agrees"
 
 
 @pytest.mark.parametrize(

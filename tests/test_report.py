@@ -22,6 +22,25 @@ def test_report_is_byte_identical_on_rerun(tmp_path):
     assert a.brute_force_checked
 
 
+def test_each_verdict_has_its_meaning_and_computation_beside_it(tmp_path):
+    r = write_derivation_report("ring:4", tmp_path, command="x")
+    rows = [ln for ln in r.markdown.read_text().splitlines() if ln.startswith("| ") and "`" in ln]
+    assert len(rows) == len(r.findings) == 12
+    for f, row in zip(r.findings, rows):
+        cells = row.split(" | ")
+        assert cells[1] == f"`{f.key}`: {f.meaning}" and f.meaning.endswith("?")
+        assert f"**{f.verdict}**" in row and str(f.computation.kind) in row
+
+
+def test_report_of_a_variant_spec_shows_its_own_theta(tmp_path):
+    data = Path(__file__).parent / "data"
+    r = write_derivation_report("ring:4", tmp_path, spec=data / "variant_spec.py", command="x")
+    paper = write_derivation_report("ring:4", tmp_path / "p", command="x")
+    theta = [ln for ln in r.markdown.read_text().splitlines() if "Theta}^{(2)}" in ln]
+    theta_p = [ln for ln in paper.markdown.read_text().splitlines() if "Theta}^{(2)}" in ln]
+    assert theta and theta_p and theta != theta_p
+
+
 @pytest.mark.slow
 def test_committed_report_is_current(tmp_path):
     committed = ROOT / "reports" / "liang2016-derivation-ring8.md"

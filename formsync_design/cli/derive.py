@@ -23,7 +23,11 @@ Two modes:
     zeta is ordered as in the paper's eq. (9): qdot_1..qdot_n, then
     s_1..s_n with s_i = sum_j (q_i - q_j), x,y,z within each;
   * otherwise: write the Markdown derivation report (with LaTeX) and a LaTeX
-    fragment to --out (default: reports/).
+    fragment to --out (default: reports/). Each paper-versus-derivation verdict
+    is decided in the same run by the computation printed beside it (symbolic
+    identity, exact evaluation at a stated point, exact coefficient-by-coefficient
+    comparison of the matrix families, or eigenvalues); --format json lists the
+    verdicts with their computations.
 
 examples:
   formsync derive                                  # report for the default ring:8
@@ -129,12 +133,12 @@ def run(args: argparse.Namespace) -> int:
         + (f" --spec {args.spec}" if args.spec else "")
         + (f" --out {args.out}" if args.out else ""),
     )
-    verdicts = [{"key": f.key, "verdict": f.verdict} for f in rep.findings]
     if args.format == "json":
         emit_json({"markdown": str(rep.markdown), "latex": str(rep.latex),
-                   "brute_force_checked": rep.brute_force_checked, "findings": verdicts})
+                   "brute_force_checked": rep.brute_force_checked,
+                   "findings": [f.to_dict() for f in rep.findings]})
     else:
         sys.stdout.write(f"wrote {rep.markdown}\nwrote {rep.latex}\n")
         for f in rep.findings:
-            sys.stdout.write(f"  {f.verdict:10s} {f.key}\n")
+            sys.stdout.write(f"  {f.verdict:10s} {f.key:17s} (decided by {f.computation.kind})\n")
     return EXIT_OK

@@ -1,5 +1,13 @@
 """Stage 4 — symbolic derivation: closed loop, Lyapunov conditions as gain families,
-comparison with the printed paper and the derivation report."""
+comparison with the printed paper and the derivation report.
+
+Modules: ``closed_loop`` (closed loop, specification resolution and cache keys),
+``templates`` (per-degree local templates), ``conditions`` (assembly of
+``Theta_i`` and ``Pi`` by graph; re-exports the public names), ``closed_form``
+(closed-form and ``K_vi`` conditions), ``families`` (gain-polynomial matrix
+families), ``findings`` / ``compare`` (computed paper-versus-derivation verdicts),
+``printed`` (printed-expressions loader), ``report`` (the derivation report).
+"""
 
 from formsync_design.derive.conditions import (
     ClosedFormCondition,

@@ -136,7 +136,7 @@ class MatrixFamily:
             out.append(w)
         return out
 
-    def evaluate(self, point: Sequence[float] | Mapping[str, float]) -> np.ndarray:
+    def evaluate(self, point: Sequence[Any] | Mapping[str, Any]) -> np.ndarray:
         """Dense floating-point ``F(p)`` (size x size)."""
         out = np.zeros((self.size, self.size))
         for w, t in zip(self.coefficients(point), self.terms):
@@ -144,7 +144,7 @@ class MatrixFamily:
                 out += w * t.dense()
         return out
 
-    def evaluate_sparse(self, point: Sequence[float] | Mapping[str, float]) -> Any:
+    def evaluate_sparse(self, point: Sequence[Any] | Mapping[str, Any]) -> Any:
         """``F(p)`` as a scipy CSR matrix (for large graphs)."""
         out = sp.csr_matrix((self.size, self.size))
         for w, t in zip(self.coefficients(point), self.terms):

@@ -13,6 +13,7 @@ from typing import Any
 
 import sympy as sp
 
+from formsync_design.derive.closed_loop import SpecLike, resolve_spec
 from formsync_design.derive.compare import Finding, all_findings
 from formsync_design.derive.conditions import (
     brute_force_vdot,
@@ -20,10 +21,11 @@ from formsync_design.derive.conditions import (
     derive_closed_loop,
     derive_conditions,
     derive_local_template,
+    pi_pencils,
 )
 from formsync_design.graphs.build import Graph, make_graph
 from formsync_design.models.attitude import derive_attitude_model
-from formsync_design.spec.loader import ControllerView, LyapunovView, Spec, gain_symbols, load_spec
+from formsync_design.spec.loader import ControllerView, LyapunovView, Spec, gain_symbols
 
 __all__ = ["DerivationReport", "write_derivation_report", "report_basename", "DEFAULT_GRAPH"]
 
@@ -82,13 +84,13 @@ def _fmt_value(v: Any) -> str:
     return json.dumps(v, default=str)
 
 
-def _theta_latex(m: int) -> str:
-    t = derive_local_template(m)
+def _theta_latex(m: int, spec: Spec) -> str:
+    t = derive_local_template(m, spec)
     return _lx(t.theta)
 
 
 def write_derivation_report(
-    graph: Any = DEFAULT_GRAPH, out_dir: str | Path = "reports", spec: Spec | None = None,
+    graph: Any = DEFAULT_GRAPH, out_dir: str | Path = "reports", spec: SpecLike = None,
     command: str | None = None,
 ) -> DerivationReport:
     """Derive everything for ``graph`` and write the Markdown report and LaTeX fragment.
@@ -98,7 +100,7 @@ def write_derivation_report(
     graph : graph spec or Graph
     out_dir : path
         Created if missing.
-    spec : Spec, optional
+    spec : Spec, path or None
         Default: the paper's specification.
     command : str, optional
         The command line to print as "regenerate with".
@@ -114,7 +116,7 @@ def write_derivation_report(
     >>> r.markdown.name
     'liang2016-derivation-path3.md'
     """
-    spec = spec or load_spec()
+    spec = resolve_spec(spec)
     g = make_graph(graph)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -124,7 +126,7 @@ def write_derivation_report(
     conds = derive_conditions(g, spec)
     cfs = closed_form_conditions(conds)
     is_paper = spec.name == "liang2016"
-    findings = all_findings(g) if is_paper else ()
+    findings = all_findings(g, spec) if is_paper else ()
     brute_ok = False
     if g.n <= _BRUTE_FORCE_MAX_N:
         b, a = brute_force_vdot(g, spec)
@@ -223,11 +225,12 @@ def write_derivation_report(
         w(f"- $m = {m}$ (spacecraft {', '.join(map(str, who))}):")
         w("")
         w("$$")
-        w(f"\\boldsymbol{{\\Theta}}^{{({m})}} = {_theta_latex(m)}")
+        w(f"\\boldsymbol{{\\Theta}}^{{({m})}} = {_theta_latex(m, spec)}")
         w("$$")
         w("")
     w("## 4. Derivative of $V$ along the closed loop")
     w("")
+    assert conds.rho is not None  # always set on derived conditions
     rq, rs = conds.rho
     rho_expr = rq * sp.Symbol(r"\dot{\mathbf{q}}_i") + rs * sp.Symbol(r"\mathbf{s}_i")
     w("Per-spacecraft templates (one per neighbour count) are assembled by graph with the "
@@ -249,9 +252,7 @@ def write_derivation_report(
          "The switching argument of the controller does **not** equal $\\boldsymbol{\\rho}_i$: "
          "the switching term does not dominate the disturbance in $\\dot V$."))
     w("")
-    from formsync_design.derive.conditions import _pi_pencils  # structure of the assembled blocks
-
-    pen = _pi_pencils(conds)
+    pen = pi_pencils(conds)
     if pen:
         a_m, g_m, gname_m, _, _ = pen["M"]
         a_n, g_n, gname_n, _, _ = pen["N"]
@@ -313,13 +314,19 @@ def write_derivation_report(
     if findings:
         w("## 7. Paper versus derivation")
         w("")
-        w("| # | item | paper (printed) | derived | verdict | evidence |")
-        w("| --- | --- | --- | --- | --- | --- |")
-        for k, f in enumerate(findings, start=1):
-            w(f"| {k} | {_cell(f.item)} | {_cell(f.paper)} | {_cell(f.derived)} | "
-              f"**{f.verdict}** | {_cell(f.evidence)} |")
+        w("Each verdict is decided in this run by the computation named beside it "
+          "(its value is listed below the table); a verdict key is followed by the question "
+          "it answers.")
         w("")
-        w("### Counterexamples and evidence values")
+        w("| # | verdict key: question | item | paper (printed) | derived | verdict | decided by | "
+          "evidence |")
+        w("| --- | --- | --- | --- | --- | --- | --- | --- |")
+        for k, f in enumerate(findings, start=1):
+            w(f"| {k} | `{f.key}`: {_cell(f.meaning)} | {_cell(f.item)} | {_cell(f.paper)} | "
+              f"{_cell(f.derived)} | **{f.verdict}** | {_cell(f.computation.summary())} | "
+              f"{_cell(f.evidence)} |")
+        w("")
+        w("### Computed values, counterexamples and evidence values")
         w("")
         w("Model items are evaluated at spacecraft 1 of the paper's Table 1 "
           "($\\mathbf{q} = (0.1, 0.4, -0.3)$, $q_0 = +\\sqrt{1 - \\mathbf{q}^T\\mathbf{q}}$, "
@@ -327,9 +334,8 @@ def write_derivation_report(
           "$\\dot{\\mathbf{q}} = \\mathbf{E}\\boldsymbol{\\omega}$.")
         w("")
         for k, f in enumerate(findings, start=1):
-            if not f.counterexample:
-                continue
             w(f"{k}. **{f.key}** ({f.verdict}):")
+            w(f"   - computed ({f.computation.kind}): `{_fmt_value(f.computation.to_dict()['value'])}`")
             for name, val in f.counterexample.items():
                 w(f"   - {name}: `{_fmt_value(val)}`")
         w("")
@@ -348,7 +354,7 @@ def write_derivation_report(
         f"  \\ddot{{\\mathbf{{q}}}}_i &= {_lx(cl.acceleration.xreplace(pm))} \\\\",
     ]
     for m in sorted(set(g.degrees)):
-        T.append(f"  \\boldsymbol{{\\Theta}}^{{({m})}} &= {_theta_latex(m)} \\\\")
+        T.append(f"  \\boldsymbol{{\\Theta}}^{{({m})}} &= {_theta_latex(m, spec)} \\\\")
     if pen:
         T.append(f"  \\mathbf{{M}} &= {_lx(pen['M'][0])}\\,\\mathbf{{I}}_n + "
                  f"({_lx(pen['M'][1])})\\,\\mathbf{{{'L' if pen['M'][2] == 'L' else 'A'}}}, \\quad "
