@@ -52,14 +52,14 @@ def test_recommended_point_and_box_certified(ring_design) -> None:
     hi = np.array([float(b) for _, b in d.box])
     for p in lo + (hi - lo) * rng.random((40, 3)):
         assert _min_eig(c, p) > 0
-    for lo_hi, rg in zip(d.box, as_box(RANGES)):
+    for lo_hi, rg in zip(d.box, as_box(RANGES).bounds):
         assert rg[0] <= lo_hi[0] <= lo_hi[1] <= rg[1]
     assert 0 < d.box_half_width < 1
     # the box is maximal up to the bisection resolution: a slightly larger one fails
     if d.box_half_width < 0.98:
         s = d.box_half_width + 0.02
         bigger = {g: (max(rg[0], v * (1 - s)), min(rg[1], v * (1 + s)))
-                  for (g, v), rg in zip(d.gains.items(), as_box(RANGES))}
+                  for (g, v), rg in zip(d.gains.items(), as_box(RANGES).bounds)}
         worst = min(_min_eig(c, [float(x) for x in vx]) for vx in box_vertices(as_box(bigger)))
         assert worst <= 1e-9
 

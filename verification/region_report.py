@@ -9,6 +9,7 @@ Deterministic: two runs give byte-identical files.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -16,7 +17,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def main(argv: list[str] | None = None) -> int:
-    from formsync_design.certify.region import region_report
+    # a report writer: figures go to files, so a non-interactive backend unless one is chosen
+    os.environ.setdefault("MPLBACKEND", "Agg")
+    from formsync_design.certify.plots import region_report
 
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -1,11 +1,17 @@
 """Stage 5 — certificates over gain boxes: exact/rigorous re-checks, region maps, gain design."""
 
 from formsync_design.certify.design import DesignResult, design_gains
-from formsync_design.certify.engine import Box, CertificationResult, as_box, certify_box, check_kv
+from formsync_design.certify.engine import (
+    CertificationResult,
+    Status,
+    as_box,
+    certify_box,
+    check_kv,
+)
 from formsync_design.certify.region import RegionMap, region_map
 
 __all__ = [
-    "Box",
+    "Status",
     "as_box",
     "CertificationResult",
     "certify_box",

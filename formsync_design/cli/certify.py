@@ -15,9 +15,9 @@ from formsync_design.cli.options import (
     EXIT_OK,
     add_format_option,
     emit_json,
-    parse_gain_range,
 )
 from formsync_design.errors import InputError
+from formsync_design.gains import GainBox, parse_gain_range, parse_number
 from formsync_design.graphs.build import GRAPH_SPEC_HELP, make_graph
 
 __all__ = ["add_parser", "run", "load_conditions", "read_inertias", "add_gain_options",
@@ -30,17 +30,20 @@ EVERY gain in a box, not just sampled points.
 
 Each gain is a value X or a closed range LO:HI: K_o (1/s), K_q (1/s^2),
 beta (1/s), as in q_i'' = -K_o q_i' - K_q s_i - ...  Because every matrix is
-multi-affine in the gains, the box is covered by its 8 vertices; the margin
-comes from a cvxpy + Clarabel SDP and is re-checked independently in exact
-rational or rigorously rounded arithmetic.  A refutation prints a gain point,
-the matrix, the spacecraft and an integer vector x with x^T M x <= 0, checked
-exactly.
+multi-affine in the gains, the box is covered by its 8 vertices.  A cvxpy +
+Clarabel SDP gives a hint; the verdict comes from an independent re-check in
+exact rational or rigorously rounded arithmetic (a failed or inaccurate solve
+never vetoes it; exact ties such as K_o = beta lambda_max(L) are decided
+exactly).  A refutation prints a gain point, the matrix, the spacecraft and an
+integer vector x with x^T M x <= 0, checked exactly.  Only a certified box
+prints a certified margin.
 
 Optional switching-gain check: with --ud (disturbance bound per axis, N m),
 inertia data (--inertia or --case) and --kv, also checks
 K_vi >= (ubar/2) max_v ||J_i^{-1} v||_2 for every spacecraft.
 
-Exit status: 0 certified, 1 refuted or undecided, 2 bad input.
+Exit status: 0 certified, 1 refuted or undecided (or an unknown solver status
+with an inconclusive re-check), 2 bad input, 3 a failure that is not the input's.
 
 examples:
   formsync certify --graph ring:8 --ko 1.6 --kq 0.4 --beta 0.3
@@ -69,18 +72,27 @@ def add_gain_options(p: argparse.ArgumentParser, *, ranges: bool = False) -> Non
                    help="controller/Lyapunov specification .py (default: the paper's)")
 
 
-def gain_box_from_args(args: argparse.Namespace) -> dict[str, Any]:
-    return {
-        "K_o": parse_gain_range(args.ko, "K_o"),
-        "K_q": parse_gain_range(args.kq, "K_q"),
-        "beta": parse_gain_range(args.beta, "beta"),
-    }
+def gain_box_from_args(args: argparse.Namespace) -> GainBox:
+    """The ``--ko/--kq/--beta`` options as one exact :class:`~formsync_design.gains.GainBox`.
+
+    >>> ns = argparse.Namespace(ko="1.3:2", kq="0.4", beta="0.3")
+    >>> str(gain_box_from_args(ns))
+    'K_o=1.3:2, K_q=0.4, beta=0.3'
+    """
+    return GainBox((
+        parse_gain_range(args.ko, "K_o"),
+        parse_gain_range(args.kq, "K_q"),
+        parse_gain_range(args.beta, "beta"),
+    ))
 
 
 def parse_margin(text: str) -> Fraction:
-    from formsync_design.cli.options import _exact
+    """``--margin EPS`` as an exact non-negative rational.
 
-    m = _exact(text, "margin")
+    >>> parse_margin("0.01")
+    Fraction(1, 100)
+    """
+    m = parse_number(text, "margin")
     if m < 0:
         raise InputError(f"expected a non-negative margin EPS, received {text!r}")
     return m
@@ -221,10 +233,11 @@ def _kv_from_args(args: argparse.Namespace, conds: Any) -> Any:
         raise InputError(
             f"expected --ud, inertia data and --kv together for the K_v check, missing {missing}"
         )
+    assert inertias is not None  # checked above (missing)
     if args.kv is not None:
-        kv = Fraction(args.kv.strip())
+        kv = parse_number(args.kv, "--kv")
     if args.ud is not None:
-        ubar = Fraction(args.ud.strip())
+        ubar = parse_number(args.ud, "--ud")
     return check_kv(kv, inertias, ubar, switching_matches=getattr(conds, "switching_matches", True))
 
 
@@ -244,28 +257,41 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _g(q: Fraction | None) -> str:
-    return "-" if q is None else f"{float(q):.6g}"
+    """``q`` to 6 significant digits, also beyond the float range (exact witnesses).
+
+    >>> _g(Fraction(10**400, 3)), _g(None), _g(Fraction(1, 3))
+    ('3.33333e+399', '-', '0.333333')
+    """
+    if q is None:
+        return "-"
+    try:
+        return f"{float(q):.6g}"
+    except OverflowError:
+        from decimal import Context, Decimal
+
+        ctx = Context(prec=12, Emax=10**9, Emin=-(10**9))
+        return f"{ctx.divide(Decimal(q.numerator), Decimal(q.denominator)):.6g}"
 
 
 def format_result(res: Any) -> str:
     """Human-readable report of a :class:`~formsync_design.certify.engine.CertificationResult`."""
     lines = []
     box = ", ".join(
-        f"{g}={float(lo):g}" if lo == hi else f"{g} in [{float(lo):g}, {float(hi):g}]"
-        for g, (lo, hi) in zip(res.gains, res.box)
+        f"{r.name}={float(r.lo):g}" if r.is_point else f"{r.name} in [{float(r.lo):g}, {float(r.hi):g}]"
+        for r in res.box
     )
-    lines.append(f"{res.status.upper()}: {res.graph} (N={res.n}), {res.source} conditions, {box}")
+    lines.append(f"{str(res.status).upper()}: {res.graph} (N={res.n}), {res.source} conditions, {box}")
     if res.margin:
         lines.append(f"  required: lambda_min > {float(res.margin):g}")
     if res.reason:
         lines.append(f"  reason: {res.reason}")
-    mlb = res.margin_lower_bound
-    if mlb is not None:
+    mlb = res.margin_lower_bound  # None unless certified
+    if res.certified and mlb is not None:
         lines.append(f"  certified margin: min over box of lambda_min >= {float(mlb):.6g}")
     lines.append("  matrix                           size  status      lower bound   min-vertex hint")
     for f in res.families:
         lines.append(
-            f"  {f.name[:32]:<32} {f.size:>4}  {f.status:<10}  {_g(f.lower):>12}  {f.hint:>14.6g}"
+            f"  {f.name[:32]:<32} {f.size:>4}  {str(f.status):<10}  {_g(f.lower):>12}  {f.hint:>14.6g}"
         )
     w = res.witness
     if w is not None:
@@ -273,11 +299,14 @@ def format_result(res: Any) -> str:
         sc = f", spacecraft {w.spacecraft}" if w.spacecraft is not None else ""
         lines.append(f"  witness: {w.family}{sc} at {pt}")
         nz = [(lab, v) for lab, v in zip(w.rows, [v for v in w.x if v != 0])]
-        shown = ", ".join(f"{lab}: {v}" for lab, v in nz[:8]) + (" ..." if len(nz) > 8 else "")
-        lines.append(f"    x (integer, nonzero entries) = {shown}")
+        long = any(len(str(abs(v))) > 16 for _, v in nz)
+        shown = ", ".join(f"{lab}: {_g(Fraction(v)) if long else v}" for lab, v in nz[:8]) + (
+            " ..." if len(nz) > 8 else "")
+        lines.append(f"    x (integer, nonzero entries{', rounded here; exact in --format json' if long else ''})"
+                     f" = {shown}")
         lines.append(
-            f"    x^T (M - {float(res.margin):g} I) x = {float(w.value):.6g} <= 0 (exact rational); "
-            f"x^T M x / x^T x = {float(w.rayleigh):.6g}"
+            f"    x^T (M - {float(res.margin):g} I) x = {_g(w.value)} <= 0 (exact rational); "
+            f"x^T M x / x^T x = {_g(w.rayleigh)}"
         )
         if w.covers_box:
             lines.append("    the same x refutes every gain in the box")

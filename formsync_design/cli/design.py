@@ -47,12 +47,12 @@ def add_parser(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from formsync_design.certify.design import design_gains
     from formsync_design.cli.certify import gain_box_from_args, load_conditions, parse_margin
-    from formsync_design.cli.options import _exact
     from formsync_design.errors import InputError
+    from formsync_design.gains import parse_number
 
     box = gain_box_from_args(args)
     margin = parse_margin(args.margin)
-    pen = _exact(args.penalty, "penalty")
+    pen = parse_number(args.penalty, "penalty")
     if pen < 0:
         raise InputError(f"expected a non-negative penalty, received {args.penalty!r}")
     if not 1 <= args.betas <= 1000:

@@ -10,9 +10,9 @@ from formsync_design.cli.options import (
     Progress,
     add_format_option,
     emit_json,
-    parse_gain_range,
 )
 from formsync_design.errors import InputError
+from formsync_design.gains import parse_gain_range
 
 __all__ = ["add_parser", "run"]
 
@@ -74,7 +74,8 @@ def add_parser(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from formsync_design.certify.region import region_map, write_region
+    from formsync_design.certify.plots import write_region
+    from formsync_design.certify.region import region_map
     from formsync_design.cli.certify import gain_box_from_args, load_conditions, parse_margin
 
     box = gain_box_from_args(args)
@@ -95,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
     conds = [load_conditions(g, which, args.spec) for g in args.graph]
     over = [load_conditions(g, "paper") for g in args.graph] if args.conditions == "both" else None
     cells = 1
-    for gr in box.values():
+    for gr in box:
         cells *= 1 if gr.is_point else args.resolution
     nmaps = len(conds) * (2 if over else 1)
     prog = Progress(cells * nmaps, "region", enabled=not args.no_progress)
