@@ -41,11 +41,6 @@ EXIT_USAGE = 2
 EXIT_FAILURE = 3  # a failure that is not the user's input (solver, compiler, cluster)
 EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT), as shells report it
 
-# transitional alias: cli/certify.py and cli/design.py still import it; use
-# formsync_design.gains.parse_number instead
-_exact = parse_number
-
-
 def parse_positive(text: str, name: str) -> float:
     """Parse a finite, strictly positive float."""
     v = parse_number(text, name)
