@@ -145,6 +145,7 @@ def small(graphs, **extra):
 
 def test_a_dying_worker_is_a_cluster_error_and_finished_rows_are_kept(tmp_path):
     import dask
+    import distributed  # noqa: F401 - before config.set: its exit would drop distributed's defaults
 
     c = small(["ring:3", "star:4"])
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
