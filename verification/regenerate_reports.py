@@ -10,6 +10,8 @@ documented commands produce:
   the derivation report it links to, reports/liang2016-derivation-ring8.{md,tex}
   (the same files ``formsync derive`` writes);
 * ``verification/region_report.py`` -> reports/liang2016-region.md (+ figures);
+* ``verification/analysis_report.py`` -> reports/liang2016-certificates.md (+ figure): the
+  paper's, exact, searched and spectral certificates side by side;
 * ``formsync sweep --campaign verification/sweep_atlas6.toml --out reports/sweep-atlas6
   --overwrite`` -> reports/sweep-atlas6/ (all connected graphs with N <= 6); the folder is
   removed first so that a changed campaign definition regenerates cleanly.
@@ -41,7 +43,8 @@ def main() -> int:
         rc = formsync(argv)
         if rc != 0:
             return rc
-    scripts = [[sys.executable, str(ROOT / "verification" / "region_report.py")]]
+    scripts = [[sys.executable, str(ROOT / "verification" / name)]
+               for name in ("region_report.py", "analysis_report.py")]
     for cmd in scripts:
         print(" ".join(Path(c).name if i == 0 else c for i, c in enumerate(cmd)), flush=True)
         rc = subprocess.call(cmd, cwd=ROOT)

@@ -1,0 +1,71 @@
+"""Certificates that answer design questions (issue 15).
+
+* :func:`certify` - one of four certificates (``paper``, ``exact``, ``searched``,
+  ``spectral``) on a gain box (:mod:`.certificates`);
+* :func:`compare_regions` - the four side by side on a grid of cells (:mod:`.compare`);
+* :func:`certified_decay_rate`, :func:`settling_time` - performance (:mod:`.performance`);
+* :func:`delay_margin`, :func:`simulate_delayed_loop` - communication delay (:mod:`.delay`);
+* :func:`certify_switching`, :func:`graphs_minus_links` - link failures (:mod:`.switching`);
+* :func:`design_with_constraints` - gains maximising the certified decay rate (:mod:`.design`);
+* :func:`laplacian_spectrum` - rigorous eigenvalue enclosures (:mod:`.spectrum`);
+* :func:`mode_model` - the per-Laplacian-mode reduction, derived (:mod:`.modes`).
+"""
+
+from formsync_design.analysis.certificates import certify
+from formsync_design.analysis.compare import (
+    ORDER,
+    RegionComparison,
+    compare_regions,
+    plot_comparison,
+)
+from formsync_design.analysis.delay import (
+    DelayMargin,
+    DelayModel,
+    delay_margin,
+    simulate_delayed_loop,
+)
+from formsync_design.analysis.design import ConstrainedDesign, design_with_constraints
+from formsync_design.analysis.modes import ModeModel, mode_model
+from formsync_design.analysis.performance import (
+    DecayResult,
+    certified_decay_rate,
+    settling_time,
+    spectral_decay_rate,
+)
+from formsync_design.analysis.results import Certificate, CertificateResult, Verdict
+from formsync_design.analysis.spectrum import LaplacianSpectrum, laplacian_spectrum
+from formsync_design.analysis.switching import (
+    SwitchingResult,
+    certify_switching,
+    graphs_minus_links,
+    simulate_switching,
+)
+
+__all__ = [
+    "Certificate",
+    "CertificateResult",
+    "Verdict",
+    "certify",
+    "ORDER",
+    "RegionComparison",
+    "compare_regions",
+    "plot_comparison",
+    "DecayResult",
+    "certified_decay_rate",
+    "spectral_decay_rate",
+    "settling_time",
+    "DelayModel",
+    "DelayMargin",
+    "delay_margin",
+    "simulate_delayed_loop",
+    "ModeModel",
+    "mode_model",
+    "LaplacianSpectrum",
+    "laplacian_spectrum",
+    "SwitchingResult",
+    "certify_switching",
+    "graphs_minus_links",
+    "simulate_switching",
+    "ConstrainedDesign",
+    "design_with_constraints",
+]

@@ -1,0 +1,129 @@
+"""Design with constraints (issue 15, item 6): gains that maximise the certified decay
+rate subject to a delay margin and a link-failure set, and the largest certified box
+around them.
+
+Method: a grid of candidate gain points over the box (``resolution`` per axis,
+cell centres); each candidate is kept when the ``searched`` certificate holds,
+its processing-delay margin is at least ``min_delay`` and (if a graph set is
+given) a common Lyapunov function over the set exists at that point; the
+objective is the certified decay rate (:func:`.performance.certified_decay_rate`,
+exact re-check).  Around the winner, the largest box ``g (1 +- s)`` (same
+relative half-width ``s`` on every gain, bisection) on which the ``searched``
+certificate holds and, when a graph set is given, the common function too.
+The torque limit is not implemented (no certified torque bound yet).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+from formsync_design.analysis.certificates import GAINS, certify
+from formsync_design.analysis.delay import delay_margin
+from formsync_design.analysis.performance import certified_decay_rate
+from formsync_design.analysis.results import Verdict, jsonify
+from formsync_design.analysis.spectrum import laplacian_spectrum
+from formsync_design.analysis.switching import certify_switching
+from formsync_design.errors import InputError
+from formsync_design.gains import GainBox
+from formsync_design.graphs import make_graph
+
+__all__ = ["ConstrainedDesign", "design_with_constraints"]
+
+
+@dataclass(frozen=True)
+class ConstrainedDesign:
+    """Recommended gains, their certified numbers, and the certified box around them."""
+
+    status: Verdict
+    graph: str
+    gains: tuple[Fraction, Fraction, Fraction] | None
+    alpha: Fraction
+    delay_margin: float
+    box: GainBox | None
+    candidates: int
+    feasible: int
+    reason: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return jsonify({"status": str(self.status), "graph": self.graph,
+                        "gains": None if self.gains is None else dict(zip(GAINS, self.gains)),
+                        "alpha": self.alpha, "delay_margin_s": self.delay_margin,
+                        "box": None if self.box is None else self.box.to_dict(),
+                        "candidates": self.candidates, "feasible": self.feasible, "reason": self.reason})
+
+
+def _grid(box: GainBox, k: int) -> list[tuple[Fraction, ...]]:
+    axes = []
+    for r in box.ranges:
+        if r.is_point:
+            axes.append([r.lo])
+        else:
+            axes.append([r.lo + (r.hi - r.lo) * Fraction(2 * i + 1, 2 * k) for i in range(k)])
+    pts: list[tuple[Fraction, ...]] = [()]
+    for ax in axes:
+        pts = [p + (x,) for p in pts for x in ax]
+    return pts
+
+
+def design_with_constraints(graph: Any, box: Any, *, min_delay: float = 0.0, graph_set: Any = None,
+                            resolution: int = 4, spec: Any = None) -> ConstrainedDesign:
+    """Recommend gains maximising the certified decay rate under the constraints.
+
+    Examples
+    --------
+    >>> d = design_with_constraints("ring:6", {"K_o": (1, 3), "K_q": (0.2, 1), "beta": (0.1, 0.3)},
+    ...                             min_delay=0.5, resolution=2)
+    >>> d.status.value, d.delay_margin >= 0.5, d.box is not None
+    ('certified', True, True)
+    """
+    g = make_graph(graph)
+    b = GainBox.parse(box, GAINS)
+    if min_delay < 0 or not math.isfinite(min_delay):
+        raise InputError(f"expected a non-negative finite delay, received {min_delay:g}")
+    spectrum = laplacian_spectrum(g)
+    gs = None if graph_set is None else [make_graph(x) for x in graph_set]
+    best: tuple[Fraction, tuple[Fraction, ...], float] | None = None
+    pts = _grid(b, int(resolution))
+    feasible = 0
+    for p in pts:
+        pt = dict(zip(GAINS, p))
+        if certify(g, pt, "searched", spec=spec, spectrum=spectrum).status is not Verdict.CERTIFIED:
+            continue
+        dm = delay_margin(g, p, "processing", spec=spec).margin
+        if dm < min_delay:
+            continue
+        if gs is not None and certify_switching(gs, pt, spec=spec).status is not Verdict.CERTIFIED:
+            continue
+        feasible += 1
+        a = certified_decay_rate(g, pt, "searched", spec=spec).alpha
+        if best is None or a > best[0]:
+            best = (a, p, dm)
+    if best is None:
+        return ConstrainedDesign(Verdict.REFUTED, g.name, None, Fraction(0), 0.0, None, len(pts), 0,
+                                 "no candidate gain point meets every constraint (refine the grid or "
+                                 "relax the constraints)")
+    a, p, dm = best
+
+    def ok(s: Fraction) -> GainBox | None:
+        bx = GainBox.parse({n: (x * (1 - s), x * (1 + s)) for n, x in zip(GAINS, p)}, GAINS)
+        if certify(g, bx, "searched", spec=spec, spectrum=spectrum).status is not Verdict.CERTIFIED:
+            return None
+        if gs is not None and certify_switching(gs, bx, spec=spec).status is not Verdict.CERTIFIED:
+            return None
+        return bx
+
+    lo, hi = Fraction(0), Fraction(1, 2)
+    found = ok(lo)
+    for _ in range(10):
+        mid = (lo + hi) / 2
+        bx = ok(mid)
+        if bx is not None:
+            lo, found = mid, bx
+        else:
+            hi = mid
+    return ConstrainedDesign(Verdict.CERTIFIED, g.name, (p[0], p[1], p[2]), a, dm, found, len(pts), feasible,
+                             f"best certified decay rate over {feasible} feasible of {len(pts)} candidates; "
+                             f"certified box = gains x (1 +- {float(lo):.3g})")

@@ -1,0 +1,42 @@
+"""Design with constraints (issue 15, item 6)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from formsync_design.analysis.design import design_with_constraints
+from formsync_design.analysis.switching import graphs_minus_links
+from formsync_design.graphs import make_graph
+from tests.test_analysis_certificates import _full_loop
+
+
+@pytest.mark.slow
+def test_recommended_gains_meet_constraints():
+    """Delay margin by the closed form, decay below the dense loop's true rate, and the
+    certified box inside K_o > beta lambda_max (the searched class's exact region)."""
+    g = make_graph("ring:6")
+    d = design_with_constraints(g, {"K_o": (0.5, 3), "K_q": (0.1, 1.5), "beta": (0.05, 0.5)},
+                                min_delay=0.8, graph_set=graphs_minus_links(g, 1), resolution=2)
+    assert d.status.value == "certified"
+    ko, kq, beta = (float(x) for x in d.gains)
+    lmax = g.laplacian_spectral_radius
+    b = kq * lmax
+    w = math.sqrt((-ko**2 + math.sqrt(ko**4 + 4 * b**2)) / 2)
+    assert math.atan(ko / w) / w >= 0.8
+    ev = np.linalg.eigvals(_full_loop(g, (ko, kq, beta)))
+    ev = sorted(ev, key=abs)[1:]
+    k = int(np.argmin([abs(e + ko) for e in ev]))
+    true = -max(e.real for i, e in enumerate(ev) if i != k)
+    assert 0 < float(d.alpha) <= true
+    bx = d.box
+    assert bx["K_o"].lo > bx["beta"].hi * lmax  # worst corner of the box
+    assert bx.contains((d.gains[0], d.gains[1], d.gains[2]))
+
+
+def test_infeasible_constraints_are_reported():
+    d = design_with_constraints("star:6", {"K_o": (0.5, 1), "K_q": (0.5, 1), "beta": (0.1, 0.2)},
+                                min_delay=100.0, resolution=2)
+    assert d.status.value == "refuted" and d.gains is None
