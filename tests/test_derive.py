@@ -146,7 +146,7 @@ def test_vdot_matches_finite_differences_along_nonlinear_formation(graph, spec_f
     spec = load_spec(spec_file)
     g = make_graph(graph)
     conds = derive_conditions(g, spec)
-    f, x0 = _random_formation(g, spec, seed=hash(graph) % 1000 + (7 if spec_file else 0))
+    f, x0 = _random_formation(g, spec, seed=GRAPHS.index(graph) * 101 + (7 if spec_file else 0))
     h = 1e-3
     kw = dict(method="DOP853", rtol=1e-12, atol=1e-13)
     xp = solve_ivp(f.rhs, (0, h), x0, **kw).y[:, -1]
