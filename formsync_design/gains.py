@@ -37,6 +37,7 @@ from formsync_design.errors import InputError
 
 __all__ = [
     "parse_number",
+    "parse_real",
     "GainRange",
     "GainBox",
     "parse_gain_range",
@@ -84,6 +85,15 @@ def parse_number(value: Any, name: str) -> Fraction:
             raise InputError(f"expected a number for {name}, received {value!r}") from None
         return q
     raise InputError(f"expected a number for {name}, received {type(value).__name__} {value!r}")
+
+
+def parse_real(value: Any, name: str) -> float:
+    """A finite real number as a ``float`` (through :func:`parse_number`, the one parser).
+
+    >>> parse_real("1e3", "a"), parse_real(2, "b")
+    (1000.0, 2.0)
+    """
+    return float(parse_number(value, name))
 
 
 @dataclass(frozen=True)

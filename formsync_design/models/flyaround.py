@@ -65,7 +65,7 @@ from typing import Any
 import numpy as np
 
 from formsync_design.errors import InputError
-from formsync_design.gains import json_number
+from formsync_design.gains import json_number, parse_real
 
 __all__ = [
     "FlyaroundParams",
@@ -85,16 +85,6 @@ __all__ = [
 ]
 
 _READINGS = ("corrected", "printed")
-
-
-def _finite(value: Any, name: str) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"expected {name} as a real number, received {value!r}") from None
-    if not math.isfinite(x):
-        raise InputError(f"expected {name} finite, received {x:g}")
-    return x
 
 
 @dataclass(frozen=True)
@@ -135,7 +125,7 @@ class FlyaroundParams:
 
     def __post_init__(self) -> None:
         for name in self.__dataclass_fields__:
-            object.__setattr__(self, name, _finite(getattr(self, name), name))
+            object.__setattr__(self, name, parse_real(getattr(self, name), name))
         for name in ("a", "b", "c", "p1", "p2", "period"):
             if getattr(self, name) <= 0:
                 raise InputError(f"expected {name} > 0, received {getattr(self, name):g}")
@@ -144,7 +134,7 @@ class FlyaroundParams:
     def from_degrees(cls, **kw: float) -> FlyaroundParams:
         """Build from angles in degrees (``gamma, alpha, beta, phi0, theta0``)."""
         for name in ("gamma", "alpha", "beta", "phi0", "theta0"):
-            kw[name] = math.radians(_finite(kw.get(name, 0.0), name))
+            kw[name] = math.radians(parse_real(kw.get(name, 0.0), name))
         return cls(**kw)
 
     def to_dict(self) -> dict[str, Any]:
@@ -272,7 +262,7 @@ def phi_r(
     >>> [round(math.degrees(v), 4) for v in phi_r(0.0, p, order=1, reading="printed")]
     [20.1998, 0.0]
     """
-    t, order = _finite(t, "time t"), _check_order(order)
+    t, order = parse_real(t, "time t"), _check_order(order)
     if reading not in _READINGS:
         raise InputError(f"expected reading in {_READINGS}, received {reading!r}")
     out = np.zeros(order + 1)
@@ -300,7 +290,7 @@ def theta_r(t: float, params: FlyaroundParams, order: int = 2) -> np.ndarray:
     >>> bool(abs(th[1] - 2 * math.pi / p.period) < 1e-15)  # the rate tends to 2 pi / T
     True
     """
-    t, order = _finite(t, "time t"), _check_order(order)
+    t, order = parse_real(t, "time t"), _check_order(order)
     w = 2 * math.pi / params.period
     decay = math.exp(-t / params.p2)
     out = np.zeros(order + 1)
@@ -415,7 +405,7 @@ def printed_phi_finding(
     >>> f.printed_span, round(math.degrees(f.printed_final_gap), 2), f.corrected_final_gap < 1e-6
     (0.0, 69.8, True)
     """
-    t_end = _finite(t_end, "t_end")
+    t_end = parse_real(t_end, "t_end")
     if t_end <= 0 or samples < 2:
         raise InputError(f"expected t_end > 0 and samples >= 2, received {t_end:g} and {samples}")
     ts = np.linspace(0.0, t_end, samples)
@@ -569,7 +559,7 @@ def desired_attitude(
     >>> [round(float(v), 1) for v in d.R_dT[0] * 500]  # x_d points at the target: -l_T
     [2.0, 500.0, 1.1]
     """
-    n = _finite(n, "mean motion n")
+    n = parse_real(n, "mean motion n")
     fr = attitude_frame(desired_position(t, params, 3, reading), previous)
     r_dt = fr.R_dr @ rotation_rT(params)
     w_ti = r_dt @ np.array([0.0, 0.0, n])

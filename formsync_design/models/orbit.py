@@ -50,7 +50,7 @@ import numpy as np
 import scipy.linalg
 
 from formsync_design.errors import InputError, SolverError
-from formsync_design.gains import json_number
+from formsync_design.gains import json_number, parse_real
 
 __all__ = [
     "MU_EARTH",
@@ -74,16 +74,6 @@ __all__ = [
 
 #: Earth's gravitational parameter (m^3/s^2), an assumption (module docstring).
 MU_EARTH = 3.986004418e14
-
-
-def _finite(value: Any, name: str) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"expected {name} as a real number, received {value!r}") from None
-    if not math.isfinite(x):
-        raise InputError(f"expected {name} finite, received {x:g}")
-    return x
 
 
 @dataclass(frozen=True)
@@ -122,7 +112,7 @@ class KeplerElements:
 
     def __post_init__(self) -> None:
         for name in ("a", "e", "i", "raan", "argp", "nu"):
-            object.__setattr__(self, name, _finite(getattr(self, name), name))
+            object.__setattr__(self, name, parse_real(getattr(self, name), name))
         if self.a <= 0:
             raise InputError(f"expected a semi-major axis a > 0 m, received {self.a:g}")
         if not 0 <= self.e < 1:
@@ -166,7 +156,7 @@ def elements_to_state(el: KeplerElements, mu: float = MU_EARTH) -> tuple[np.ndar
     >>> r.tolist(), bool(abs(v[1] - math.sqrt(MU_EARTH / 7.0e6)) < 1e-9)
     ([7000000.0, 0.0, 0.0], True)
     """
-    mu = _finite(mu, "mu")
+    mu = parse_real(mu, "mu")
     p = el.a * (1.0 - el.e**2)
     r = p / (1.0 + el.e * math.cos(el.nu))
     r_pf = np.array([r * math.cos(el.nu), r * math.sin(el.nu), 0.0])
@@ -181,10 +171,10 @@ def mean_motion(a: float, mu: float = MU_EARTH) -> float:
     >>> round(2 * math.pi / mean_motion(42_164_137.0) / 3600, 3)  # GEO: one sidereal day
     23.934
     """
-    a = _finite(a, "a")
+    a = parse_real(a, "a")
     if a <= 0:
         raise InputError(f"expected a semi-major axis a > 0 m, received {a:g}")
-    return math.sqrt(_finite(mu, "mu") / a**3)
+    return math.sqrt(parse_real(mu, "mu") / a**3)
 
 
 def lvlh_matrix(r: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -283,7 +273,7 @@ def cw_matrices(n: float) -> tuple[np.ndarray, np.ndarray]:
     >>> A[3].tolist(), A[4].tolist(), A[5].tolist(), B.shape
     ([3.0, 0.0, 0.0, 0.0, 2.0, 0.0], [0.0, 0.0, 0.0, -2.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.0, 0.0, 0.0], (6, 3))
     """
-    n = _finite(n, "mean motion n")
+    n = parse_real(n, "mean motion n")
     if n <= 0:
         raise InputError(f"expected a mean motion n > 0 rad/s, received {n:g}")
     a = np.zeros((6, 6))
@@ -305,7 +295,7 @@ def cw_transition(n: float, t: float) -> np.ndarray:
     >>> bool(np.array_equal(Phi, np.eye(6)))
     True
     """
-    n, t = _finite(n, "mean motion n"), _finite(t, "time t")
+    n, t = parse_real(n, "mean motion n"), parse_real(t, "time t")
     s, c = math.sin(n * t), math.cos(n * t)
     return np.array(
         [
