@@ -12,6 +12,7 @@ import numpy as np
 import sympy as sp
 
 from formsync_design.errors import InputError
+from formsync_design.models.inertia import check_inertia
 from formsync_design.spec.loader import gain_symbols
 
 if TYPE_CHECKING:
@@ -170,21 +171,6 @@ def pi_pencils(conds: LyapunovConditions) -> dict:
 # ---------------------------------------------------------------------------
 # disturbance bound (K_vi condition)
 # ---------------------------------------------------------------------------
-def _check_inertia(J: Any) -> np.ndarray:
-    Jm = np.asarray(J, dtype=float)
-    if Jm.shape != (3, 3):
-        raise InputError(f"expected a 3x3 inertia matrix, received shape {Jm.shape}")
-    if not np.all(np.isfinite(Jm)):
-        raise InputError("expected a finite inertia matrix, received NaN or inf")
-    if not np.allclose(Jm, Jm.T, rtol=0, atol=1e-12 * max(1.0, np.abs(Jm).max())):
-        raise InputError(f"expected a symmetric inertia matrix, received {Jm.tolist()}")
-    if np.linalg.eigvalsh(Jm)[0] <= 0:
-        raise InputError(
-            f"expected a positive definite inertia, received eigenvalues {np.linalg.eigvalsh(Jm).tolist()}"
-        )
-    return Jm
-
-
 def required_kv(J: Any, ubar: float) -> float:
     """Smallest ``K_vi`` with ``eps_i >= 0`` for every attitude and every
     disturbance with ``|u_d,k| <= ubar``.
@@ -200,7 +186,7 @@ def required_kv(J: Any, ubar: float) -> float:
     >>> round(required_kv(50 * np.eye(3), 1.0), 6)
     0.017321
     """
-    Jm = _check_inertia(J)
+    Jm = check_inertia(J)
     if not (np.isfinite(ubar) and ubar > 0):
         raise InputError(f"expected a positive finite disturbance bound, received {ubar!r}")
     Ji = np.linalg.inv(Jm)
@@ -219,7 +205,7 @@ def kv_condition_holds(kv: Any, J: Any, ubar: Any) -> bool:
     >>> kv_condition_holds(0.01, 50 * np.eye(3), 0.5)
     True
     """
-    Jm = _check_inertia(J)
+    Jm = check_inertia(J)
     kv_f = Fraction(kv) if not isinstance(kv, float) else Fraction(kv)
     if kv_f <= 0:
         raise InputError(f"expected a positive K_vi, received {kv!r}")
