@@ -20,7 +20,7 @@ from typing import Any
 
 from formsync_design.errors import InputError
 
-__all__ = ["load_toml"]
+__all__ = ["load_toml", "parse_toml"]
 
 
 def load_toml(path: str | Path, what: str = "TOML file") -> dict[str, Any]:
@@ -62,8 +62,21 @@ def load_toml(path: str | Path, what: str = "TOML file") -> dict[str, Any]:
         raise InputError(
             f"expected a UTF-8 {what}, received {str(p)!r} (byte {e.start} is not UTF-8)"
         ) from None
+    return parse_toml(text, str(p))
+
+
+def parse_toml(text: str, source: str) -> dict[str, Any]:
+    """Parse TOML text read elsewhere (``source`` names it in messages); one-line errors.
+
+    >>> parse_toml("a = 1", "inline")
+    {'a': 1}
+    >>> parse_toml("a = ", "inline")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected valid TOML in inline, received a syntax error: ...
+    """
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         msg = str(e).splitlines()[0] if str(e) else "syntax error"
-        raise InputError(f"expected valid TOML in {p}, received a syntax error: {msg}") from None
+        raise InputError(f"expected valid TOML in {source}, received a syntax error: {msg}") from None

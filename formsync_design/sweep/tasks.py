@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import tomllib
 import warnings
 from collections.abc import Sequence
 from fractions import Fraction
@@ -70,9 +69,10 @@ def _mc_formation(graph: Graph, mc: dict, gains: Sequence[Fraction]) -> Any:
     import numpy as np
 
     from formsync_design.sim.simulator import Formation, Gains
+    from formsync_design.tomlio import parse_toml
     from formsync_design.verify.case import make_disturbance, parse_case
 
-    case = parse_case(tomllib.loads(mc["case_text"]), mc["case_path"])
+    case = parse_case(parse_toml(mc["case_text"], mc["case_path"]), mc["case_path"])
     n = graph.n
     J = np.array([case.inertias[i % case.n] for i in range(n)])
     table = dict(case.disturbance)
