@@ -20,16 +20,20 @@ def main(argv: list[str] | None = None) -> int:
     # a report writer: figures go to files, so a non-interactive backend unless one is chosen
     os.environ.setdefault("MPLBACKEND", "Agg")
     from formsync_design.analysis.delay import delay_section
+    from formsync_design.analysis.dwell import dwell_section
+    from formsync_design.analysis.inertia import inertia_section
     from formsync_design.analysis.performance import performance_section
     from formsync_design.analysis.report import write_certificates_report
     from formsync_design.analysis.switching import switching_section
+    from formsync_design.analysis.torque import torque_section
 
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--resolution", type=int, default=8, help="cells per axis (default 8)")
     a = ap.parse_args(argv)
     md = write_certificates_report(ROOT, resolution=a.resolution, extra_sections=performance_section() + delay_section()
-                                   + switching_section())
+                                   + switching_section() + dwell_section() + torque_section()
+                                   + inertia_section())
     print(f"wrote {md.relative_to(ROOT)}")
     return 0
 

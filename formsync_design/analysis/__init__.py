@@ -7,6 +7,11 @@
 * :func:`delay_margin`, :func:`simulate_delayed_loop` - communication delay (:mod:`.delay`);
 * :func:`certify_switching`, :func:`graphs_minus_links` - link failures (:mod:`.switching`);
 * :func:`design_with_constraints` - gains maximising the certified decay rate (:mod:`.design`);
+* :func:`certify_requirements` - a certificate plus decay/settle/delay/torque/graph-set
+  requirements on a box (:mod:`.requirements`, used by the CLI);
+* :func:`peak_torque_bound` - certified peak torque from an initial set (:mod:`.torque`);
+* :func:`certify_dwell_time` - dwell time over a graph set without a common ``V`` (:mod:`.dwell`);
+* :func:`certify_inertia_uncertainty`, :func:`simulate_mismatch` - inertia mismatch (:mod:`.inertia`);
 * :func:`laplacian_spectrum` - rigorous eigenvalue enclosures (:mod:`.spectrum`);
 * :func:`mode_model` - the per-Laplacian-mode reduction, derived (:mod:`.modes`).
 """
@@ -25,12 +30,24 @@ from formsync_design.analysis.delay import (
     simulate_delayed_loop,
 )
 from formsync_design.analysis.design import ConstrainedDesign, design_with_constraints
+from formsync_design.analysis.dwell import DwellTime, certify_dwell_time
+from formsync_design.analysis.inertia import (
+    InertiaBox,
+    InertiaCertificate,
+    certify_inertia_uncertainty,
+    simulate_mismatch,
+)
 from formsync_design.analysis.modes import ModeModel, mode_model
 from formsync_design.analysis.performance import (
     DecayResult,
     certified_decay_rate,
     settling_time,
     spectral_decay_rate,
+)
+from formsync_design.analysis.requirements import (
+    RequirementResult,
+    Requirements,
+    certify_requirements,
 )
 from formsync_design.analysis.results import Certificate, CertificateResult, Verdict
 from formsync_design.analysis.spectrum import LaplacianSpectrum, laplacian_spectrum
@@ -40,6 +57,7 @@ from formsync_design.analysis.switching import (
     graphs_minus_links,
     simulate_switching,
 )
+from formsync_design.analysis.torque import TorqueBound, peak_torque_bound
 
 __all__ = [
     "Certificate",
@@ -68,4 +86,15 @@ __all__ = [
     "simulate_switching",
     "ConstrainedDesign",
     "design_with_constraints",
+    "Requirements",
+    "RequirementResult",
+    "certify_requirements",
+    "TorqueBound",
+    "peak_torque_bound",
+    "DwellTime",
+    "certify_dwell_time",
+    "InertiaBox",
+    "InertiaCertificate",
+    "certify_inertia_uncertainty",
+    "simulate_mismatch",
 ]

@@ -460,7 +460,8 @@ def _certify_paper(graph: Any, box: GainBox, spec: Any, margin: Any,
     w = None
     if status is Verdict.REFUTED and r.witness is not None:
         w = r.witness.to_dict()
-    return status, f"the paper's per-spacecraft test: {r.reason}", w, {"argument": r.argument}
+    why = f": {r.reason}" if r.reason else f" ({r.status} on the whole box)"
+    return status, f"the paper's per-spacecraft test{why}", w, {"argument": r.argument}
 
 
 def certify(graph: Any, box: Any, certificate: str | Certificate = Certificate.PAPER, *,

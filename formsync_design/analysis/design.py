@@ -10,7 +10,10 @@ objective is the certified decay rate (:func:`.performance.certified_decay_rate`
 exact re-check).  Around the winner, the largest box ``g (1 +- s)`` (same
 relative half-width ``s`` on every gain, bisection) on which the ``searched``
 certificate holds and, when a graph set is given, the common function too.
-The torque limit is not implemented (no certified torque bound yet).
+With ``torque_limit`` (and ``inertias``, ``att_radius``, ``rate_radius``) a
+candidate is kept only when its certified peak-torque bound
+(:func:`.torque.peak_torque_bound`) from that initial set is within the limit
+(a per-point bound: the certified box around the winner is not torque-checked).
 """
 
 from __future__ import annotations
@@ -69,7 +72,9 @@ def _grid(box: GainBox, k: int) -> list[tuple[Fraction, ...]]:
 
 
 def design_with_constraints(graph: Any, box: Any, *, min_delay: float = 0.0, graph_set: Any = None,
-                            resolution: int = 4, spec: Any = None) -> ConstrainedDesign:
+                            resolution: int = 4, spec: Any = None, torque_limit: float | None = None,
+                            inertias: Any = None, att_radius: Any = Fraction(1, 10),
+                            rate_radius: Any = Fraction(1, 100)) -> ConstrainedDesign:
     """Recommend gains maximising the certified decay rate under the constraints.
 
     Examples
@@ -97,6 +102,13 @@ def design_with_constraints(graph: Any, box: Any, *, min_delay: float = 0.0, gra
             continue
         if gs is not None and certify_switching(gs, pt, spec=spec).status is not Verdict.CERTIFIED:
             continue
+        if torque_limit is not None:
+            from formsync_design.analysis.torque import peak_torque_bound
+
+            if inertias is None:
+                raise InputError("expected inertias with a torque limit, received none")
+            if peak_torque_bound(g, p, inertias, att_radius, rate_radius, spec=spec).peak > torque_limit:
+                continue
         feasible += 1
         a = certified_decay_rate(g, pt, "searched", spec=spec).alpha
         if best is None or a > best[0]:

@@ -24,8 +24,9 @@ is within ``eps`` after ``T = ln(sqrt(kappa) r / eps) / alpha``.
 gain point (a reported number, not a verdict).
 
 Scope: the nominal loop (exact model cancellation, switching gain's effect
-excluded, no disturbance), as in the paper's proof; the peak-torque bound and
-``--settle``/``--torque-limit`` region restrictions are not implemented.
+excluded, no disturbance), as in the paper's proof.  The peak-torque bound is
+:mod:`.torque`; ``--decay``/``--settle``/``--torque-limit`` restrictions are
+:mod:`.requirements`.
 """
 
 from __future__ import annotations

@@ -21,7 +21,27 @@ from formsync_design.gains import GainBox, parse_gain_range, parse_number
 from formsync_design.graphs.build import GRAPH_SPEC_HELP, make_graph
 
 __all__ = ["add_parser", "run", "load_conditions", "read_inertias", "add_gain_options",
-           "gain_box_from_args"]
+           "gain_box_from_args", "add_certificate_options", "requirements_from_args",
+           "format_requirement_result", "CERTIFICATE_HELP"]
+
+#: One line per certificate (``--help``).
+CERTIFICATE_HELP = """\
+certificates (--certificate, most to least conservative; each proves the whole box):
+  paper     the paper's per-spacecraft test: every Theta_i > 0 and Pi > 0 (default)
+  exact     the paper's own V on the whole graph: V > 0 and V' <= 0 per Laplacian mode
+  searched  the best quadratic V keeping the switching structure, common over the box
+            (vertex LMIs, exact re-check; when none exists, an exact dual refutation of the class)
+  spectral  the nominal linear loop is stable (Routh-Hurwitz per Laplacian mode): the outer bound
+requirements (restrict the admissible gains; each certified, refuted or undecided):
+  --decay ALPHA          V' <= -2 ALPHA V on the whole box (certified rate >= ALPHA)
+  --settle T             |x(t)| <= --accuracy for t >= T from every |x(0)| <= --x0-radius
+  --delay TAU            delay margin > TAU at a gain point (--delay-model processing|transmission)
+  --graphs-set SET       one Lyapunov function common to the graphs of SET (minus:K or G1,G2,...),
+                         or with --min-dwell T a certified dwell time <= T s (gain points)
+  --torque-limit U       certified |u_i(t)| <= U N m from every |q_i(0)| <= --att0, |omega_i(0)| <= --rate0
+                         (gain points; inertias from --inertia or --case)
+
+"""
 
 _DESC = """\
 Decide whether Theta_i > 0 for every spacecraft and Pi > 0 (the Lyapunov
@@ -45,12 +65,17 @@ K_vi >= (ubar/2) max_v ||J_i^{-1} v||_2 for every spacecraft.
 Exit status: 0 certified, 1 refuted or undecided (or an unknown solver status
 with an inconclusive re-check), 2 bad input, 3 a failure that is not the input's.
 
+""" + CERTIFICATE_HELP + """
+
 examples:
   formsync certify --graph ring:8 --ko 1.6 --kq 0.4 --beta 0.3
   formsync certify --graph ring:8 --ko 1.3:2 --kq 0.2:1 --beta 0.1:0.3 --margin 0.01
   formsync certify --graph star:8 --ko 1.6 --kq 0.4 --beta 0.3 --format json
   formsync certify --graph ring:8 --ko 1.6 --kq 0.4 --beta 0.3 --conditions paper
   formsync certify --graph ring:4 --ko 1.6 --kq 0.4 --beta 0.3 --ud 0.5 --inertia J.txt --kv 0.01
+  formsync certify --graph star:8 --ko 1.6 --kq 0.4 --beta 0.3 --certificate spectral
+  formsync certify --graph ring:8 --ko 1.6 --kq 0.4 --beta 0.3 --certificate exact --decay 0.05 \\
+      --settle 120 --delay 0.5 --graphs-set minus:1
 """
 
 
@@ -70,6 +95,92 @@ def add_gain_options(p: argparse.ArgumentParser, *, ranges: bool = False) -> Non
                    "as printed in Liang et al. 2016")
     p.add_argument("--spec", default=None, metavar="FILE",
                    help="controller/Lyapunov specification .py (default: the paper's)")
+
+
+def add_certificate_options(p: argparse.ArgumentParser, *, point_options: bool = True) -> None:
+    """--certificate and the requirement options (--decay, --settle, --delay, --graphs-set)."""
+    p.add_argument("--certificate", default="paper", choices=("paper", "exact", "searched", "spectral"),
+                   help="which certificate decides the box (default paper; see 'certificates' above)")
+    p.add_argument("--decay", default=None, metavar="ALPHA",
+                   help="require a certified exponential decay rate >= ALPHA (1/s)")
+    p.add_argument("--settle", default=None, metavar="T",
+                   help="require |x(t)| <= --accuracy for t >= T s from every |x(0)| <= --x0-radius")
+    p.add_argument("--x0-radius", default="0.5", metavar="R",
+                   help="initial disagreement bound |x(0)| (mode coordinates of q and q'), default 0.5")
+    p.add_argument("--accuracy", default="0.01", metavar="EPS",
+                   help="accuracy |x| <= EPS that --settle asks for (default 0.01)")
+    if point_options:
+        p.add_argument("--delay", default=None, metavar="TAU",
+                       help="require a delay margin > TAU s (neighbour data TAU s late; gain points only)")
+        p.add_argument("--delay-model", default="processing", choices=("processing", "transmission"),
+                       help="processing: both terms of s_i late; transmission: neighbours' states late "
+                       "(regular graphs); default processing")
+    p.add_argument("--graphs-set", default=None, metavar="minus:K|G1,G2,...",
+                   help="require one Lyapunov function common to a graph set: the graph and every "
+                   "connected graph without K links, or a list of graph specs")
+    if point_options:
+        p.add_argument("--min-dwell", default=None, metavar="T",
+                       help="with --graphs-set: accept switching that stays >= T s on each graph when no "
+                       "common Lyapunov function exists (dwell-time certificate, gain points)")
+        p.add_argument("--torque-limit", default=None, metavar="U",
+                       help="require a certified peak torque |u_i(t)|_2 <= U N m (gain points; needs "
+                       "--inertia or --case)")
+        p.add_argument("--att0", default="0.1", metavar="R",
+                       help="initial set: |q_i(0)| <= R, quaternion vector part (default 0.1)")
+        p.add_argument("--rate0", default="0.01", metavar="W",
+                       help="initial set: |omega_i(0)| <= W rad/s (default 0.01)")
+
+
+def requirements_from_args(args: argparse.Namespace, graph: Any) -> Any:
+    """The requirement options as :class:`~formsync_design.analysis.requirements.Requirements`.
+
+    >>> ns = argparse.Namespace(decay="0.1", settle=None, x0_radius="0.5", accuracy="0.01",
+    ...                         delay=None, delay_model="processing", graphs_set=None)
+    >>> requirements_from_args(ns, "ring:4").decay
+    Fraction(1, 10)
+    """
+    from formsync_design.analysis.delay import DelayModel
+    from formsync_design.analysis.requirements import Requirements, parse_graph_set
+    from formsync_design.cli.options import parse_positive
+
+    decay = None if args.decay is None else parse_number(args.decay, "--decay")
+    if decay is not None and decay <= 0:
+        raise InputError(f"expected a positive --decay ALPHA, received {args.decay!r}")
+    gs, label = (None, "")
+    if args.graphs_set is not None:
+        gs, label = parse_graph_set(args.graphs_set, graph)
+    delay = getattr(args, "delay", None)
+    dwell = getattr(args, "min_dwell", None)
+    if dwell is not None and args.graphs_set is None:
+        raise InputError(f"expected --graphs-set with --min-dwell, received --min-dwell {dwell!r} alone")
+    torque = getattr(args, "torque_limit", None)
+    extra: dict[str, Any] = {}
+    if torque is not None:
+        n = make_graph(graph).n
+        if getattr(args, "inertia", None) and getattr(args, "case", None):
+            raise InputError("expected one of --inertia or --case, received both")
+        if getattr(args, "inertia", None):
+            extra["inertias"] = read_inertias(args.inertia, n)
+        elif getattr(args, "case", None):
+            extra["inertias"] = read_case(args.case, n)["inertias"]
+        att = parse_number(args.att0, "--att0")
+        if not 0 <= att < 1:
+            raise InputError(f"expected 0 <= --att0 < 1 (quaternion vector part), received {args.att0!r}")
+        rate = parse_number(args.rate0, "--rate0")
+        if rate < 0:
+            raise InputError(f"expected a non-negative --rate0, received {args.rate0!r}")
+        extra.update(torque_limit=parse_positive(torque, "--torque-limit"), att_radius=att,
+                     rate_radius=rate)
+    return Requirements(
+        decay=decay,
+        settle=None if args.settle is None else parse_positive(args.settle, "--settle"),
+        x0_radius=parse_positive(args.x0_radius, "--x0-radius"),
+        accuracy=parse_positive(args.accuracy, "--accuracy"),
+        delay=None if delay is None else parse_positive(delay, "--delay"),
+        delay_model=DelayModel(getattr(args, "delay_model", "processing")),
+        graph_set=gs, graph_set_label=label,
+        min_dwell=None if dwell is None else parse_positive(dwell, "--min-dwell"), **extra,
+    )
 
 
 def gain_box_from_args(args: argparse.Namespace) -> GainBox:
@@ -209,6 +320,7 @@ def add_parser(sub: Any) -> None:
                    help="TOML case file (e.g. verification/liang2016.toml): inertias, disturbance "
                    "model (its per-spacecraft bound is used unless --ud is given) and K_v")
     p.add_argument("--kv", default=None, metavar="X", help="switching gain K_v (> 0) for the K_v check")
+    add_certificate_options(p)
     add_format_option(p)
     p.set_defaults(func=run)
 
@@ -246,6 +358,9 @@ def run(args: argparse.Namespace) -> int:
 
     box = gain_box_from_args(args)
     margin = parse_margin(args.margin)
+    req = requirements_from_args(args, args.graph)
+    if args.certificate != "paper" or req.any():
+        return _run_analysis(args, box, margin, req)
     conds = load_conditions(args.graph, args.conditions, args.spec)
     kv = _kv_from_args(args, conds)
     res = certify_box(conds, box, margin=margin, kv=kv)
@@ -254,6 +369,71 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(format_result(res))
     return EXIT_OK if res.certified else EXIT_NEGATIVE
+
+
+def _run_analysis(args: argparse.Namespace, box: GainBox, margin: Fraction, req: Any) -> int:
+    from formsync_design.analysis.requirements import certify_requirements
+
+    if args.conditions != "derived":
+        raise InputError("expected --conditions derived with --certificate or a requirement option "
+                         f"(they use the derived closed loop), received --conditions {args.conditions}")
+    if args.certificate != "paper" and margin != 0:
+        raise InputError(f"expected --margin only with --certificate paper, received --margin {args.margin} "
+                         f"with --certificate {args.certificate}")
+    if any(v is not None for v in (args.ud, args.kv)) or (
+            req.torque_limit is None and (args.inertia or args.case)):
+        raise InputError("expected the K_v check (--ud/--inertia/--case/--kv) without --certificate or "
+                         "requirement options, received both (run them separately)")
+    spec = None
+    if args.spec:
+        from formsync_design.spec.loader import load_spec
+
+        spec = load_spec(args.spec)
+    res = certify_requirements(args.graph, box, args.certificate, req, spec=spec, margin=margin)
+    if args.format == "json":
+        emit_json(res.to_dict())
+    else:
+        print(format_requirement_result(res))
+    return EXIT_OK if res.certified else EXIT_NEGATIVE
+
+
+def _num(x: Any) -> str:
+    if x is None:
+        return "-"
+    if isinstance(x, (list, tuple)):
+        return "[" + ", ".join(_num(v) for v in x) + "]"
+    if isinstance(x, str):
+        return x
+    return f"{float(x):.6g}"
+
+
+def format_requirement_result(res: Any) -> str:
+    """Human-readable report of a :class:`~formsync_design.analysis.requirements.RequirementResult`.
+
+    >>> from formsync_design.analysis.requirements import Requirements, certify_requirements
+    >>> r = certify_requirements("star:8", {"K_o": 1.6, "K_q": 0.4, "beta": 0.3}, "spectral", Requirements())
+    >>> print(format_requirement_result(r).splitlines()[0])
+    CERTIFIED: star:8 (N=8), spectral certificate, K_o=1.6, K_q=0.4, beta=0.3
+    """
+    b = res.base
+    box = ", ".join(f"{r.name}={float(r.lo):g}" if r.is_point else
+                    f"{r.name} in [{float(r.lo):g}, {float(r.hi):g}]" for r in b.box)
+    lines = [f"{str(res.status).upper()}: {b.graph} (N={b.n}), {b.certificate} certificate, {box}",
+             f"  {b.certificate} certificate: {b.status}; {b.reason}"]
+    if b.witness:
+        w = b.witness
+        lines.append("  witness: " + "; ".join(f"{k} = {_num(v) if not isinstance(v, dict) else _wd(v)}"
+                                               for k, v in w.items()))
+    for c in res.checks:
+        lines.append(f"  {c.name}: {c.status} (required {_num(c.required)}, certified {_num(c.value)}); "
+                     f"{c.reason}")
+    if b.spectrum_method:
+        lines.append(f"  Laplacian spectrum: {b.spectrum_method}")
+    return "\n".join(lines)
+
+
+def _wd(d: dict) -> str:
+    return "{" + ", ".join(f"{k}={_num(v) if not isinstance(v, dict) else _wd(v)}" for k, v in d.items()) + "}"
 
 
 def _g(q: Fraction | None) -> str:

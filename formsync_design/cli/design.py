@@ -18,11 +18,19 @@ point is rounded to a short decimal, certified with the same rigorous re-check
 as 'formsync certify', and the largest certified box g*(1 +- s) around it is
 reported.
 
+With --min-delay TAU and/or --graphs-set SET the design maximises instead the
+certified decay rate (searched quadratic V, exact re-check) over a grid of
+--grid^3 candidate points, keeping only points whose searched certificate
+holds, whose processing-delay margin is >= TAU and (with --graphs-set) that
+have one Lyapunov function common to the graph set; it reports the largest box
+g (1 +- s) around the winner on which the certificates still hold.
+
 Exit status: 0 gains recommended and certified, 1 none found, 2 bad input.
 
 examples:
   formsync design --graph ring:8 --ko 0.05:5 --kq 0.05:5 --beta 0.01:1
   formsync design --graph star:8 --ko 0.1:3 --kq 0.1:3 --beta 0.01:0.5 --penalty 0.1 --betas 21
+  formsync design --graph ring:6 --ko 1:3 --kq 0.2:1 --beta 0.1:0.3 --min-delay 0.5 --graphs-set minus:1
 """
 
 
@@ -40,6 +48,21 @@ def add_parser(sub: Any) -> None:
                    help="number of beta values swept over the beta range (default 11)")
     p.add_argument("--penalty", default="0", metavar="RHO",
                    help="weight on normalized gain size K_o/K_o_max + K_q/K_q_max (default 0)")
+    p.add_argument("--min-delay", default=None, metavar="TAU",
+                   help="require a processing-delay margin >= TAU s (constrained design)")
+    p.add_argument("--graphs-set", default=None, metavar="minus:K|G1,G2,...",
+                   help="require one Lyapunov function common to a graph set (constrained design)")
+    p.add_argument("--torque-limit", default=None, metavar="U",
+                   help="require a certified peak torque <= U N m from the initial set --att0/--rate0 "
+                   "(constrained design; needs --inertia or --case)")
+    p.add_argument("--inertia", default=None, metavar="FILE",
+                   help="inertias for --torque-limit: text/CSV, 3 rows per spacecraft (or 3 rows for all)")
+    p.add_argument("--case", default=None, metavar="FILE", help="TOML case file: inertias for --torque-limit")
+    p.add_argument("--att0", default="0.1", metavar="R", help="initial set |q_i(0)| <= R (default 0.1)")
+    p.add_argument("--rate0", default="0.01", metavar="W", help="initial set |omega_i(0)| <= W rad/s "
+                   "(default 0.01)")
+    p.add_argument("--grid", type=int, default=4, metavar="K",
+                   help="candidates per gain axis of the constrained design (default 4, max 16)")
     add_format_option(p)
     p.set_defaults(func=run)
 
@@ -57,6 +80,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"expected a non-negative penalty, received {args.penalty!r}")
     if not 1 <= args.betas <= 1000:
         raise InputError(f"expected --betas in 1..1000, received {args.betas}")
+    if args.min_delay is not None or args.graphs_set is not None or args.torque_limit is not None:
+        return _run_constrained(args, box)
     conds = load_conditions(args.graph, args.conditions, args.spec)
     d = design_gains(conds, box, betas=args.betas, penalty=float(pen), margin=margin)
     if args.format == "json":
@@ -80,3 +105,59 @@ def run(args: argparse.Namespace) -> int:
             kq = "-" if s.K_q is None else f"{s.K_q:.4g}"
             print(f"    beta={float(s.beta):<8.4g} {s.outcome:<10} margin={tt:<10} K_o={ko:<8} K_q={kq}")
     return EXIT_OK if d.status == "designed" else EXIT_NEGATIVE
+
+
+def _run_constrained(args: argparse.Namespace, box: Any) -> int:
+    from formsync_design.analysis.design import design_with_constraints
+    from formsync_design.analysis.requirements import parse_graph_set
+    from formsync_design.cli.options import parse_number
+    from formsync_design.errors import InputError
+
+    if args.conditions != "derived":
+        raise InputError("expected --conditions derived with --min-delay/--graphs-set, received "
+                         f"--conditions {args.conditions}")
+    if not 1 <= args.grid <= 16:
+        raise InputError(f"expected --grid in 1..16, received {args.grid}")
+    tau = 0.0
+    if args.min_delay is not None:
+        tau = float(parse_number(args.min_delay, "--min-delay"))
+        if tau < 0:
+            raise InputError(f"expected a non-negative --min-delay, received {args.min_delay!r}")
+    gs, label = (None, "")
+    if args.graphs_set is not None:
+        gs, label = parse_graph_set(args.graphs_set, args.graph)
+    spec = None
+    if args.spec:
+        from formsync_design.spec.loader import load_spec
+
+        spec = load_spec(args.spec)
+    torque: dict[str, Any] = {}
+    if args.torque_limit is not None:
+        from formsync_design.cli.certify import requirements_from_args
+
+        ns = argparse.Namespace(**{**vars(args), "decay": None, "settle": None, "x0_radius": "1",
+                                   "accuracy": "1", "delay": None, "graphs_set": None})
+        r = requirements_from_args(ns, args.graph)
+        if r.inertias is None:
+            raise InputError("expected inertias (--inertia or --case) with --torque-limit, received none")
+        torque = {"torque_limit": r.torque_limit, "inertias": r.inertias, "att_radius": r.att_radius,
+                  "rate_radius": r.rate_radius}
+    d = design_with_constraints(args.graph, box, min_delay=tau, graph_set=gs, resolution=args.grid,
+                                spec=spec, **torque)
+    if args.format == "json":
+        emit_json({**d.to_dict(), "min_delay_s": tau, "graphs_set": label or None})
+    else:
+        print(f"{str(d.status).upper()}: {d.graph}, constrained design (searched certificate"
+              + (f", delay margin >= {tau:g} s" if args.min_delay is not None else "")
+              + (f", common V over {label}" if label else "")
+              + (f", peak torque <= {float(args.torque_limit):g} N m" if torque else "") + ")")
+        print(f"  {d.reason}")
+        if d.gains is not None:
+            print("  recommended: " + ", ".join(f"{k}={float(v):g}"
+                                                for k, v in zip(("K_o", "K_q", "beta"), d.gains)))
+            print(f"  certified decay rate: alpha >= {float(d.alpha):.6g} 1/s; processing-delay margin "
+                  f"{d.delay_margin:.6g} s")
+        if d.box is not None:
+            print("  largest certified box: " + ", ".join(
+                f"{r.name} in [{float(r.lo):.4g}, {float(r.hi):.4g}]" for r in d.box))
+    return EXIT_OK if d.status == "certified" else EXIT_NEGATIVE

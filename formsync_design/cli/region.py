@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from formsync_design.cli.certify import CERTIFICATE_HELP
 from formsync_design.cli.options import (
     EXIT_OK,
     Progress,
@@ -16,7 +17,7 @@ from formsync_design.gains import parse_gain_range
 
 __all__ = ["add_parser", "run"]
 
-_DESC = """\
+_DESC_FMT = """\
 Subdivide a gain box adaptively into boxes that are certified (every gain in
 the box satisfies Theta_i > 0 and Pi > 0, proven), refuted (every gain in the
 box violates them: one exactly checked vector x refutes the whole box) or
@@ -29,10 +30,20 @@ derived ones.  Dashed lines: closed-form boundaries from the derivation.
 
 A range with LO == HI makes that axis a slice (2-D map).
 
+With --certificate exact|searched|spectral or a requirement (--decay, --settle,
+--graphs-set) every cell of an R x R x R grid (1 cell along a point axis) is
+decided by that certificate and the requirements; DIR/region.json lists the
+cells and the certified / refuted / undecided volume fractions (the certified
+fraction is a rigorous lower bound of the admissible volume).  Default R = 8
+there.  --delay is per gain point: use 'formsync certify'.
+
+%s
 examples:
   formsync region --graph ring:8 --ko 0.05:5 --kq 0.05:5 --beta 0.01:1 --out out/ring8
   formsync region --graph ring:8 --graph star:8 --ko 0.05:5 --kq 0.05:5 --beta 0.01:1 \\
       --resolution 32 --conditions both --beta-slices 0.1,0.3 --out out/compare
+  formsync region --graph star:8 --ko 0.5:4 --kq 0.1:2 --beta 0.05:0.5 --certificate searched \\
+      --decay 0.02 --resolution 4 --out out/star8
 """
 
 
@@ -49,10 +60,10 @@ def add_parser(sub: Any) -> None:
     p = sub.add_parser(
         "region",
         help="map certified/refuted/undecided gain boxes (adaptive subdivision, figures)",
-        description=_DESC,
+        description=_DESC_FMT.replace("%s\n", CERTIFICATE_HELP),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    from formsync_design.cli.certify import add_gain_options
+    from formsync_design.cli.certify import add_certificate_options, add_gain_options
 
     add_gain_options(p, ranges=True)
     p.set_defaults(conditions="derived")
@@ -61,14 +72,16 @@ def add_parser(sub: Any) -> None:
             a.metavar = "derived|paper|both"
             a.help = ("matrices: 'derived' (default), 'paper' (printed), or 'both' (derived map, "
                       "paper's certified region outlined)")
-    p.add_argument("--resolution", type=int, default=32, metavar="R",
-                   help="finest box = 1/R of each range (default 32, max 512)")
+    p.add_argument("--resolution", type=int, default=None, metavar="R",
+                   help="finest box = 1/R of each range (default 32, max 512; with --certificate "
+                   "other than paper or a requirement: R^3 cells, default 8, max 64)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.add_argument("--beta-slices", default=None, metavar="B1,B2,...",
                    help="beta values of the K_o-K_q slices (default: 10%%, 30%%, 60%% of the range)")
     p.add_argument("--kq-slices", default=None, metavar="K1,K2,...",
                    help="K_q values of the beta-K_o slices (default: 10%%, 30%%, 60%% of the range)")
     p.add_argument("--no-progress", action="store_true", help="no progress line on stderr")
+    add_certificate_options(p, point_options=False)
     add_format_option(p)
     p.set_defaults(func=run)
 
@@ -76,10 +89,20 @@ def add_parser(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from formsync_design.certify.plots import write_region
     from formsync_design.certify.region import region_map
-    from formsync_design.cli.certify import gain_box_from_args, load_conditions, parse_margin
+    from formsync_design.cli.certify import (
+        gain_box_from_args,
+        load_conditions,
+        parse_margin,
+        requirements_from_args,
+    )
 
     box = gain_box_from_args(args)
     margin = parse_margin(args.margin)
+    req = requirements_from_args(args, args.graph[0])
+    if args.certificate != "paper" or req.any():
+        return _run_cells(args, box, margin, req)
+    if args.resolution is None:
+        args.resolution = 32
     if args.conditions not in ("derived", "paper", "both"):
         raise InputError(f"expected --conditions derived, paper or both, received {args.conditions!r}")
     if not 1 <= args.resolution <= 512:
@@ -125,3 +148,87 @@ def run(args: argparse.Namespace) -> int:
         for p in paths:
             print(f"wrote {p}")
     return EXIT_OK
+
+
+def _run_cells(args: argparse.Namespace, box: Any, margin: Any, req: Any) -> int:
+    """The grid of cells decided by one certificate and the requirements."""
+    import json
+    from fractions import Fraction
+    from pathlib import Path
+
+    from formsync_design.analysis.requirements import certify_requirements
+    from formsync_design.analysis.spectrum import laplacian_spectrum
+    from formsync_design.cli.certify import requirements_from_args
+    from formsync_design.gains import GainBox
+    from formsync_design.graphs import make_graph
+
+    res = 8 if args.resolution is None else args.resolution
+    if not 1 <= res <= 64:
+        raise InputError(f"expected --resolution in 1..64 with --certificate or a requirement, received {res}")
+    if args.conditions != "derived":
+        raise InputError("expected --conditions derived with --certificate or a requirement option, "
+                         f"received --conditions {args.conditions}")
+    if args.certificate != "paper" and margin != 0:
+        raise InputError(f"expected --margin only with --certificate paper, received --margin {args.margin}")
+    spec = None
+    if args.spec:
+        from formsync_design.spec.loader import load_spec
+
+        spec = load_spec(args.spec)
+    axes = []
+    for r in box:
+        k = 1 if r.is_point else res
+        axes.append([(r.lo + (r.hi - r.lo) * Fraction(i, k), r.lo + (r.hi - r.lo) * Fraction(i + 1, k))
+                     for i in range(k)])
+    ncell = len(axes[0]) * len(axes[1]) * len(axes[2])
+    prog = Progress(ncell * len(args.graph), "region", enabled=not args.no_progress)
+    out_maps = []
+    for gspec in args.graph:
+        g = make_graph(gspec)
+        sp_ = laplacian_spectrum(g)
+        greq = requirements_from_args(args, g) if req.graph_set is not None else req
+        cells, counts = [], {"certified": 0, "refuted": 0, "undecided": 0, "error": 0}
+        for a in axes[0]:
+            for b in axes[1]:
+                for c in axes[2]:
+                    cell = GainBox.parse({"K_o": a, "K_q": b, "beta": c}, ("K_o", "K_q", "beta"))
+                    r = certify_requirements(g, cell, args.certificate, greq, spec=spec, margin=margin,
+                                             spectrum=sp_, use_sdp=False)
+                    counts[str(r.status)] += 1
+                    cells.append({"box": cell.to_dict(), "status": str(r.status),
+                                  "certificate": str(r.base.status),
+                                  "requirements": {ch.name: str(ch.status) for ch in r.checks}})
+                    prog.update(1)
+        out_maps.append({"graph": g.name, "certificate": args.certificate,
+                         "requirements": _req_dict(greq), "resolution": res, "cells": len(cells),
+                         "fractions": {k: Fraction(v, len(cells)) for k, v in counts.items()},
+                         "boxes": cells})
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / "region.json"
+    from formsync_design.cli.options import to_json_value
+
+    path.write_text(json.dumps(to_json_value({"box": box.to_dict(), "maps": out_maps}), indent=1) + "\n")
+    if args.format == "json":
+        emit_json({"files": [str(path)], "maps": [{k: v for k, v in m.items() if k != "boxes"}
+                                                  for m in out_maps]})
+    else:
+        for m in out_maps:
+            f = m["fractions"]
+            print(f"{m['graph']} ({m['certificate']} certificate"
+                  + (", " + ", ".join(m["requirements"]) if m["requirements"] else "") + "): "
+                  f"certified {float(f['certified']):.1%}, refuted {float(f['refuted']):.1%}, undecided "
+                  f"{float(f['undecided']):.1%} of the box ({m['cells']} cells)")
+        print(f"wrote {path}")
+    return EXIT_OK
+
+
+def _req_dict(req: Any) -> dict[str, Any]:
+    d: dict[str, Any] = {}
+    if req.decay is not None:
+        d["decay"] = req.decay
+    if req.settle is not None:
+        d.update(settle=req.settle, x0_radius=req.x0_radius, accuracy=req.accuracy)
+    if req.graph_set is not None:
+        d["graphs_set"] = req.graph_set_label
+    return d
