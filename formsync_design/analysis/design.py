@@ -114,7 +114,8 @@ def design_with_constraints(graph: Any, box: Any, *, min_delay: float = 0.0, gra
         if best is None or a > best[0]:
             best = (a, p, dm)
     if best is None:
-        return ConstrainedDesign(Verdict.REFUTED, g.name, None, Fraction(0), 0.0, None, len(pts), 0,
+        # a finite grid finding nothing is no proof that nothing exists: undecided, not refuted
+        return ConstrainedDesign(Verdict.UNDECIDED, g.name, None, Fraction(0), 0.0, None, len(pts), 0,
                                  "no candidate gain point meets every constraint (refine the grid or "
                                  "relax the constraints)")
     a, p, dm = best
