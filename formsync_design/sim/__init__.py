@@ -4,10 +4,12 @@ Modules: :mod:`~.bridge` (SymPy -> CasADi), :mod:`~.formation` (inputs, options,
 statuses), :mod:`~.kernels` (building, compiling and caching the closed loop, keyed
 by the specification's content), :mod:`~.metrics`, :mod:`~.result`,
 :mod:`~.simulator` (the driver; re-exports the public names), :mod:`~.montecarlo`,
-:mod:`~.figures`.
+:mod:`~.figures`; :mod:`~.hybrid` (exact hybrid simulation with per-agent periodic,
+event-, self- and dynamic-event triggering, representation-agnostic).
 """
 
 from formsync_design.sim.formation import SimStatus
+from formsync_design.sim.hybrid import HybridOptions, HybridResult, HybridStatus, simulate_hybrid
 from formsync_design.sim.montecarlo import (
     MonteCarloResult,
     MonteCarloSettings,
@@ -27,4 +29,8 @@ __all__ = [
     "MonteCarloResult",
     "RunStatus",
     "run_montecarlo",
+    "HybridOptions",
+    "HybridResult",
+    "HybridStatus",
+    "simulate_hybrid",
 ]
