@@ -70,10 +70,13 @@ def test_margin_never_above_simulated_divergence(graph, gains, model):
 
 def test_transmission_delay_independent_and_errors():
     """K_o^2 >= 2 K_q m: no crossing frequency, stable for every delay (Atay 2013);
-    simulation at a long delay converges.  Non-regular graphs are refused."""
+    simulation at a long delay converges.  Non-regular graphs get the Lyapunov-Krasovskii
+    lower bound (tests/test_analysis_lk.py); an unknown model is refused."""
     dm = delay_margin("ring:8", (1.6, 0.4, 0.3), "transmission")
     assert dm.margin == math.inf
     t, d = simulate_delayed_loop("ring:8", (1.6, 0.4, 0.3), 5.0, "transmission", tf=200, h=0.01, seed=2)
     assert d[-1] < 0.05 * d[0]
+    irregular = delay_margin("star:8", (1.6, 0.4, 0.3), "transmission")
+    assert irregular.method == "lyapunov-krasovskii" and irregular.margin > 0
     with pytest.raises(InputError):
-        delay_margin("star:8", (1.6, 0.4, 0.3), "transmission")
+        delay_margin("star:8", (1.6, 0.4, 0.3), "nonsense")

@@ -249,3 +249,66 @@ def test_design_with_torque_limit(capsys, tmp_path) -> None:
     assert rc == 0
     gains = tuple(Fraction(str(d["gains"][k])) for k in ("K_o", "K_q", "beta"))
     assert peak_torque_bound("ring:6", gains, np.diag([50.0, 55.0, 60.0]), 0.05, 0.01).peak <= 150
+
+
+def test_region_delay_cells_hold_at_random_interior_points(capsys, tmp_path) -> None:
+    """`formsync region --delay`: every gain of a certified cell has a closed-form processing
+    margin (all Laplacian modes, eigvalsh) above tau, every gain of a refuted cell below it -
+    checked at seeded random points inside each cell, not at the corners the decision used."""
+    tau = 0.8
+    rc, out, _ = _run(capsys, "region", "--graph", "star:6", "--ko", "0.5:3", "--kq", "0.1:1.5",
+                      "--beta", "0.3", "--certificate", "spectral", "--delay", str(tau),
+                      "--resolution", "5", "--out", str(tmp_path), "--no-progress")
+    assert rc == 0 and "certified" in out
+    data = json.loads((tmp_path / "region.json").read_text())
+    cells = data["maps"][0]["boxes"]
+    seen = {c["status"] for c in cells}
+    assert {"certified", "refuted"} <= seen
+    rng = np.random.default_rng(15)
+    for c in cells:
+        (ko_lo, ko_hi), (kq_lo, kq_hi) = ([float(Fraction(str(x))) for x in c["box"][k]]
+                                          for k in ("K_o", "K_q"))
+        for _ in range(6):
+            ko, kq = rng.uniform(ko_lo, ko_hi), rng.uniform(kq_lo, kq_hi)
+            tm = _closed_form_delay_margin("star:6", ko, kq)
+            if c["requirements"].get("delay") == "certified":
+                assert tm > tau
+            elif c["requirements"].get("delay") == "refuted":
+                assert tm < tau
+
+
+def test_region_transmission_delay_cells_are_delay_independent(capsys, tmp_path) -> None:
+    """Transmission delay on a regular graph: cells certified for --delay are delay-independent;
+    at seeded random interior points the quasi-polynomial crossing analysis finds no crossing
+    frequency (infinite margin) and a long-delay simulation converges."""
+    from formsync_design.analysis.delay import delay_margin, simulate_delayed_loop
+
+    rc, _, _ = _run(capsys, "region", "--graph", "ring:6", "--ko", "0.5:3", "--kq", "0.1:1.5",
+                    "--beta", "0.3", "--certificate", "spectral", "--delay", "3",
+                    "--delay-model", "transmission", "--resolution", "4", "--out", str(tmp_path),
+                    "--no-progress")
+    assert rc == 0
+    cells = json.loads((tmp_path / "region.json").read_text())["maps"][0]["boxes"]
+    cert = [c for c in cells if c["requirements"].get("delay") == "certified"]
+    assert cert and len(cert) < len(cells)
+    rng = np.random.default_rng(16)
+    for c in cert:
+        (ko_lo, ko_hi), (kq_lo, kq_hi) = ([float(Fraction(str(x))) for x in c["box"][k]]
+                                          for k in ("K_o", "K_q"))
+        ko, kq = rng.uniform(ko_lo, ko_hi), rng.uniform(kq_lo, kq_hi)
+        assert delay_margin("ring:6", (ko, kq, 0.3), "transmission").margin == math.inf
+    c = cert[0]
+    ko, kq = (float(Fraction(str(c["box"][k][0]))) for k in ("K_o", "K_q"))
+    t, d = simulate_delayed_loop("ring:6", (ko, kq, 0.3), 3.0, "transmission", tf=150, h=0.01, seed=3)
+    assert d[-1] < 0.1 * d[0]
+
+
+def test_certify_transmission_delay_on_irregular_graph(capsys) -> None:
+    """star:8 (irregular) with transmission delay: the Lyapunov-Krasovskii lower bound certifies a
+    short delay; a long one is undecided (a sufficient bound refutes nothing), never refuted."""
+    rc, out, _ = _run(capsys, "certify", "--graph", "star:8", "--ko", "1.6", "--kq", "0.4", "--beta", "0.3",
+                      "--certificate", "spectral", "--delay", "0.5", "--delay-model", "transmission")
+    assert rc == 0 and "delay: certified" in out and "Lyapunov-Krasovskii" in out
+    rc, out, _ = _run(capsys, "certify", "--graph", "star:8", "--ko", "1.6", "--kq", "0.4", "--beta", "0.3",
+                      "--certificate", "spectral", "--delay", "50", "--delay-model", "transmission")
+    assert "delay: undecided" in out and "refuted" not in out

@@ -12,8 +12,9 @@ Two standard models of neighbour data arriving ``tau`` seconds late:
 ``transmission``
     own state current, neighbours' past: ``s_i = m_i q_i(t) - sum_j q_j(t - tau)``;
     it decouples per mode only when ``D`` and ``A`` commute, i.e. for regular
-    graphs (checked; otherwise an :class:`InputError` says so and a
-    Lyapunov-Krasovskii LMI would be needed - not implemented).  Atay (2013,
+    graphs (checked; otherwise the sufficient Lyapunov-Krasovskii certificate of
+    :mod:`formsync_design.analysis.lk` gives a certified lower bound, ``method``
+    ``"lyapunov-krasovskii"``).  Atay (2013,
     *SIAM J. Control Optim.* / "The consensus problem in networks with
     transmission delays", Phil. Trans. R. Soc. A 371) shows consensus can then be
     delay-independent; here: when the magnitude condition has no crossing
@@ -74,11 +75,12 @@ class DelayMargin:
     margin: float
     critical_lambda: float | None
     crossing_frequency: float | None
+    method: str = "quasi-polynomial"
 
     def to_dict(self) -> dict[str, Any]:
         return jsonify({"graph": self.graph, "model": str(self.model), "gains": list(self.gains),
                         "margin_s": self.margin, "critical_lambda": self.critical_lambda,
-                        "crossing_frequency": self.crossing_frequency})
+                        "crossing_frequency": self.crossing_frequency, "method": self.method})
 
 
 def mode_quasi_polynomial(model: str, lam: float, gains: Any, degree: int | None = None,
@@ -168,6 +170,8 @@ def delay_margin(graph: Any, gains: Any, model: str = "processing", *, spec: Any
     inf
     """
     g = make_graph(graph)
+    if str(model) not in {d.value for d in DelayModel}:
+        raise InputError(f"expected a delay model processing|transmission, received {model}")
     m = DelayModel(str(model))
     gl = [float(parse_number(x, n)) for x, n in zip(gains, ("K_o", "K_q", "beta"))]
     if len(gl) != 3:
@@ -176,10 +180,11 @@ def delay_margin(graph: Any, gains: Any, model: str = "processing", *, spec: Any
     deg = None
     if m is DelayModel.TRANSMISSION:
         if len(set(g.degrees)) != 1:
-            raise InputError(
-                f"expected a regular graph for the transmission-delay model (the loop decouples per "
-                f"mode only then), received {g.name} with degrees {min(g.degrees)}..{max(g.degrees)}"
-            )
+            # no per-mode decoupling: sufficient Lyapunov-Krasovskii certificate (analysis.lk)
+            from formsync_design.analysis.lk import lk_delay_margin
+
+            cert = lk_delay_margin(g, gl, "transmission", spec=spec)
+            return DelayMargin(g.name, m, gp, cert.margin, None, None, "lyapunov-krasovskii")
         deg = g.degrees[0]
     mode_model(spec)  # validates that the specification decouples per mode
     best, lam_c, om_c = math.inf, None, None

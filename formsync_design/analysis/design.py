@@ -9,11 +9,14 @@ given) a common Lyapunov function over the set exists at that point; the
 objective is the certified decay rate (:func:`.performance.certified_decay_rate`,
 exact re-check).  Around the winner, the largest box ``g (1 +- s)`` (same
 relative half-width ``s`` on every gain, bisection) on which the ``searched``
-certificate holds and, when a graph set is given, the common function too.
-With ``torque_limit`` (and ``inertias``, ``att_radius``, ``rate_radius``) a
-candidate is kept only when its certified peak-torque bound
-(:func:`.torque.peak_torque_bound`) from that initial set is within the limit
-(a per-point bound: the certified box around the winner is not torque-checked).
+certificate holds, when a graph set is given the common function too, and
+when ``min_delay > 0`` the processing-delay margin exceeds ``min_delay`` for
+every gain of the box (:func:`.celldelay.delay_cell_check`, proven
+monotonicity).  With ``torque_limit`` (and ``inertias``, ``att_radius``,
+``rate_radius``) a candidate is kept only when its certified peak-torque bound
+(:func:`.torque.peak_torque_bound`) from that initial set is within the limit;
+no cell-level torque bound is proven, so the reported box then shrinks to the
+checked point itself (half-width 0).
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
+from formsync_design.analysis.celldelay import delay_cell_check
 from formsync_design.analysis.certificates import GAINS, certify
 from formsync_design.analysis.delay import delay_margin
 from formsync_design.analysis.performance import certified_decay_rate
@@ -125,6 +129,13 @@ def design_with_constraints(graph: Any, box: Any, *, min_delay: float = 0.0, gra
         if certify(g, bx, "searched", spec=spec, spectrum=spectrum).status is not Verdict.CERTIFIED:
             return None
         if gs is not None and certify_switching(gs, bx, spec=spec).status is not Verdict.CERTIFIED:
+            return None
+        # every gain of the box, not only its centre: the delay margin by proven monotonicity
+        if min_delay > 0 and delay_cell_check(g, bx, min_delay, "processing",
+                                              spec=spec).status is not Verdict.CERTIFIED:
+            return None
+        # no cell-level torque bound is proven: with a torque limit only the checked point counts
+        if torque_limit is not None and s > 0:
             return None
         return bx
 

@@ -114,7 +114,8 @@ def add_certificate_options(p: argparse.ArgumentParser, *, point_options: bool =
                        help="require a delay margin > TAU s (neighbour data TAU s late; gain points only)")
         p.add_argument("--delay-model", default="processing", choices=("processing", "transmission"),
                        help="processing: both terms of s_i late; transmission: neighbours' states late "
-                       "(regular graphs); default processing")
+                       "(exact margin on regular graphs, a Lyapunov-Krasovskii lower bound "
+                       "otherwise); default processing")
     p.add_argument("--graphs-set", default=None, metavar="minus:K|G1,G2,...",
                    help="require one Lyapunov function common to a graph set: the graph and every "
                    "connected graph without K links, or a list of graph specs")

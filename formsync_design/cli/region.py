@@ -17,6 +17,8 @@ from formsync_design.gains import parse_gain_range
 
 __all__ = ["add_parser", "run"]
 
+_SEVERITY = {"certified": 0, "undecided": 1, "refuted": 2, "error": 3}
+
 _DESC_FMT = """\
 Subdivide a gain box adaptively into boxes that are certified (every gain in
 the box satisfies Theta_i > 0 and Pi > 0, proven), refuted (every gain in the
@@ -35,7 +37,9 @@ With --certificate exact|searched|spectral or a requirement (--decay, --settle,
 decided by that certificate and the requirements; DIR/region.json lists the
 cells and the certified / refuted / undecided volume fractions (the certified
 fraction is a rigorous lower bound of the admissible volume).  Default R = 8
-there.  --delay is per gain point: use 'formsync certify'.
+there.  --delay TAU decides every gain of each cell by the proven monotonicity of
+the exact delay margin (processing: worst at K_o lo, K_q hi; transmission on a
+regular graph: delay-independent where K_o^2 >= 2 K_q d; otherwise undecided).
 
 %s
 examples:
@@ -82,6 +86,11 @@ def add_parser(sub: Any) -> None:
                    help="K_q values of the beta-K_o slices (default: 10%%, 30%%, 60%% of the range)")
     p.add_argument("--no-progress", action="store_true", help="no progress line on stderr")
     add_certificate_options(p, point_options=False)
+    p.add_argument("--delay", default=None, metavar="TAU",
+                   help="require a delay margin > TAU s for every gain of a cell (proven monotonicity)")
+    p.add_argument("--delay-model", default="processing", choices=("processing", "transmission"),
+                   help="processing: both terms of s_i late; transmission: neighbours' states late; "
+                   "default processing")
     add_format_option(p)
     p.set_defaults(func=run)
 
@@ -152,11 +161,14 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_cells(args: argparse.Namespace, box: Any, margin: Any, req: Any) -> int:
     """The grid of cells decided by one certificate and the requirements."""
+    import dataclasses
     import json
     from fractions import Fraction
     from pathlib import Path
 
+    from formsync_design.analysis.celldelay import delay_cell_check
     from formsync_design.analysis.requirements import certify_requirements
+    from formsync_design.analysis.results import Verdict
     from formsync_design.analysis.spectrum import laplacian_spectrum
     from formsync_design.cli.certify import requirements_from_args
     from formsync_design.gains import GainBox
@@ -187,17 +199,23 @@ def _run_cells(args: argparse.Namespace, box: Any, margin: Any, req: Any) -> int
         g = make_graph(gspec)
         sp_ = laplacian_spectrum(g)
         greq = requirements_from_args(args, g) if req.graph_set is not None else req
+        nreq = dataclasses.replace(greq, delay=None)  # the delay is decided per cell below
         cells, counts = [], {"certified": 0, "refuted": 0, "undecided": 0, "error": 0}
         for a in axes[0]:
             for b in axes[1]:
                 for c in axes[2]:
                     cell = GainBox.parse({"K_o": a, "K_q": b, "beta": c}, ("K_o", "K_q", "beta"))
-                    r = certify_requirements(g, cell, args.certificate, greq, spec=spec, margin=margin,
+                    r = certify_requirements(g, cell, args.certificate, nreq, spec=spec, margin=margin,
                                              spectrum=sp_, use_sdp=False)
-                    counts[str(r.status)] += 1
-                    cells.append({"box": cell.to_dict(), "status": str(r.status),
+                    status, checks = r.status, list(r.checks)
+                    if greq.delay is not None and r.base.status is not Verdict.ERROR:
+                        dc = delay_cell_check(g, cell, greq.delay, greq.delay_model, spec=spec)
+                        checks.append(dc)
+                        status = max([status, dc.status], key=lambda v: _SEVERITY[v])
+                    counts[str(status)] += 1
+                    cells.append({"box": cell.to_dict(), "status": str(status),
                                   "certificate": str(r.base.status),
-                                  "requirements": {ch.name: str(ch.status) for ch in r.checks}})
+                                  "requirements": {ch.name: str(ch.status) for ch in checks}})
                     prog.update(1)
         out_maps.append({"graph": g.name, "certificate": args.certificate,
                          "requirements": _req_dict(greq), "resolution": res, "cells": len(cells),
@@ -231,4 +249,6 @@ def _req_dict(req: Any) -> dict[str, Any]:
         d.update(settle=req.settle, x0_radius=req.x0_radius, accuracy=req.accuracy)
     if req.graph_set is not None:
         d["graphs_set"] = req.graph_set_label
+    if req.delay is not None:
+        d.update(delay=req.delay, delay_model=str(req.delay_model))
     return d
