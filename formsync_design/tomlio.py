@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from formsync_design.errors import InputError
+from formsync_design.textio import read_text
 
 __all__ = ["load_toml", "parse_toml"]
 
@@ -46,22 +47,7 @@ def load_toml(path: str | Path, what: str = "TOML file") -> dict[str, Any]:
     formsync_design.errors.InputError: expected a TOML file, received '/no/such/file.toml' (no such file)
     """
     p = Path(path)
-    if not p.exists():
-        raise InputError(f"expected a {what}, received {str(p)!r} (no such file)")
-    if not p.is_file():
-        raise InputError(f"expected a {what}, received {str(p)!r} (not a file)")
-    try:
-        raw = p.read_bytes()
-    except OSError as e:
-        raise InputError(f"expected a readable {what}, received {str(p)!r} ({e.strerror or e})") from None
-    if b"\x00" in raw:
-        raise InputError(f"expected a text {what}, received {str(p)!r} (a binary file)")
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as e:
-        raise InputError(
-            f"expected a UTF-8 {what}, received {str(p)!r} (byte {e.start} is not UTF-8)"
-        ) from None
+    text = read_text(p, what)
     return parse_toml(text, str(p))
 
 

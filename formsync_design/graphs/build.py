@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from formsync_design.errors import GraphError
+from formsync_design.textio import read_text
 
 __all__ = ["Graph", "make_graph", "parse_graph_spec", "check_size", "GRAPH_SPEC_HELP", "MAX_SPACECRAFT"]
 
@@ -340,20 +341,8 @@ def _from_adjacency(a: Any, name: str) -> Graph:
 
 
 def _read_text(path: Path, what: str) -> str:
-    """A UTF-8 text file's content; one-line :class:`GraphError` for a binary,
-    non-UTF-8 or unreadable file."""
-    try:
-        raw = path.read_bytes()
-    except OSError as e:
-        raise GraphError(f"expected a readable {what}, received {str(path)!r} ({e.strerror or e})") from None
-    if b"\x00" in raw:
-        raise GraphError(f"expected a text {what}, received {str(path)!r} (a binary file)")
-    try:
-        return raw.decode("utf-8")
-    except UnicodeDecodeError as e:
-        raise GraphError(
-            f"expected a UTF-8 {what}, received {str(path)!r} (byte {e.start} is not UTF-8)"
-        ) from None
+    """A UTF-8 text file's content; one-line :class:`GraphError` otherwise."""
+    return read_text(path, what, GraphError)
 
 
 def _read_edge_list(path: Path) -> Graph:
