@@ -43,7 +43,8 @@ def one_line_error(err: str) -> None:
 # ---------------------------------------------------------------------------
 def test_ctrl_c_on_a_dask_sweep_stops_fast_and_resumes_to_the_same_rows(tmp_path):
     """SIGINT to the whole process group (what a terminal's Ctrl-C does), Dask workers included."""
-    argv = ["sweep", "--graphs", "atlas:2..5", "--resolution", "2", "--design-betas", "2",
+    # 142 tasks: long enough that the run cannot finish between the journal check and the signal
+    argv = ["sweep", "--graphs", "atlas:2..6", "--resolution", "2", "--design-betas", "2",
             "--no-progress"]
     out = tmp_path / "r"
     proc = subprocess.Popen([*EXE, *argv, "--workers", "2", "--out", str(out)],
