@@ -6,6 +6,15 @@ formsync-design derivation engine (see ``formsync_design.spec.loader``).
 
 NAME = "liang2016"
 TITLE = "Liang et al. 2016, controller (4) and the Lyapunov function of Theorem 1"
+REPRESENTATION = "quaternion"
+GAINS = {
+    "K_o": {"description": "rate-damping gain"},
+    "K_q": {"description": "coupling gain"},
+    "beta": {"description": "sliding-variable weight"},
+    "K_v": {"role": "switching", "description": "switching gain K_vi"},
+}
+GRAPHS = ("undirected", "weakly-connected")  # Theorem 1: an undirected connected graph
+SAMPLING = "continuous"
 
 
 def controller(v):

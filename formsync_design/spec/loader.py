@@ -41,7 +41,7 @@ import inspect
 import itertools
 import weakref
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -49,6 +49,13 @@ from typing import Any
 import sympy as sp
 
 from formsync_design.errors import DerivationError, InputError
+from formsync_design.spec.declarations import (
+    CLASSIC,
+    Declarations,
+    GainKind,
+    GainRole,
+    parse_declarations,
+)
 
 __all__ = [
     "ControllerView",
@@ -61,28 +68,47 @@ __all__ = [
 ]
 
 
-def gain_symbols() -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
-    """The shared gain symbols ``(K_o, K_q, beta)`` (positive reals)."""
-    return sp.symbols("K_o K_q beta", positive=True)
+def gain_symbols(spec: Any = None) -> tuple[sp.Symbol, ...]:
+    """The gain symbols of the families (positive reals), in box order.
+
+    ``spec=None``: the classic gains ``(K_o, K_q, beta)``; a :class:`Spec`: its
+    controller gains then its multipliers.
+
+    >>> gain_symbols()
+    (K_o, K_q, beta)
+    """
+    decl = spec.decl if spec is not None else CLASSIC
+    return decl.family_symbols()
 
 
-@dataclass
 class ControllerView:
-    """What ``controller(view)`` may use (see module docstring)."""
+    """What ``controller(view)`` may use (see module docstring).
 
-    A: sp.MatrixSymbol = field(default_factory=lambda: sp.MatrixSymbol("A", 3, 3))
-    B: sp.MatrixSymbol = field(default_factory=lambda: sp.MatrixSymbol("B", 3, 3))
-    Q: sp.MatrixSymbol = field(default_factory=lambda: sp.MatrixSymbol("Q", 3, 3))
-    qd: sp.MatrixSymbol = field(default_factory=lambda: sp.MatrixSymbol("qd", 3, 1))
-    s: sp.MatrixSymbol = field(default_factory=lambda: sp.MatrixSymbol("s", 3, 1))
-    K_v: sp.Symbol = field(default_factory=lambda: sp.Symbol("K_v", positive=True))
-    K_o: sp.Symbol = field(init=False)
-    K_q: sp.Symbol = field(init=False)
-    beta: sp.Symbol = field(init=False)
-    switch_arguments: list[Any] = field(default_factory=list)
+    The opaque model matrices ``A``, ``B``, ``Q`` (3x3), the vectors ``qd``
+    and ``s`` (3x1), the switching term ``sw(arg)`` and one attribute per
+    declared controller or switching gain (a positive symbol; a diagonal gain
+    is a 3x3 matrix symbol).  Multipliers belong to the Lyapunov candidate only.
 
-    def __post_init__(self) -> None:
-        self.K_o, self.K_q, self.beta = gain_symbols()
+    >>> v = ControllerView()
+    >>> sorted(v.gains)
+    ['K_o', 'K_q', 'K_v', 'beta']
+    """
+
+    def __init__(self, decl: Declarations = CLASSIC) -> None:
+        self.decl = decl
+        self.A = sp.MatrixSymbol("A", 3, 3)
+        self.B = sp.MatrixSymbol("B", 3, 3)
+        self.Q = sp.MatrixSymbol("Q", 3, 3)
+        self.qd = sp.MatrixSymbol("qd", 3, 1)
+        self.s = sp.MatrixSymbol("s", 3, 1)
+        self.switch_arguments: list[Any] = []
+        self.gains: dict[str, Any] = {}
+        for g in decl.gains:
+            if g.role == GainRole.MULTIPLIER:
+                continue
+            val = g.matrix if g.kind == GainKind.DIAG else g.symbol
+            self.gains[g.name] = val
+            setattr(self, g.name, val)
 
     @property
     def sigma(self) -> sp.MatrixSymbol:
@@ -100,24 +126,39 @@ class ControllerView:
         self.switch_arguments.append(arg)
         return self.sigma
 
+    def attributes(self) -> str:
+        """The names this view provides, for messages."""
+        return ", ".join(["A", "B", "Q", "qd", "s", *self.gains, "sw"])
 
-@dataclass
+    def symbols(self) -> set[Any]:
+        """Every symbol a controller expression may contain."""
+        return {self.A, self.B, self.Q, self.qd, self.s, self.sigma, *self.gains.values()}
+
+
 class LyapunovView:
-    """What ``lyapunov(view)`` may use for a spacecraft with ``m`` neighbours."""
+    """What ``lyapunov(view)`` may use for a spacecraft with ``m`` neighbours:
+    explicit 3-vectors ``qd`` and ``edges`` (``s`` their sum) and one positive
+    symbol per declared controller gain and multiplier (a diagonal gain is its
+    per-axis entry).
 
-    m: int
-    qd: sp.Matrix = field(init=False)
-    edges: list[sp.Matrix] = field(init=False)
-    K_o: sp.Symbol = field(init=False)
-    K_q: sp.Symbol = field(init=False)
-    beta: sp.Symbol = field(init=False)
+    >>> lv = LyapunovView(2)
+    >>> len(lv.edges), sorted(lv.gains)
+    (2, ['K_o', 'K_q', 'beta'])
+    """
 
-    def __post_init__(self) -> None:
-        self.K_o, self.K_q, self.beta = gain_symbols()
+    def __init__(self, m: int, decl: Declarations = CLASSIC) -> None:
+        self.m = m
+        self.decl = decl
         self.qd = sp.Matrix(sp.symbols("qd_x qd_y qd_z", real=True))
         self.edges = [
-            sp.Matrix(sp.symbols(f"e{k}_x e{k}_y e{k}_z", real=True)) for k in range(1, self.m + 1)
+            sp.Matrix(sp.symbols(f"e{k}_x e{k}_y e{k}_z", real=True)) for k in range(1, m + 1)
         ]
+        self.gains: dict[str, sp.Symbol] = {}
+        for g in decl.gains:
+            if g.role == GainRole.SWITCHING:
+                continue
+            self.gains[g.name] = g.symbol
+            setattr(self, g.name, g.symbol)
 
     @property
     def s(self) -> sp.Matrix:
@@ -126,6 +167,13 @@ class LyapunovView:
         for e in self.edges:
             out += e
         return out
+
+    def attributes(self) -> str:
+        return ", ".join(["m", "qd", "edges", "s", *self.gains])
+
+    def symbols(self) -> set[Any]:
+        """Every symbol ``V_i`` may contain."""
+        return set(self.qd) | {x for e in self.edges for x in e} | set(self.gains.values())
 
 
 @dataclass(frozen=True)
@@ -162,6 +210,16 @@ class Spec:
     lyapunov: Callable[[LyapunovView], Any]
     key: str = ""
     source: str = ""
+    decl: Declarations = CLASSIC
+
+    @property
+    def gains(self) -> tuple[str, ...]:
+        """Names of the box dimensions (controller gains, then multipliers)."""
+        return self.decl.family_gains
+
+    @property
+    def representation(self) -> str:
+        return self.decl.representation
 
     @classmethod
     def from_functions(
@@ -171,6 +229,10 @@ class Spec:
         *,
         name: str = "custom",
         title: str | None = None,
+        gains: Any = None,
+        representation: str = "quaternion",
+        graphs: Any = None,
+        sampling: str = "continuous",
     ) -> Spec:
         """A specification from two Python callables (e.g. written in a notebook).
 
@@ -196,9 +258,17 @@ class Spec:
                     f"<python>: expected {fn} to be a function {fn}(view), received "
                     f"{type(f).__name__}"
                 )
-        outputs = validate_spec(controller, lyapunov, "<python>")
+        attrs: dict[str, Any] = {"REPRESENTATION": representation, "SAMPLING": sampling}
+        if gains is not None:
+            attrs["GAINS"] = gains
+        if graphs is not None:
+            attrs["GRAPHS"] = graphs
+        decl = parse_declarations(attrs, PYTHON_SOURCE)
+        outputs = validate_spec(controller, lyapunov, "<python>", decl)
         h = hashlib.sha256()
         h.update(f"name:{name}\n".encode())
+        if decl != CLASSIC:
+            h.update(repr(decl.to_dict()).encode())
         for f in (controller, lyapunov):
             h.update(_source_token(f).encode())
             h.update(b"\n")
@@ -211,6 +281,7 @@ class Spec:
             lyapunov=lyapunov,
             key=h.hexdigest(),
             source=PYTHON_SOURCE,
+            decl=decl,
         )
 
 
@@ -281,19 +352,14 @@ def _call(fn_name: str, f: Callable[[Any], Any], view: Any, where: str) -> Any:
 
 
 def _view_attributes(view: Any) -> str:
-    if isinstance(view, ControllerView):
-        return "A, B, Q, qd, s, K_o, K_q, beta, K_v, sw"
-    return "m, qd, edges, s, K_o, K_q, beta"
-
-
-def _controller_symbols(v: ControllerView) -> set[Any]:
-    return {v.A, v.B, v.Q, v.qd, v.s, v.sigma, v.K_o, v.K_q, v.beta, v.K_v}
+    return str(view.attributes())
 
 
 def validate_spec(
     controller: Callable[[ControllerView], Any],
     lyapunov: Callable[[LyapunovView], Any],
     where: str,
+    decl: Declarations = CLASSIC,
 ) -> str:
     """Call both functions on the views and check what they return.
 
@@ -303,6 +369,8 @@ def validate_spec(
         The specification's functions.
     where : str
         The file (or ``"<python>"``) named in error messages.
+    decl : Declarations
+        The design's declarations (gains the views provide); default: the classic gains.
 
     Returns
     -------
@@ -326,7 +394,7 @@ def validate_spec(
     ...
     formsync_design.errors.DerivationError: demo: controller(view): expected a 3x1 matrix expression, received shape (3, 3)
     """
-    v = ControllerView()
+    v = ControllerView(decl)
     u = _call("controller", controller, v, where)
     shape = getattr(u, "shape", None)
     if shape != (3, 1) or not isinstance(u, (sp.MatrixBase, sp.MatrixExpr)):
@@ -334,7 +402,7 @@ def validate_spec(
         raise DerivationError(
             f"{where}: controller(view): expected a 3x1 matrix expression, received {got}"
         )
-    extra = {str(x) for x in u.free_symbols} - {str(x) for x in _controller_symbols(v)}
+    extra = {str(x) for x in u.free_symbols} - {str(x) for x in v.symbols()}
     if extra:
         raise DerivationError(
             f"{where}: controller(view): expected only the view's symbols "
@@ -342,7 +410,7 @@ def validate_spec(
         )
     parts = [sp.srepr(u)]
     for m in (1, 2):
-        lv = LyapunovView(m)
+        lv = LyapunovView(m, decl)
         V = _call("lyapunov", lyapunov, lv, where)
         try:
             Vs = sp.sympify(V)
@@ -364,12 +432,11 @@ def validate_spec(
                 f"{where}: lyapunov(view): expected a scalar expression, received a "
                 f"{type(V).__name__}"
             )
-        allowed = set(lv.qd) | {x for e in lv.edges for x in e} | {lv.K_o, lv.K_q, lv.beta}
-        extra = {str(x) for x in Vs.free_symbols - allowed}
+        extra = {str(x) for x in Vs.free_symbols - lv.symbols()}
         if extra:
             raise DerivationError(
                 f"{where}: lyapunov(view): expected V_i in view.qd, view.edges and the gains "
-                f"K_o, K_q, beta only, received unknown symbols {sorted(extra)}"
+                f"{', '.join(lv.gains)} only, received unknown symbols {sorted(extra)}"
             )
         parts.append(sp.srepr(Vs))
     return "\n".join(parts)
@@ -441,7 +508,8 @@ def _load_file(p: Path) -> Spec:
         if not callable(getattr(mod, fn, None)):
             got = "none" if not hasattr(mod, fn) else f"a {type(getattr(mod, fn)).__name__}"
             raise DerivationError(f"{where}: expected a function {fn}(view), received {got}")
-    validate_spec(mod.controller, mod.lyapunov, where)
+    decl = parse_declarations(mod.__dict__, where)
+    validate_spec(mod.controller, mod.lyapunov, where, decl)
     spec = Spec(
         name=str(getattr(mod, "NAME", p.stem)),
         title=str(getattr(mod, "TITLE", p.stem)),
@@ -450,6 +518,7 @@ def _load_file(p: Path) -> Spec:
         lyapunov=mod.lyapunov,
         key=key,
         source=where,
+        decl=decl,
     )
     _LOADED[cache_key] = spec
     return spec
@@ -461,7 +530,9 @@ def load_spec(spec: Spec | str | Path | None = None) -> Spec:
     Parameters
     ----------
     spec : Spec, str, Path or None
-        ``None``: the paper's design (``liang2016``); a path: that file,
+        ``None``: the paper's design (``liang2016``); the name of a shipped
+        design (``"pd_consensus"``, see
+        :func:`~formsync_design.resources.design_names`); a path: that file,
         loaded and validated; a :class:`Spec`: returned unchanged.
 
     Returns
@@ -485,6 +556,8 @@ def load_spec(spec: Spec | str | Path | None = None) -> Spec:
     True
     >>> load_spec(spec.path).key == spec.key
     True
+    >>> load_spec("liang2016") is spec
+    True
     """
     if isinstance(spec, Spec):
         return spec
@@ -493,6 +566,16 @@ def load_spec(spec: Spec | str | Path | None = None) -> Spec:
     if isinstance(spec, (str, Path)):
         if isinstance(spec, str) and not spec.strip():
             raise InputError("expected a specification .py file, received an empty string")
+        if isinstance(spec, str) and spec.isidentifier():
+            from formsync_design.resources import design_file, design_names
+
+            names = design_names()
+            if spec in names:
+                return _load_file(design_file(spec))
+            if not Path(spec).exists():
+                raise InputError(
+                    f"expected a design name ({', '.join(names)}) or a .py file, received {spec!r}"
+                )
         return _load_file(Path(spec))
     raise InputError(
         "expected a specification (a Spec, a .py file path, or None), received a "
