@@ -13,7 +13,6 @@ import sympy as sp
 
 from formsync_design.errors import InputError
 from formsync_design.models.inertia import check_inertia
-from formsync_design.spec.loader import gain_symbols
 
 if TYPE_CHECKING:
     from formsync_design.derive.conditions import LyapunovConditions
@@ -45,11 +44,11 @@ class ClosedFormCondition:
     expression: sp.Expr
     constants: dict
     how: str
+    gains: tuple[str, ...] = ("K_o", "K_q", "beta")
 
-    def holds(self, point: tuple[float, float, float]) -> bool:
-        """Evaluate at ``(K_o, K_q, beta)`` in floating point."""
-        ko, kq, b = gain_symbols()
-        sub = {ko: point[0], kq: point[1], b: point[2]}
+    def holds(self, point: tuple[float, ...]) -> bool:
+        """Evaluate at a gain point (in :attr:`gains` order) in floating point."""
+        sub: dict[Any, Any] = {sp.Symbol(n, positive=True): v for n, v in zip(self.gains, point)}
         sub.update({sp.Symbol(k): v for k, v in self.constants.items()})
         return float(self.expression.subs(sub)) > 0
 
@@ -74,7 +73,7 @@ def closed_form_conditions(conds: LyapunovConditions) -> tuple[ClosedFormConditi
     >>> [str(c.expression) for c in cf if c.family.startswith("Theta")]
     ['K_o*beta/4 + K_q/4', 'K_o*beta/8 + K_q/8 - beta**2/2']
     """
-    gens = gain_symbols()
+    gens = tuple(sp.Symbol(n, positive=True) for n in conds.gains)
     out: list[ClosedFormCondition] = []
     seen: set[int] = set()
     for fam in conds.theta:
@@ -86,10 +85,11 @@ def closed_form_conditions(conds: LyapunovConditions) -> tuple[ClosedFormConditi
         c = T[1, 1]
         b = T[0, 1]
         if T[1:, 1:] == c * sp.eye(m) and all(T[0, k] == b for k in range(1, m + 1)):
-            out.append(ClosedFormCondition(f"Theta(m={m})", sp.expand(c), {}, "edge block c I_m"))
+            out.append(ClosedFormCondition(f"Theta(m={m})", sp.expand(c), {}, "edge block c I_m",
+                                           conds.gains))
             out.append(ClosedFormCondition(
                 f"Theta(m={m})", sp.expand(c * T[0, 0] - m * b**2), {},
-                "Schur complement of the edge block c I_m",
+                "Schur complement of the edge block c I_m", conds.gains,
             ))
     blocks = pi_pencils(conds)
     for label, (alpha, gamma, gname, lo, hi) in blocks.items():
@@ -102,7 +102,7 @@ def closed_form_conditions(conds: LyapunovConditions) -> tuple[ClosedFormConditi
             how = (f"{label} = alpha I + gamma {gname}: eigenvalues alpha + gamma mu, "
                    f"extreme at lambda_min/lambda_max({gname})" if gamma != 0 else
                    f"{label} = alpha I")
-            out.append(ClosedFormCondition(f"Pi[{label}]", expr, consts, how))
+            out.append(ClosedFormCondition(f"Pi[{label}]", expr, consts, how, conds.gains))
     # remove duplicates (gamma == 0 gives the same expression twice)
     uniq: list[ClosedFormCondition] = []
     for c in out:
@@ -123,7 +123,7 @@ def pi_pencils(conds: LyapunovConditions) -> dict:
 
     g = conds.graph
     n = g.n
-    gens = gain_symbols()
+    gens = tuple(sp.Symbol(n, positive=True) for n in conds.gains)
     cands = {"L": sps.csr_matrix(g.laplacian), "Adj": sps.csr_matrix(g.adjacency)}
     eye = sps.identity(n, dtype=np.int64, format="csr")
     out = {}

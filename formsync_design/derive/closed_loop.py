@@ -16,6 +16,7 @@ from typing import Any
 import sympy as sp
 
 from formsync_design.errors import DerivationError
+from formsync_design.spec.declarations import CLASSIC, Declarations, GainKind, GainRole
 from formsync_design.spec.loader import ControllerView, Spec, load_spec
 
 __all__ = ["ClosedLoop", "SpecLike", "derive_closed_loop", "resolve_spec", "spec_cache_key", "registered_spec"]
@@ -101,15 +102,18 @@ class ClosedLoop:
     c_s: sp.Expr
     c_sigma: sp.Expr
     switch_argument: Any
+    decl: Declarations = CLASSIC
 
     def switch_argument_explicit(self, qd: sp.Matrix, s: sp.Matrix) -> sp.Matrix | None:
         """The switching argument with explicit vectors substituted."""
         if self.switch_argument is None:
             return None
-        v = ControllerView()
-        return sp.Matrix(self.switch_argument.xreplace({v.qd: qd, v.s: s}).doit()).applyfunc(
-            sp.expand
-        )
+        v = ControllerView(self.decl)
+        sub: dict[Any, Any] = {v.qd: qd, v.s: s}
+        for g in self.decl.gains:  # a diagonal gain acts per axis through its entry
+            if g.kind == GainKind.DIAG and g.role != GainRole.MULTIPLIER:
+                sub[g.matrix] = g.symbol * sp.eye(3)
+        return sp.Matrix(self.switch_argument.xreplace(sub).doit()).applyfunc(sp.expand)
 
 
 
@@ -146,7 +150,7 @@ def derive_closed_loop(spec: SpecLike = None) -> ClosedLoop:
 
 
 def _derive_closed_loop(spec: Spec) -> ClosedLoop:
-    v = ControllerView()
+    v = ControllerView(spec.decl)
     u = spec.controller(v)
     if getattr(u, "shape", None) != (3, 1):
         raise DerivationError(
@@ -158,10 +162,17 @@ def _derive_closed_loop(spec: Spec) -> ClosedLoop:
     dist = (v.A.I * v.Q.T * ud).doit()
     coeffs = {"qd": sp.Integer(0), "s": sp.Integer(0), "sigma": sp.Integer(0)}
     dist_seen = False
+    diag = {g.matrix: g.symbol for g in spec.decl.gains
+            if g.kind == GainKind.DIAG and g.role != GainRole.MULTIPLIER}
     for term in sp.MatAdd.make_args(qdd):
         c, rest = term.as_coeff_mmul()
         if isinstance(rest, sp.MatMul) and len(rest.args) == 1:
             rest = rest.args[0]
+        # diagonal gains applied after the cancellation act per axis: K q' -> k q'_axis
+        while isinstance(rest, sp.MatMul) and rest.args and rest.args[0] in diag:
+            c = c * diag[rest.args[0]]
+            tail = rest.args[1:]
+            rest = tail[0] if len(tail) == 1 else sp.MatMul(*tail)
         for key, vec in (("qd", v.qd), ("s", v.s), ("sigma", v.sigma)):
             if rest == vec:
                 coeffs[key] += c
@@ -170,15 +181,21 @@ def _derive_closed_loop(spec: Spec) -> ClosedLoop:
             if rest == dist and c == 1:
                 dist_seen = True
                 continue
+            hint = (" (a diagonal gain must act after the model cancellation, e.g. A*K*qd, "
+                    "not K*A*qd)" if set(diag) & term.free_symbols else "")
             raise DerivationError(
                 "expected the controller to cancel the model so that q'' = c1 q' + c2 s + "
-                f"c3 sigma + A^-1 Q^T u_d with scalar c_k; received the term {term}"
+                f"c3 sigma + A^-1 Q^T u_d with scalar c_k; received the term {term}{hint}"
             )
     if not dist_seen:
         raise DerivationError("expected the disturbance term A^-1 Q^T u_d in q''; it cancelled")
+    scalars = {g.symbol for g in spec.decl.gains if g.role != GainRole.MULTIPLIER}
     for k, c in coeffs.items():
-        if c.free_symbols - {v.K_o, v.K_q, v.beta, v.K_v}:
-            raise DerivationError(f"expected a gain coefficient for {k}, received {c}")
+        if c.free_symbols - scalars:
+            raise DerivationError(
+                f"expected a coefficient in the gains for {k}, received {c} (a diagonal gain "
+                "must act after the model cancellation, e.g. A*K*qd, not K*A*qd)"
+            )
     arg = v.switch_arguments[0] if v.switch_arguments else None
     return ClosedLoop(
         spec_name=spec.name,
@@ -188,4 +205,5 @@ def _derive_closed_loop(spec: Spec) -> ClosedLoop:
         c_s=sp.expand(coeffs["s"]),
         c_sigma=sp.expand(coeffs["sigma"]),
         switch_argument=arg,
+        decl=spec.decl,
     )

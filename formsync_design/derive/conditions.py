@@ -90,7 +90,7 @@ def _poly_terms(expr: sp.Expr, gens: tuple[sp.Symbol, ...]) -> tuple[tuple[tuple
         return ()
     if expr.free_symbols - set(gens):
         raise DerivationError(
-            f"expected a polynomial in the gains {GAIN_NAMES}, received {expr}"
+            f"expected a polynomial in the gains {tuple(map(str, gens))}, received {expr}"
         )
     out = []
     for mono, c in sp.Poly(expr, *gens).terms():
@@ -169,7 +169,8 @@ def _theta_entries(theta: sp.Matrix, gens: tuple) -> dict:
 
 
 def _theta_family(theta: sp.Matrix, i: int, graph: Graph, gens: tuple) -> MatrixFamily:
-    base = family_from_entries("Theta", theta.shape[0], _theta_entries(theta, gens))
+    base = family_from_entries("Theta", theta.shape[0], _theta_entries(theta, gens),
+                               gains=tuple(map(str, gens)))
     return _theta_for(base, i, graph)
 
 
@@ -190,7 +191,8 @@ class _SparseSum:
         if factor != 0 and mat.nnz:
             self.parts.setdefault(mono, []).append((factor, mat))
 
-    def family(self, name: str, row_labels: tuple[str, ...]) -> MatrixFamily:
+    def family(self, name: str, row_labels: tuple[str, ...],
+               gains: tuple[str, ...] = GAIN_NAMES) -> MatrixFamily:
         terms = []
         for mono in sorted(self.parts):
             parts = self.parts[mono]
@@ -215,7 +217,7 @@ class _SparseSum:
             if self.size <= 64:
                 mat = np.asarray(mat.todense(), dtype=np.int64)
             terms.append(FamilyTerm(mono, Fraction(1, den), mat))
-        return MatrixFamily(name=name, gains=GAIN_NAMES, terms=tuple(terms), size=self.size,
+        return MatrixFamily(name=name, gains=gains, terms=tuple(terms), size=self.size,
                             block_size=3, row_labels=row_labels)
 
 
@@ -244,7 +246,8 @@ def _uniform_pieces(cf: dict, m: int) -> dict | None:
     return {"qd_qdn": qd_qdn, "qdn_S": qdn_s, "qdn_diag": diag, "qdn_off": off}
 
 
-def _assemble_pi_structured(graph: Graph, classified: dict, own_c: dict) -> MatrixFamily | None:
+def _assemble_pi_structured(graph: Graph, classified: dict, own_c: dict,
+                            gains: tuple[str, ...] = GAIN_NAMES) -> MatrixFamily | None:
     """``Pi`` by sparse algebra on the adjacency ``A`` (per-vertex weights ``D_w``):
     ``-D_w`` on the diagonal blocks, ``-(D_w A + A D_w)/2`` for neighbour rates,
     ``-(A W A - diag(A w))/2`` for pairs of a spacecraft's neighbours."""
@@ -289,10 +292,11 @@ def _assemble_pi_structured(graph: Graph, classified: dict, own_c: dict) -> Matr
     for mono, (f, W) in pieces(lambda m: uni[m]["qdn_off"]).items():  # type: ignore[index]
         AWA = A @ W @ A
         acc.add(mono, -f / 2, block(AWA - sps.diags(AWA.diagonal(), dtype=np.int64), Z, Z, Z))
-    return acc.family("Pi", zeta_labels(n))
+    return acc.family("Pi", zeta_labels(n), gains)
 
 
-def _assemble_pi_entries(graph: Graph, classified: dict, own_c: dict) -> MatrixFamily:
+def _assemble_pi_entries(graph: Graph, classified: dict, own_c: dict,
+                         gains: tuple[str, ...] = GAIN_NAMES) -> MatrixFamily:
     """``Pi`` entry by entry (any local structure; quadratic in the degree)."""
     n = graph.n
     entries: dict = {}
@@ -324,13 +328,14 @@ def _assemble_pi_entries(graph: Graph, classified: dict, own_c: dict) -> MatrixF
                 else:
                     _acc(entries, j, j2, c, Fraction(-1, 2))
                     _acc(entries, j2, j, c, Fraction(-1, 2))
-    return family_from_entries("Pi", 2 * n, entries, row_labels=zeta_labels(n))
+    return family_from_entries("Pi", 2 * n, entries, row_labels=zeta_labels(n), gains=gains)
 
 
 @lru_cache(maxsize=64)
 def _conditions_cached(graph: Graph, key: str, structured: bool = True) -> LyapunovConditions:
     spec = registered_spec(key)
-    gens = gain_symbols()
+    gens = gain_symbols(spec)
+    names = spec.gains
     degrees = sorted(set(graph.degrees))
     templates = {m: template_cached(key, m) for m in degrees}
     # classify the local forms once per degree
@@ -352,10 +357,11 @@ def _conditions_cached(graph: Graph, key: str, structured: bool = True) -> Lyapu
             for k in range(1, m + 1):
                 cf["qdn_S"][k] = _merge(cf["qdn_S"].get(k, {}), _poly_dict(c_off, gens))
     own_c = _poly_dict(own_expr, gens)
-    pi = _assemble_pi_structured(graph, classified, own_c) if structured else None
+    pi = _assemble_pi_structured(graph, classified, own_c, names) if structured else None
     if pi is None:
-        pi = _assemble_pi_entries(graph, classified, own_c)
-    bases = {m: family_from_entries("Theta", m + 1, _theta_entries(templates[m].theta, gens))
+        pi = _assemble_pi_entries(graph, classified, own_c, names)
+    bases = {m: family_from_entries("Theta", m + 1, _theta_entries(templates[m].theta, gens),
+                                    gains=names)
              for m in degrees}
     thetas = tuple(_theta_for(bases[graph.degrees[i]], i, graph) for i in range(graph.n))
     # switching / disturbance part
@@ -369,7 +375,7 @@ def _conditions_cached(graph: Graph, key: str, structured: bool = True) -> Lyapu
     arg = cl.switch_argument_explicit(qd, s)
     matches = arg is not None and (arg - (rho_qd * qd + rho_s * s)).applyfunc(sp.expand) == sp.zeros(3, 1)
     return LyapunovConditions(
-        graph=graph, source="derived", spec_name=spec.name, gains=GAIN_NAMES,
+        graph=graph, source="derived", spec_name=spec.name, gains=names,
         theta=thetas, pi=pi, switching_matches=bool(matches), rho=(rho_qd, rho_s),
     )
 
@@ -564,7 +570,7 @@ def brute_force_vdot(graph: Any, spec: SpecLike = None) -> tuple[sp.Expr, sp.Exp
     V = sp.Integer(0)
     for i in range(n):
         nb = g.neighbors(i)
-        lv = LyapunovView(len(nb))
+        lv = LyapunovView(len(nb), spec.decl)
         Vi = sp.sympify(spec.lyapunov(lv))
         sub = {}
         for ax in range(3):
@@ -580,7 +586,7 @@ def brute_force_vdot(graph: Any, spec: SpecLike = None) -> tuple[sp.Expr, sp.Exp
         for ax in range(3):
             brute += sp.diff(V, q[i][ax]) * qd[i][ax] + sp.diff(V, qd[i][ax]) * acc[i][ax]
     brute = sp.expand(brute)
-    P = conds.pi.to_sympy(gain_symbols())
+    P = conds.pi.to_sympy(gain_symbols(spec))
     assembled = sp.Integer(0)
     zeta = [*qd, *s]
     for ax in range(3):

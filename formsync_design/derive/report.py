@@ -25,6 +25,7 @@ from formsync_design.derive.conditions import (
 )
 from formsync_design.graphs.build import Graph, make_graph
 from formsync_design.models.attitude import derive_attitude_model
+from formsync_design.spec.declarations import CLASSIC
 from formsync_design.spec.loader import ControllerView, LyapunovView, Spec, gain_symbols
 
 __all__ = ["DerivationReport", "write_derivation_report", "report_basename", "DEFAULT_GRAPH"]
@@ -53,15 +54,40 @@ def report_basename(spec: Spec, graph: Graph) -> str:
     return f"{spec.name}-derivation-{slug}"
 
 
-def _pretty_map() -> dict:
-    v = ControllerView()
+def _pretty_map(spec: Spec) -> dict:
+    v = ControllerView(spec.decl)
     M = sp.MatrixSymbol
-    return {
+    out: dict = {
         v.A: M(r"\mathbf{A}_i", 3, 3), v.B: M(r"\mathbf{B}_i", 3, 3), v.Q: M(r"\mathbf{Q}_i", 3, 3),
         v.qd: M(r"\dot{\mathbf{q}}_i", 3, 1), v.s: M(r"\mathbf{s}_i", 3, 1),
         v.sigma: M(r"\boldsymbol{\sigma}_i", 3, 1), M("u_d", 3, 1): M(r"\mathbf{u}_{di}", 3, 1),
-        v.K_v: sp.Symbol("K_{vi}"),
     }
+    sw = spec.decl.switching
+    if sw is not None:
+        out[v.gains[sw]] = sp.Symbol(f"{sw}_{{i}}" if sw != "K_v" else "K_{vi}")
+    for g in spec.decl.gains:
+        if str(g.kind) == "diag" and g.name in v.gains:
+            out[v.gains[g.name]] = M(rf"\mathbf{{{g.name}}}", 3, 3)
+    return out
+
+
+def _declarations_section(spec: Spec) -> list[str]:
+    """The design's declared gains, graph class and sampling (non-classic designs)."""
+    d = spec.decl
+    L = ["## Design declarations", "",
+         f"Representation `{d.representation}`; sampling `{d.sampling}`; the theorem covers graphs "
+         f"that are {', '.join(d.graphs)}.", "",
+         "| gain | role | kind | default range | meaning |", "| --- | --- | --- | --- | --- |"]
+    for g in d.gains:
+        L.append(f"| `{g.name}` | {g.role} | {g.kind} | {g.range if g.range is not None else '-'} "
+                 f"| {_cell(g.description) or '-'} |")
+    L.append("")
+    if d.multipliers:
+        L.append("Multipliers are parameters of the Lyapunov candidate only: `formsync certify` "
+                 "certifies a gain box when one multiplier value makes every family positive "
+                 "definite on the whole box, and searches a grid of values when none is given.")
+        L.append("")
+    return L
 
 
 def _lx(expr: Any) -> str:
@@ -131,8 +157,7 @@ def write_derivation_report(
     if g.n <= _BRUTE_FORCE_MAX_N:
         b, a = brute_force_vdot(g, spec)
         brute_ok = sp.expand(b - a) == 0
-    pm = _pretty_map()
-    ko, kq, beta = gain_symbols()
+    pm = _pretty_map(spec)
     cmd = command or f"formsync derive --graph {g.name} --out {out_dir}"
 
     L: list[str] = []
@@ -148,6 +173,8 @@ def write_derivation_report(
           f"assumes `{DEFAULT_GRAPH}`. Every result below is derived for the graph named here; "
           "run the command with another `--graph` for another topology.")
     w("")
+    if spec.decl != CLASSIC:
+        L.extend(_declarations_section(spec))
     w("Everything below is computed by SymPy from the model equations and the specification; "
       "nothing is typed in. Each scalar block acts on the three axes identically "
       "(checked), i.e. a matrix $F$ shown per axis stands for $F\\otimes\\mathbf{I}_3$.")
@@ -207,7 +234,7 @@ def write_derivation_report(
     w("")
     w("## 3. Lyapunov function and $\\boldsymbol{\\Theta}_i$")
     w("")
-    lv = LyapunovView(2)
+    lv = LyapunovView(2, spec.decl)
     w("The candidate's term for a spacecraft with two neighbours ($\\mathbf{e}_k = \\mathbf{q}_i - "
       "\\mathbf{q}_{j_k}$):")
     w("")
@@ -238,9 +265,11 @@ def write_derivation_report(
       "\\dot{\\mathbf{q}}_j = -c\\sum_j \\dot{\\mathbf{q}}_j^T\\mathbf{s}_j$ into")
     w("")
     w("$$")
-    w(f"\\dot V = -\\boldsymbol{{\\zeta}}^T(\\boldsymbol{{\\Pi}}\\otimes\\mathbf{{I}}_3)\\boldsymbol{{\\zeta}}"
-      f" + \\sum_i \\boldsymbol{{\\rho}}_i^T\\left({_lx(cl.c_sigma.xreplace(pm))}\\boldsymbol{{\\sigma}}_i + "
-      f"\\mathbf{{d}}_i\\right), \\qquad \\boldsymbol{{\\rho}}_i = {_lx(rho_expr)}")
+    w("\\dot V = -\\boldsymbol{\\zeta}^T(\\boldsymbol{\\Pi}\\otimes\\mathbf{I}_3)\\boldsymbol{\\zeta}"
+      + (f" + \\sum_i \\boldsymbol{{\\rho}}_i^T\\left({_lx(cl.c_sigma.xreplace(pm))}\\boldsymbol{{\\sigma}}_i + "
+         f"\\mathbf{{d}}_i\\right)" if cl.c_sigma != 0 else
+         " + \\sum_i \\boldsymbol{\\rho}_i^T\\mathbf{d}_i")
+      + f", \\qquad \\boldsymbol{{\\rho}}_i = {_lx(rho_expr)}")
     w("$$")
     w("")
     w("with $\\boldsymbol{\\zeta} = (\\dot{\\mathbf{q}}_1, \\dots, \\dot{\\mathbf{q}}_n, \\mathbf{s}_1, "
@@ -249,6 +278,7 @@ def write_derivation_report(
          "$\\boldsymbol{\\rho}_i^T(\\mathbf{d}_i - K_{vi}\\,\\mathrm{sgn}\\,\\boldsymbol{\\rho}_i) \\le "
          "-(K_{vi} - \\lVert\\mathbf{d}_i\\rVert_\\infty)\\lVert\\boldsymbol{\\rho}_i\\rVert_1$."
          if conds.switching_matches else
+         "The controller has no switching term." if cl.switch_argument is None else
          "The switching argument of the controller does **not** equal $\\boldsymbol{\\rho}_i$: "
          "the switching term does not dominate the disturbance in $\\dot V$."))
     w("")
@@ -266,7 +296,7 @@ def write_derivation_report(
         w("")
         w("($\\mathbf{L}$: graph Laplacian.) ")
     if g.n <= 10:
-        P = conds.pi.to_sympy(gain_symbols())
+        P = conds.pi.to_sympy(gain_symbols(spec))
         w(f"Per axis, for `{g.name}`:")
         w("")
         w("$$")
@@ -279,21 +309,29 @@ def write_derivation_report(
           + ("agrees identically with the assembled form above." if brute_ok else
              "does **not** agree with the assembled form (a defect: please report it)."))
         w("")
-    w("## 5. Disturbance rejection: the $K_{vi}$ condition")
-    w("")
-    w("$\\mathbf{A}^{-1}\\mathbf{Q}^T = \\mathbf{Q}^{-1}\\mathbf{J}^{-1} = \\mathbf{E}\\mathbf{J}^{-1}$; "
-      "$2\\mathbf{E}$ has singular values $\\{1, 1, q_0\\}$ and rotates a vector by at most "
-      "$90^\\circ$ when $q_0 \\ge 0$, so $\\sup_{\\bar q}\\lVert\\mathbf{E}\\mathbf{y}\\rVert_\\infty = "
-      "\\tfrac12\\lVert\\mathbf{y}\\rVert_2$; the convex $\\lVert\\mathbf{J}^{-1}\\mathbf{u}_d\\rVert_2$ "
-      "is largest at a vertex of $\\lvert u_{d,k}\\rvert \\le \\bar u_d$. Hence "
-      "$\\varepsilon_i = K_{vi} - \\lVert\\mathbf{d}_i\\rVert_\\infty \\ge 0$ for every attitude and "
-      "admissible disturbance if and only if")
-    w("")
-    w("$$")
-    w("K_{vi} \\;\\ge\\; \\frac{\\bar u_d}{2}\\max_{\\mathbf{v}\\in\\{-1,1\\}^3}\\lVert\\mathbf{J}_i^{-1}"
-      "\\mathbf{v}\\rVert_2 .")
-    w("$$")
-    w("")
+    if spec.decl.switching is not None:
+        w("## 5. Disturbance rejection: the $K_{vi}$ condition")
+        w("")
+        w("$\\mathbf{A}^{-1}\\mathbf{Q}^T = \\mathbf{Q}^{-1}\\mathbf{J}^{-1} = \\mathbf{E}\\mathbf{J}^{-1}$; "
+          "$2\\mathbf{E}$ has singular values $\\{1, 1, q_0\\}$ and rotates a vector by at most "
+          "$90^\\circ$ when $q_0 \\ge 0$, so $\\sup_{\\bar q}\\lVert\\mathbf{E}\\mathbf{y}\\rVert_\\infty = "
+          "\\tfrac12\\lVert\\mathbf{y}\\rVert_2$; the convex $\\lVert\\mathbf{J}^{-1}\\mathbf{u}_d\\rVert_2$ "
+          "is largest at a vertex of $\\lvert u_{d,k}\\rvert \\le \\bar u_d$. Hence "
+          "$\\varepsilon_i = K_{vi} - \\lVert\\mathbf{d}_i\\rVert_\\infty \\ge 0$ for every attitude and "
+          "admissible disturbance if and only if")
+        w("")
+        w("$$")
+        w("K_{vi} \\;\\ge\\; \\frac{\\bar u_d}{2}\\max_{\\mathbf{v}\\in\\{-1,1\\}^3}\\lVert\\mathbf{J}_i^{-1}"
+          "\\mathbf{v}\\rVert_2 .")
+        w("$$")
+        w("")
+    else:
+        w("## 5. Disturbance rejection")
+        w("")
+        w("The design has no switching term: the disturbance enters $\\dot V$ as "
+          "$\\sum_i \\boldsymbol{\\rho}_i^T\\mathbf{d}_i$ and is not dominated, so a disturbed "
+          "formation is only ultimately bounded (the nominal loop converges).")
+        w("")
     w("## 6. Closed-form conditions")
     w("")
     w("$\\boldsymbol{\\Theta}_i \\succ 0$ and $\\boldsymbol{\\Pi} \\succ 0$ hold if and only if every "
@@ -307,9 +345,15 @@ def write_derivation_report(
         expr_tex = sp.latex(c.expression, symbol_names=names).replace("+ -", "- ")
         w(f"| {c.family} | ${_cell(expr_tex)}$ | {consts or '-'} | {_cell(c.how)} |")
     w("")
-    w("All entries of $\\boldsymbol{\\Theta}_i$ and $\\boldsymbol{\\Pi}$ are multi-affine in "
-      "$(K_o, K_q, \\beta)$, which is what lets `formsync certify` decide whole gain boxes from "
-      "their vertices.")
+    gl = ("$(K_o, K_q, \\beta)$" if spec.gains == ("K_o", "K_q", "beta") else
+          "$(" + ", ".join(sp.latex(x) for x in gain_symbols(spec)) + ")$")
+    if all(f.is_multiaffine for f in conds.families):
+        w("All entries of $\\boldsymbol{\\Theta}_i$ and $\\boldsymbol{\\Pi}$ are multi-affine in "
+          f"{gl}, which is what lets `formsync certify` decide whole gain boxes from "
+          "their vertices.")
+    else:
+        w("Some entries of $\\boldsymbol{\\Theta}_i$ and $\\boldsymbol{\\Pi}$ are not multi-affine in "
+          f"{gl}: `formsync certify` decides such families by interval subdivision of the box.")
     w("")
     if findings:
         w("## 7. Paper versus derivation")
@@ -359,8 +403,11 @@ def write_derivation_report(
         T.append(f"  \\mathbf{{M}} &= {_lx(pen['M'][0])}\\,\\mathbf{{I}}_n + "
                  f"({_lx(pen['M'][1])})\\,\\mathbf{{{'L' if pen['M'][2] == 'L' else 'A'}}}, \\quad "
                  f"\\mathbf{{N}} = {_lx(pen['N'][0])}\\,\\mathbf{{I}}_n \\\\")
-    T.append("  K_{vi} &\\ge \\frac{\\bar u_d}{2}\\max_{\\mathbf{v}\\in\\{-1,1\\}^3}"
-             "\\lVert\\mathbf{J}_i^{-1}\\mathbf{v}\\rVert_2")
+    if spec.decl.switching is not None:
+        T.append("  K_{vi} &\\ge \\frac{\\bar u_d}{2}\\max_{\\mathbf{v}\\in\\{-1,1\\}^3}"
+                 "\\lVert\\mathbf{J}_i^{-1}\\mathbf{v}\\rVert_2")
+    elif T[-1].endswith(" \\\\"):
+        T[-1] = T[-1][: -len(" \\\\")]
     T.append("\\end{align}")
     tex = out / f"{base}.tex"
     tex.write_text("\n".join(T) + "\n")

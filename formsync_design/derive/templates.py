@@ -127,11 +127,10 @@ def template_cached(key: str, m: int) -> LocalTemplate:
     :func:`~.closed_loop.spec_cache_key`) for ``m`` neighbours, derived once."""
     spec = registered_spec(key)
     cl = derive_closed_loop(spec)
-    lv = LyapunovView(m)
+    lv = LyapunovView(m, spec.decl)
     V = spec.lyapunov(lv)
     V = sp.sympify(V)
-    allowed = set(lv.qd) | {x for e in lv.edges for x in e} | {lv.K_o, lv.K_q, lv.beta}
-    extra = V.free_symbols - allowed
+    extra = V.free_symbols - lv.symbols()
     if extra:
         raise DerivationError(
             "expected V_i in q_i', the edges q_i - q_j and the gains only, received "
