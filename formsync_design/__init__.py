@@ -5,13 +5,16 @@ The curated public surface (``import formsync_design as fs``), in the order
 data flows through the stages:
 
 * graphs: :func:`make_graph`, :class:`Graph`;
-* the specification (controller law + Lyapunov candidate): :func:`load_spec`,
-  :class:`Spec` (from a file, or ``Spec.from_functions`` in a notebook);
+* the design (controller law, Lyapunov candidate, declared gains, representation,
+  graph class): :func:`load_design` / :func:`load_spec` (a shipped design's name such
+  as ``"pd_consensus"``, or a file), :class:`Design` (= :class:`Spec`; or
+  ``Spec.from_functions`` in a notebook), :class:`Declarations`;
 * derivation: :func:`derive_closed_loop`, :func:`derive_conditions`,
   :func:`paper_conditions`, :func:`closed_form_conditions`,
   :func:`required_kv`, :func:`lyapunov_findings`,
   :func:`write_derivation_report`;
 * certification: :class:`GainBox` (the one gain-box type), :func:`certify_box`,
+  :func:`certify_with_multipliers` (designs whose candidate has multipliers),
   :func:`region_map`, :func:`plot_slices`, :func:`design_gains`;
 * simulation: :class:`Formation`, :class:`Gains`, :class:`SimOptions`,
   :func:`simulate`, :func:`metric_figure`, :func:`torque_figures`,
@@ -66,6 +69,9 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "derive_attitude_model": "formsync_design.models",
     "Spec": "formsync_design.spec",
     "load_spec": "formsync_design.spec",
+    "Design": "formsync_design.spec",
+    "load_design": "formsync_design.spec",
+    "Declarations": "formsync_design.spec",
     # derivation
     "ClosedLoop": "formsync_design.derive",
     "MatrixFamily": "formsync_design.derive",
@@ -86,6 +92,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     # certification
     "CertificationResult": "formsync_design.certify",
     "certify_box": "formsync_design.certify",
+    "certify_with_multipliers": "formsync_design.certify",
     "RegionMap": "formsync_design.certify",
     "region_map": "formsync_design.certify",
     "plot_slices": "formsync_design.certify.plots",

@@ -8,6 +8,7 @@ from formsync_design.certify.engine import (
     certify_box,
     check_kv,
 )
+from formsync_design.certify.multipliers import certify_with_multipliers
 from formsync_design.certify.region import RegionMap, region_map
 
 __all__ = [
@@ -15,6 +16,7 @@ __all__ = [
     "as_box",
     "CertificationResult",
     "certify_box",
+    "certify_with_multipliers",
     "check_kv",
     "RegionMap",
     "region_map",
