@@ -13,14 +13,16 @@ import numpy as np
 from formsync_design.cli.options import (
     EXIT_NEGATIVE,
     EXIT_OK,
+    add_design_option,
     add_format_option,
+    design_box,
     emit_json,
 )
 from formsync_design.errors import InputError
-from formsync_design.gains import GainBox, parse_gain_range, parse_number
+from formsync_design.gains import GainBox, parse_number
 from formsync_design.graphs.build import GRAPH_SPEC_HELP, make_graph
 
-__all__ = ["add_parser", "run", "load_conditions", "read_inertias", "add_gain_options",
+__all__ = ["add_parser", "run", "load_conditions", "certify_design", "require_classic", "read_inertias", "add_gain_options",
            "gain_box_from_args", "add_certificate_options", "requirements_from_args",
            "format_requirement_result", "CERTIFICATE_HELP"]
 
@@ -85,16 +87,22 @@ def add_gain_options(p: argparse.ArgumentParser, *, ranges: bool = False) -> Non
     p.add_argument("--graph", required=True, action="append" if ranges else "store",
                    metavar="SPEC", help=f"communication graph: {GRAPH_SPEC_HELP}"
                    + (" (repeat to compare graphs)" if ranges else ""))
-    p.add_argument("--ko", required=True, metavar=form, help="K_o, rate-damping gain (> 0)")
-    p.add_argument("--kq", required=True, metavar=form, help="K_q, coupling gain (> 0)")
-    p.add_argument("--beta", required=True, metavar=form, help="beta, sliding-variable weight (> 0)")
+    p.add_argument("--ko", default=None, metavar=form,
+                   help="K_o, rate-damping gain (> 0) of liang2016 (same as --gain K_o=...)")
+    p.add_argument("--kq", default=None, metavar=form,
+                   help="K_q, coupling gain (> 0) of liang2016 (same as --gain K_q=...)")
+    p.add_argument("--beta", default=None, metavar=form,
+                   help="beta, sliding-variable weight (> 0) of liang2016 (same as --gain beta=...)")
+    p.add_argument("--gain", action="append", default=None, metavar=f"NAME={form}",
+                   help="a gain of the design by name (repeat); a gain not given takes the design's "
+                   "declared default range; a multiplier not given is searched (see 'formsync derive "
+                   "--design NAME')")
     p.add_argument("--margin", default="0", metavar="EPS",
                    help="require lambda_min > EPS for every matrix (default 0: positive definite)")
     p.add_argument("--conditions", default="derived", metavar="derived|paper",
                    help="matrices to check: 'derived' from the controller (default) or 'paper' "
                    "as printed in Liang et al. 2016")
-    p.add_argument("--spec", default=None, metavar="FILE",
-                   help="controller/Lyapunov specification .py (default: the paper's)")
+    add_design_option(p)
 
 
 def add_certificate_options(p: argparse.ArgumentParser, *, point_options: bool = True) -> None:
@@ -184,18 +192,23 @@ def requirements_from_args(args: argparse.Namespace, graph: Any) -> Any:
     )
 
 
-def gain_box_from_args(args: argparse.Namespace) -> GainBox:
-    """The ``--ko/--kq/--beta`` options as one exact :class:`~formsync_design.gains.GainBox`.
+def gain_box_from_args(args: argparse.Namespace, spec: Any = None) -> GainBox:
+    """The gain options (``--gain NAME=RANGE`` and liang2016's ``--ko/--kq/--beta``) as
+    one exact :class:`~formsync_design.gains.GainBox` over the design's gains.
 
     >>> ns = argparse.Namespace(ko="1.3:2", kq="0.4", beta="0.3")
     >>> str(gain_box_from_args(ns))
     'K_o=1.3:2, K_q=0.4, beta=0.3'
+    >>> ns = argparse.Namespace(gain=["k_p=0.5:1"], spec="pd_consensus")
+    >>> str(gain_box_from_args(ns))
+    'k_p=0.5:1, k_d=0.5:3'
     """
-    return GainBox((
-        parse_gain_range(args.ko, "K_o"),
-        parse_gain_range(args.kq, "K_q"),
-        parse_gain_range(args.beta, "beta"),
-    ))
+    from formsync_design.spec.loader import load_spec
+
+    sp_ = load_spec(spec if spec is not None else getattr(args, "spec", None))
+    return design_box(sp_, getattr(args, "gain", None),
+                      {"K_o": getattr(args, "ko", None), "K_q": getattr(args, "kq", None),
+                       "beta": getattr(args, "beta", None)})
 
 
 def parse_margin(text: str) -> Fraction:
@@ -223,7 +236,7 @@ def load_conditions(graph: Any, which: str, spec: str | None = None) -> Any:
         raise InputError(f"expected --conditions derived or paper, received {which!r}")
     g = make_graph(graph)
     if which == "paper":
-        if spec is not None:
+        if spec is not None and load_spec(spec).name != "liang2016":
             raise InputError("expected no --spec with --conditions paper (printed matrices), "
                              f"received --spec {spec!r}")
         return paper_conditions(g)
@@ -354,17 +367,51 @@ def _kv_from_args(args: argparse.Namespace, conds: Any) -> Any:
     return check_kv(kv, inertias, ubar, switching_matches=getattr(conds, "switching_matches", True))
 
 
-def run(args: argparse.Namespace) -> int:
-    from formsync_design.certify.engine import certify_box
+def require_classic(spec: Any, what: str) -> None:
+    """Refuse (exit 2) an analysis written for the classic gains on another design.
 
-    box = gain_box_from_args(args)
+    >>> from formsync_design.spec.loader import load_spec
+    >>> require_classic(load_spec("pd_consensus"), "--certificate exact")
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected a design with the gains K_o, K_q, beta (liang2016's) for --certificate exact, received design pd_consensus with k_p, k_d, eps
+    """
+    if tuple(spec.gains) != ("K_o", "K_q", "beta"):
+        raise InputError(
+            f"expected a design with the gains K_o, K_q, beta (liang2016's) for {what}, received "
+            f"design {spec.name} with {', '.join(spec.gains)}"
+        )
+
+
+def certify_design(conds: Any, box: GainBox, spec: Any, *, margin: Any = 0, kv: Any = None,
+                   use_sdp: bool = True) -> Any:
+    """``certify_box``, with the design's multipliers not in ``box`` searched
+    (:func:`~formsync_design.certify.multipliers.certify_with_multipliers`)."""
+    from formsync_design.certify.engine import certify_box
+    from formsync_design.certify.multipliers import certify_with_multipliers
+
+    mult = {n: spec.decl.gain(n).range for n in spec.decl.multipliers if n not in box}
+    if conds.source == "derived" and mult:
+        return certify_with_multipliers(conds, box, mult, margin=margin, kv=kv, use_sdp=use_sdp)
+    return certify_box(conds, box, margin=margin, kv=kv, use_sdp=use_sdp)
+
+
+def run(args: argparse.Namespace) -> int:
+    from formsync_design.spec.loader import load_spec
+
+    spec = load_spec(args.spec)
+    box = gain_box_from_args(args, spec)
     margin = parse_margin(args.margin)
     req = requirements_from_args(args, args.graph)
     if args.certificate != "paper" or req.any():
+        require_classic(spec, "--certificate or a requirement option")
         return _run_analysis(args, box, margin, req)
     conds = load_conditions(args.graph, args.conditions, args.spec)
     kv = _kv_from_args(args, conds)
-    res = certify_box(conds, box, margin=margin, kv=kv)
+    if kv is not None and spec.decl.switching is None:
+        raise InputError(f"expected no K_v check (--ud/--inertia/--case/--kv) for design "
+                         f"{spec.name}: it has no switching term")
+    res = certify_design(conds, box, spec, margin=margin, kv=kv)
     if args.format == "json":
         emit_json(res.to_dict())
     else:

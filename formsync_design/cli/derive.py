@@ -8,7 +8,14 @@ from typing import Any
 
 import numpy as np
 
-from formsync_design.cli.options import EXIT_OK, add_format_option, emit_json, parse_gain_range
+from formsync_design.cli.options import (
+    EXIT_OK,
+    add_design_option,
+    add_format_option,
+    design_box,
+    emit_json,
+    parse_gain_assignments,
+)
 from formsync_design.errors import InputError
 from formsync_design.graphs.build import GRAPH_SPEC_HELP
 
@@ -45,12 +52,12 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--graph", default=None,
                    help=f"communication graph: {GRAPH_SPEC_HELP} (default: ring:8, "
                         "an assumption: the paper's Fig. 2 topology was lost)")
-    p.add_argument("--spec", default=None,
-                   help="specification .py file with controller(view) and lyapunov(view) "
-                        "(default: derivations/liang2016.py, the paper's)")
-    p.add_argument("--ko", help="K_o (a single value) for numeric output")
-    p.add_argument("--kq", help="K_q (a single value) for numeric output")
-    p.add_argument("--beta", help="beta (a single value) for numeric output")
+    add_design_option(p)
+    p.add_argument("--ko", help="K_o (a single value) for numeric output (liang2016)")
+    p.add_argument("--kq", help="K_q (a single value) for numeric output (liang2016)")
+    p.add_argument("--beta", help="beta (a single value) for numeric output (liang2016)")
+    p.add_argument("--gain", action="append", default=None, metavar="NAME=X",
+                   help="a gain of the design (a single value) for numeric output; repeat")
     p.add_argument("--out", default=None, help="directory for the report (default: reports)")
     add_format_option(p)
     p.set_defaults(func=run)
@@ -60,7 +67,7 @@ def _labels3(labels: tuple[str, ...]) -> list[str]:
     return [f"{lab}.{ax}" for lab in labels for ax in "xyz"]
 
 
-def numeric_conditions(conds: Any, point: tuple[float, float, float]) -> dict:
+def numeric_conditions(conds: Any, point: tuple[float, ...]) -> dict:
     """Theta_i and Pi at a gain point as full 3-axis matrices with labels."""
     thetas = []
     for fam in conds.theta:
@@ -91,22 +98,28 @@ def run(args: argparse.Namespace) -> int:
     spec = load_spec(args.spec)
     graph = make_graph(args.graph or DEFAULT_GRAPH)
     gains = [args.ko, args.kq, args.beta]
-    if any(x is not None for x in gains):
-        if any(x is None for x in gains):
+    named = parse_gain_assignments(getattr(args, "gain", None))
+    if any(x is not None for x in gains) or named:
+        if any(x is not None for x in gains) and any(x is None for x in gains):
             raise InputError(
                 "expected all of --ko, --kq, --beta for numeric output, received only "
                 + ", ".join(n for n, x in zip(("--ko", "--kq", "--beta"), gains) if x is not None)
             )
-        rng = [parse_gain_range(x, n) for x, n in zip(gains, ("K_o", "K_q", "beta"))]
+        legacy = dict(zip(("K_o", "K_q", "beta"), gains))
+        missing = [n for n in spec.gains if n not in named and legacy.get(n) is None]
+        if missing:
+            raise InputError(f"expected a value for every gain of design {spec.name} "
+                             f"({', '.join(spec.gains)}) for numeric output, missing {missing}")
+        rng = design_box(spec, named, legacy).ranges
         if any(not r.is_point for r in rng):
-            raise InputError("expected single values for --ko/--kq/--beta here "
+            raise InputError("expected single values for the gains here "
                              "(ranges belong to `formsync certify`), received a range")
         point = tuple(float(r.lo) for r in rng)
         conds = derive_conditions(graph, spec)
-        num = numeric_conditions(conds, point)  # type: ignore[arg-type]
+        num = numeric_conditions(conds, point)
         doc = {
             "graph": graph.name, "n": graph.n, "edges": graph.edge_list_1based(),
-            "specification": spec.name, "gains": dict(zip(("K_o", "K_q", "beta"), point)),
+            "specification": spec.name, "gains": dict(zip(spec.gains, point)),
             "zeta_order_note": "zeta = (qdot_1..qdot_n, s_1..s_n), s_i = sum_{j in G_i}(q_i - q_j), "
                                "x,y,z within each (paper eq. 9)",
             **num,
@@ -116,8 +129,8 @@ def run(args: argparse.Namespace) -> int:
                 emit_json(doc)
             else:
                 w = sys.stdout.write
-                w(f"graph {graph.name} ({graph.n} spacecraft), gains K_o={point[0]:g} "
-                  f"K_q={point[1]:g} beta={point[2]:g}\n")
+                w(f"graph {graph.name} ({graph.n} spacecraft), gains "
+                  + " ".join(f"{n}={v:g}" for n, v in zip(spec.gains, point)) + "\n")
                 w(f"zeta order: {', '.join(num['pi']['zeta_order'])}\n\n")
                 for t in num["theta"]:
                     w(f"Theta_{t['spacecraft']}  (chi = {', '.join(t['chi_order'])}), "
@@ -130,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
     rep = write_derivation_report(
         graph, args.out or "reports", spec,
         command="formsync derive" + (f" --graph {graph.name}" if args.graph else "")
-        + (f" --spec {args.spec}" if args.spec else "")
+        + (f" --design {args.spec}" if args.spec else "")
         + (f" --out {args.out}" if args.out else ""),
     )
     if args.format == "json":

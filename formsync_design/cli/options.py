@@ -33,13 +33,99 @@ __all__ = [
     "emit_json",
     "to_json_value",
     "Progress",
+    "add_design_option",
+    "design_box",
+    "parse_gain_assignments",
+    "DESIGN_HELP",
 ]
+
+DESIGN_HELP = (
+    "the design (controller, Lyapunov candidate, gains, graph class): a shipped design's name "
+    "(liang2016, pd_consensus) or a design .py file; default liang2016 (--spec is the old name)"
+)
 
 EXIT_OK = 0
 EXIT_NEGATIVE = 1
 EXIT_USAGE = 2
 EXIT_FAILURE = 3  # a failure that is not the user's input (solver, compiler, cluster)
 EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT), as shells report it
+
+def add_design_option(p: argparse.ArgumentParser) -> None:
+    """``--design NAME|FILE`` (alias ``--spec``), stored as ``args.spec``."""
+    p.add_argument("--design", "--spec", dest="spec", default=None, metavar="NAME|FILE",
+                   help=DESIGN_HELP)
+
+
+def parse_gain_assignments(items: Any) -> dict[str, str]:
+    """``["k_p=1:2", "k_d=3"]`` as ``{"k_p": "1:2", "k_d": "3"}`` (each name once).
+
+    >>> parse_gain_assignments(["k_p=1:2", "k_d = 3"])
+    {'k_p': '1:2', 'k_d': '3'}
+    """
+    out: dict[str, str] = {}
+    for it in items or ():
+        name, sep, value = str(it).partition("=")
+        name, value = name.strip(), value.strip()
+        if not sep or not name or not value:
+            raise InputError(f"expected --gain NAME=X or NAME=LO:HI, received {it!r}")
+        if name in out:
+            raise InputError(f"expected each gain once, received --gain {name}= twice")
+        out[name] = value
+    return out
+
+
+def design_box(spec: Any, gains: Any, legacy: Mapping[str, Any] | None = None) -> Any:
+    """The gain box of a command: the design's box dimensions from ``--gain`` (and the
+    legacy ``--ko/--kq/--beta`` of the classic gains), a controller gain not given
+    taking its declared default range; a multiplier not given is left out (searched).
+
+    Returns a :class:`~formsync_design.gains.GainBox` over the design's gains in
+    declaration order.
+
+    >>> from formsync_design.spec.loader import load_spec
+    >>> str(design_box(load_spec("pd_consensus"), ["k_d=2", "eps=0.1"]))
+    'k_p=0.1:2, k_d=2, eps=0.1'
+    """
+    from formsync_design.gains import GainBox
+
+    given = dict(gains) if isinstance(gains, Mapping) else parse_gain_assignments(gains)
+    for name, val in (legacy or {}).items():
+        if val is None:
+            continue
+        if name not in spec.decl.family_gains:
+            raise InputError(
+                f"expected the gains of design {spec.name} ({', '.join(spec.gains)}), received "
+                f"--{ {'K_o': 'ko', 'K_q': 'kq', 'beta': 'beta'}.get(name, name)} ({name})"
+            )
+        if name in given:
+            raise InputError(f"expected {name} once, received it as --gain and as a flag")
+        given[name] = val
+    unknown = [n for n in given if n not in spec.decl.family_gains]
+    if unknown:
+        sw = spec.decl.switching
+        extra = f" (the switching gain {sw} is not a box dimension)" if sw in unknown else ""
+        raise InputError(
+            f"expected the gains of design {spec.name} ({', '.join(spec.gains)}), received "
+            f"{unknown}{extra}"
+        )
+    ranges = []
+    for g in spec.decl.gains:
+        if g.name not in spec.decl.family_gains:
+            continue
+        if g.name in given:
+            ranges.append(parse_gain_range(given[g.name], g.name))
+        elif str(g.role) == "multiplier":
+            continue
+        elif g.range is not None:
+            ranges.append(GainRange(g.name, g.range.lo, g.range.hi))
+        else:
+            flag = {"K_o": "--ko", "K_q": "--kq", "beta": "--beta"}.get(g.name)
+            how = f"{flag} or --gain {g.name}=X|LO:HI" if flag else f"--gain {g.name}=X|LO:HI"
+            raise InputError(
+                f"expected a value for gain {g.name} of design {spec.name} ({how}), received none"
+            )
+    return GainBox(tuple(ranges))
+
 
 def parse_positive(text: str, name: str) -> float:
     """Parse a finite, strictly positive float."""

@@ -104,9 +104,9 @@ def add_parser(sub: Any) -> None:
 
 def add_spec_option(p: argparse.ArgumentParser) -> None:
     """``--spec FILE``: the controller/Lyapunov specification (default: the case's, else the paper's)."""
-    p.add_argument("--spec", metavar="FILE", default=None,
-                   help="controller specification .py (default: the case's [case] spec, else the "
-                        "paper's derivations/liang2016.py)")
+    p.add_argument("--design", "--spec", dest="spec", metavar="NAME|FILE", default=None,
+                   help="the design: a shipped design's name or a design .py (default: the case's "
+                        "[case] spec, else liang2016; --spec is the old name)")
 
 
 def resolve_cli_spec(args: argparse.Namespace, case: Any) -> Any:
@@ -115,7 +115,11 @@ def resolve_cli_spec(args: argparse.Namespace, case: Any) -> Any:
     from formsync_design.spec.loader import load_spec
 
     given = getattr(args, "spec", None)
-    return load_spec(given if given is not None else getattr(case, "spec", None))
+    spec = load_spec(given if given is not None else getattr(case, "spec", None))
+    from formsync_design.cli.certify import require_classic
+
+    require_classic(spec, "simulation (the compiled simulator takes those gains)")
+    return spec
 
 
 def check_out_dir(out: str | None) -> Path | None:

@@ -96,7 +96,7 @@ def add_parser(sub: Any) -> None:
     d.add_argument("--graphs", action="append", metavar="SET", default=None,
                    help="graph set (repeatable), e.g. ring:4..12, atlas:6, random:8:0.4:0..9")
     d.add_argument("--name", default=None, help="campaign name (default 'sweep')")
-    d.add_argument("--spec", default=None, metavar="FILE",
+    d.add_argument("--design", "--spec", dest="spec", default=None, metavar="NAME|FILE",
                    help="controller + Lyapunov specification .py (default: the paper's design; "
                    "with --campaign, instead of its [campaign] spec)")
     d.add_argument("--ko", default=None, metavar="LO:HI", help="K_o range of the box (default 0.05:5)")

@@ -50,8 +50,9 @@ def add_parser(sub: Any) -> None:
     p.add_argument("case", nargs="?", default="liang2016",
                    help="case name or TOML file (default: liang2016)")
     p.add_argument("--out", default="reports", help="output directory (default: reports)")
-    p.add_argument("--spec", default=None,
-                   help="specification .py file (default: the case file's [case] spec, else the paper's)")
+    p.add_argument("--design", "--spec", dest="spec", default=None, metavar="NAME|FILE",
+                   help="the design: a shipped design's name or a design .py (default: the case "
+                   "file's [case] spec, else liang2016; --spec is the old name)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace an existing report of a different case in --out")
     p.add_argument("--strict", action="store_true",
@@ -93,6 +94,10 @@ def run(args: argparse.Namespace) -> int:
     case = load_case(path)
     spec_arg = args.spec if args.spec is not None else case.spec
     spec = load_spec(spec_arg) if spec_arg is not None else None
+    if spec is not None:
+        from formsync_design.cli.certify import require_classic
+
+        require_classic(spec, "verify (its simulations take those gains)")
 
     def say(msg: str) -> None:
         sys.stderr.write(f"verify: {msg}\n")

@@ -1,0 +1,268 @@
+"""Designs as plug-ins: the declarations contract, a second design (PD consensus) through
+derive and certify, multipliers, diagonal gains, and the command line.
+
+Independent truths: the PD closed loop recomputed numerically from random model matrices;
+the PD coupling matrix against the hand-derived formula ``diag(k_d I - eps L, eps k_p I)``;
+the brute-force symbolic V' (a second derivation); family eigenvalues at sampled points.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from formsync_design.certify.engine import certify_box
+from formsync_design.certify.multipliers import certify_with_multipliers, multiplier_grid
+from formsync_design.certify.results import Status
+from formsync_design.derive.closed_loop import derive_closed_loop
+from formsync_design.derive.conditions import brute_force_vdot, derive_conditions
+from formsync_design.errors import DerivationError, InputError
+from formsync_design.gains import GainRange
+from formsync_design.graphs import make_graph
+from formsync_design.spec.declarations import CLASSIC, GainKind, GainRole, parse_declarations
+from formsync_design.spec.loader import Spec, load_spec
+
+PD = "pd_consensus"
+
+
+def _formsync(*args: str) -> subprocess.CompletedProcess:
+    exe = str(Path(sys.executable).with_name("formsync"))
+    cmd = [exe] if Path(exe).exists() else [sys.executable, "-c",
+                                             "import sys; from formsync_design.cli.main import main; "
+                                             "sys.exit(main())"]
+    return subprocess.run([*cmd, *args], capture_output=True, text=True, timeout=300)
+
+
+# --------------------------------------------------------------------------- contract
+def test_shipped_designs_declare_their_parts():
+    liang = load_spec("liang2016")
+    assert liang.decl == CLASSIC and liang.gains == ("K_o", "K_q", "beta")
+    pd = load_spec(PD)
+    assert pd.gains == ("k_p", "k_d", "eps")
+    assert pd.decl.multipliers == ("eps",) and pd.decl.switching is None
+    assert pd.decl.gain("eps").role == GainRole.MULTIPLIER
+    assert pd.decl.gain("k_p").range == GainRange("k_p", Fraction(1, 10), Fraction(2))
+
+
+@pytest.mark.parametrize("attrs, part", [
+    ({"GAINS": {"k": {}, "A": {}}}, "GAINS['A']"),
+    ({"GAINS": {"k": {"role": "boss"}}}, "GAINS['k'].role"),
+    ({"GAINS": {"k": {"kind": "full"}}}, "GAINS['k'].kind"),
+    ({"GAINS": {"k": {"range": "2:1"}}}, "GAINS['k'].range"),
+    ({"GAINS": {"k": {"range": "-1:1"}}}, "GAINS['k'].range"),
+    ({"GAINS": {"k": {"color": 1}}}, "GAINS['k']"),
+    ({"GAINS": {"e": {"role": "multiplier"}}}, "GAINS"),
+    ({"GAINS": ["a", "a"]}, "GAINS"),
+    ({"GAINS": "k_p"}, "GAINS"),
+    ({"REPRESENTATION": "euler"}, "REPRESENTATION"),
+    ({"GRAPHS": ("connected-ish",)}, "GRAPHS"),
+    ({"SAMPLING": "sometimes"}, "SAMPLING"),
+])
+def test_bad_declarations_are_one_line_errors_naming_the_part(attrs, part):
+    with pytest.raises(DerivationError) as e:
+        parse_declarations(attrs, "my_design.py")
+    msg = str(e.value)
+    assert "\n" not in msg and msg.startswith(f"my_design.py: {part}") and "expected" in msg
+
+
+def _write(tmp_path, body: str, name: str = "d.py"):
+    p = tmp_path / name
+    p.write_text(body)
+    return p
+
+
+_PD_BODY = '''
+GAINS = {"k_p": {"range": "0.1:2"}, "k_d": {"range": "0.5:3"%s},
+         "eps": {"role": "multiplier", "range": "0.001:1"}}
+def controller(v):
+    return v.Q.I.T * (%s)
+def lyapunov(v):
+    c = (v.k_p + v.eps * v.k_d) / 4
+    return c * sum((e.dot(e) for e in v.edges), 0) + v.qd.dot(v.qd) / 2 + v.eps * sum(
+        (e.dot(v.qd) for e in v.edges), 0)
+'''
+
+
+def test_design_file_using_an_undeclared_quantity_is_refused(tmp_path):
+    p = _write(tmp_path, _PD_BODY % ("", "(v.B - v.K_o * v.A) * v.qd - v.k_p * v.A * v.s"))
+    with pytest.raises(DerivationError) as e:
+        load_spec(str(p))
+    assert str(p) in str(e.value) and "view.K_o" in str(e.value)
+    r = _formsync("derive", "--design", str(p), "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "view.K_o" in r.stderr
+
+
+def test_design_file_without_lyapunov_is_refused(tmp_path):
+    p = _write(tmp_path, "GAINS = ['k']\ndef controller(v):\n    return -v.k * v.qd\n")
+    r = _formsync("certify", "--design", str(p), "--graph", "ring:4", "--gain", "k=1")
+    assert r.returncode == 2 and "expected a function lyapunov(view)" in r.stderr
+
+
+def test_unknown_design_name_is_input_error():
+    with pytest.raises(InputError, match="expected a design name"):
+        load_spec("no_such_design")
+
+
+# --------------------------------------------------------------------------- PD derivation
+def test_pd_closed_loop_matches_numeric_model_cancellation():
+    cl = derive_closed_loop(PD)
+    kp, kd = sp.symbols("k_p k_d", positive=True)
+    assert sp.simplify(cl.c_qd + kd) == 0 and sp.simplify(cl.c_s + kp) == 0 and cl.c_sigma == 0
+    # independent: numeric A, B, Q (random, invertible), u from the printed law, q'' from the model
+    rng = np.random.default_rng(7)
+    A = rng.normal(size=(3, 3)) + 4 * np.eye(3)
+    B = rng.normal(size=(3, 3))
+    Q = rng.normal(size=(3, 3)) + 3 * np.eye(3)
+    qd, s = rng.normal(size=3), rng.normal(size=3)
+    k_p, k_d = 0.7, 1.9
+    u = np.linalg.solve(Q.T, (B - k_d * A) @ qd - k_p * A @ s)
+    qdd = np.linalg.solve(A, Q.T @ u - B @ qd)
+    np.testing.assert_allclose(qdd, -k_d * qd - k_p * s, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("graph", ["ring:6", "star:5", "random:7:0.5:3", "path:4"])
+def test_pd_pi_equals_hand_formula(graph):
+    g = make_graph(graph)
+    c = derive_conditions(g, PD)
+    L = np.asarray(g.laplacian, dtype=float)
+    n = g.n
+    rng = np.random.default_rng(11)
+    for _ in range(3):
+        kp, kd, eps = rng.uniform(0.1, 3, size=3)
+        want = np.zeros((2 * n, 2 * n))
+        want[:n, :n] = kd * np.eye(n) - eps * L
+        want[n:, n:] = eps * kp * np.eye(n)
+        np.testing.assert_allclose(c.pi.evaluate((kp, kd, eps)), want, atol=1e-12)
+
+
+def test_pd_brute_force_vdot_agrees_with_assembled_form():
+    b, a = brute_force_vdot("path:3", PD)
+    assert sp.expand(b - a) == 0
+
+
+# --------------------------------------------------------------------------- certification
+def test_pd_certified_on_star_and_complete_where_liang_is_refuted():
+    pd = load_spec(PD)
+    mult = {"eps": pd.decl.gain("eps").range}
+    for graph in ("star:8", "complete:8"):
+        r = certify_with_multipliers(derive_conditions(graph, PD), {"k_p": (0.2, 2), "k_d": (1, 3)},
+                                     mult)
+        assert r.status == Status.CERTIFIED, (graph, r.reason)
+        eps = r.box["eps"].lo
+        assert eps in multiplier_grid(mult["eps"])
+        # independent: the hand-derived conditions hold at the box's vertices with that eps
+        lam = max(np.linalg.eigvalsh(np.asarray(make_graph(graph).laplacian, dtype=float)))
+        m = max(make_graph(graph).degrees)
+        for kp in (0.2, 2):
+            for kd in (1, 3):
+                c = (kp + float(eps) * kd) / 4
+                assert kd - float(eps) * lam > 0 and c / 2 - m * float(eps) ** 2 / 4 > 0
+
+
+def test_pd_fixed_multiplier_refutes_with_exact_witness_but_search_does_not_refute():
+    c = derive_conditions("star:8", PD)
+    r = certify_box(c, {"k_p": 1, "k_d": "0.5", "eps": 1})
+    assert r.status == Status.REFUTED and r.witness is not None
+    # exact re-check of the witness: x^T F x <= 0 at the witness point
+    fam = next(f for f in c.families if f.name == r.witness.family)
+    F = fam.to_sympy(sp.symbols("k_p k_d eps", positive=True))
+    pt = {sp.Symbol(k, positive=True): sp.Rational(str(v)) for k, v in r.witness.point.items()}
+    x = sp.Matrix([sp.Rational(v) for v in r.witness.x])
+    assert (x.T * F.subs(pt) * x)[0, 0] <= 0
+    # a grid of multipliers none of which works: undecided, never refuted
+    r2 = certify_with_multipliers(c, {"k_p": 1, "k_d": "0.5"},
+                                  {"eps": GainRange("eps", Fraction(9, 10), Fraction(1))})
+    assert r2.status == Status.UNDECIDED and r2.witness is None and "not the design" in r2.reason
+
+
+def test_multiplier_grid_is_exact_inside_and_reproducible():
+    r = GainRange("eps", Fraction(1, 1000), Fraction(1))
+    g = multiplier_grid(r)
+    assert g[0] == r.lo and g[-1] == r.hi and g == sorted(g) and len(set(g)) == len(g)
+    assert all(isinstance(v, Fraction) and r.lo <= v <= r.hi for v in g)
+    assert g == multiplier_grid(r)
+
+
+# --------------------------------------------------------------------------- diagonal gains
+_DIAG_OK = "v.B * v.qd - v.A * v.k_d * v.qd - v.k_p * v.A * v.s"
+_DIAG_BAD = "v.B * v.qd - v.k_d * v.A * v.qd - v.k_p * v.A * v.s"
+
+
+def test_diagonal_gain_acting_after_cancellation_is_per_axis(tmp_path):
+    spec = load_spec(str(_write(tmp_path, _PD_BODY % (', "kind": "diag"', _DIAG_OK))))
+    assert spec.decl.gain("k_d").kind == GainKind.DIAG
+    cl = derive_closed_loop(spec)
+    assert cl.c_qd == -sp.Symbol("k_d", positive=True)
+    # the per-axis families are those of the scalar design
+    a = derive_conditions("ring:5", spec).pi.evaluate((0.7, 1.3, 0.2))
+    b = derive_conditions("ring:5", PD).pi.evaluate((0.7, 1.3, 0.2))
+    np.testing.assert_allclose(a, b)
+
+
+def test_diagonal_gain_before_the_model_is_refused(tmp_path):
+    spec = load_spec(str(_write(tmp_path, _PD_BODY % (', "kind": "diag"', _DIAG_BAD))))
+    with pytest.raises(DerivationError, match="diagonal gain must act after"):
+        derive_closed_loop(spec)
+
+
+def test_from_functions_with_declared_gains():
+    def controller(v):
+        return v.Q.I.T * ((v.B - v.kd * v.A) * v.qd - v.kp * v.A * v.s)
+
+    def lyapunov(v):
+        return v.qd.dot(v.qd) / 2 + v.kp / 4 * sum((e.dot(e) for e in v.edges), 0)
+
+    s = Spec.from_functions(controller, lyapunov, name="pd0", gains=["kp", "kd"])
+    assert s.gains == ("kp", "kd")
+    assert s.key != Spec.from_functions(controller, lyapunov, name="pd0", gains=["kp", "kd", "z"]).key
+
+
+# --------------------------------------------------------------------------- command line
+def test_cli_certify_pd_searches_the_multiplier_and_spec_is_an_alias():
+    r = _formsync("certify", "--design", PD, "--graph", "star:8", "--format", "json")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(r.stdout)
+    assert doc["status"] == "certified" and "multiplier eps" in doc["reason"]
+    r2 = _formsync("certify", "--spec", PD, "--graph", "star:8", "--gain", "k_p=1",
+                   "--gain", "k_d=0.5", "--gain", "eps=1")
+    assert r2.returncode == 1 and r2.stdout.startswith("REFUTED")
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--design", PD, "--ko", "1"], "--ko (K_o)"),
+    (["--design", PD, "--gain", "k_q=1"], "received ['k_q']"),
+    (["--gain", "K_v=1", "--ko", "1", "--kq", "1", "--beta", "1"], "switching gain K_v"),
+    (["--kq", "1", "--beta", "1"], "expected a value for gain K_o"),
+    (["--design", PD, "--gain", "k_p"], "expected --gain NAME=X"),
+    (["--design", PD, "--gain", "k_p=1", "--gain", "k_p=2"], "twice"),
+])
+def test_cli_gain_errors_are_one_line(args, needle):
+    r = _formsync("certify", "--graph", "ring:4", *args)
+    assert r.returncode == 2 and needle in r.stderr and r.stderr.count("\n") == 1, r.stderr
+
+
+def test_cli_derive_pd_numeric_and_report(tmp_path):
+    r = _formsync("derive", "--design", PD, "--graph", "ring:4", "--gain", "k_p=1",
+                  "--gain", "k_d=2", "--gain", "eps=0.1", "--format", "json")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(r.stdout)
+    assert doc["gains"] == {"k_p": 1.0, "k_d": 2.0, "eps": 0.1} and doc["specification"] == PD
+    r = _formsync("derive", "--design", PD, "--graph", "ring:4", "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    md = (tmp_path / "pd_consensus-derivation-ring4.md").read_text()
+    assert "## Design declarations" in md and "agrees identically" in md
+    assert "no switching term" in md
+
+
+def test_cli_simulate_and_verify_refuse_designs_the_simulator_cannot_take():
+    for args in (["simulate", "--design", PD, "--graph", "ring:4"],
+                 ["verify", "liang2016", "--design", PD, "--out", "/tmp/never"]):
+        r = _formsync(*args)
+        assert r.returncode == 2 and "k_p, k_d, eps" in r.stderr
