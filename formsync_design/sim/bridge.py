@@ -52,6 +52,7 @@ import sympy as sp
 
 from formsync_design.errors import DerivationError, InputError
 from formsync_design.models.attitude import AttitudeModel, derive_attitude_model
+from formsync_design.spec.declarations import GainKind
 from formsync_design.spec.loader import ControllerView, Spec, load_spec
 
 __all__ = [
@@ -61,6 +62,7 @@ __all__ = [
     "switch_function",
     "model_function",
     "controller_function",
+    "controller_gain_names",
     "ControllerBridge",
     "build_controller",
 ]
@@ -411,6 +413,16 @@ def build_controller(
     )
 
 
+def controller_gain_names(spec: Spec) -> tuple[str, ...]:
+    """The controller gains of ``spec`` in the order the controller function takes them
+    (after ``q, q0, qd, J, s``; a diagonal gain is a 3-vector input), then ``K_v, phi``.
+
+    >>> controller_gain_names(load_spec(None))
+    ('K_o', 'K_q', 'beta')
+    """
+    return spec.decl.controller_gains
+
+
 def controller_function(switch: str = "sat", inverse: str = "E") -> ca.Function:
     """The paper's controller (4) as ``formsync_controller`` (see :func:`build_controller`).
 
@@ -428,7 +440,7 @@ def _controller_cached(spec: Spec, m: AttitudeModel, switch: str, inverse: str) 
     hit = _SPEC_CACHE.get(key)
     if hit is not None:
         return hit
-    view = ControllerView()
+    view = ControllerView(spec.decl)
     expr = spec.controller(view)
     if getattr(expr, "shape", None) != (3, 1):
         raise DerivationError(
@@ -441,10 +453,25 @@ def _controller_cached(spec: Spec, m: AttitudeModel, switch: str, inverse: str) 
     qd = ca.SX.sym("qd", 3)
     J = ca.SX.sym("J", 3, 3)
     s = ca.SX.sym("s", 3)
-    K_o, K_q, beta, K_v, phi = (ca.SX.sym(n) for n in ("K_o", "K_q", "beta", "K_v", "phi"))
+    names = controller_gain_names(spec)
+    gsyms = {}
+    for g in spec.decl.gains:
+        if g.name in names:
+            gsyms[g.name] = ca.SX.sym(g.name, 3 if g.kind == GainKind.DIAG else 1)
+    K_v, phi = ca.SX.sym("K_v"), ca.SX.sym("phi")
     E, Qm, A, B = mf(q, q0, qd, J)
     mats = {"A": A, "B": B, "Q": Qm, "qd": qd, "s": s}
-    scal = {view.K_o: K_o, view.K_q: K_q, view.beta: beta, view.K_v: K_v}
+    scal = {}
+    for g in spec.decl.gains:
+        if g.name not in names:
+            continue
+        if g.kind == GainKind.DIAG:
+            mats[g.name] = ca.diag(gsyms[g.name])
+        else:
+            scal[view.gains[g.name]] = gsyms[g.name]
+    sw_name = spec.decl.switching
+    if sw_name is not None:
+        scal[view.gains[sw_name]] = K_v
     if view.switch_arguments:
         tau = matrix_expr_to_casadi(view.switch_arguments[0], mats, scal)
         sigma = switch_function(switch, tau, phi)
@@ -460,9 +487,9 @@ def _controller_cached(spec: Spec, m: AttitudeModel, switch: str, inverse: str) 
         u = matrix_expr_to_casadi(expr, mats, scal, inverses)
     fn = ca.Function(
         "formsync_controller",
-        [q, q0, qd, J, s, K_o, K_q, beta, K_v, phi],
+        [q, q0, qd, J, s, *(gsyms[n] for n in names), K_v, phi],
         [u, tau, sigma],
-        ["q", "q0", "qd", "J", "s", "K_o", "K_q", "beta", "K_v", "phi"],
+        ["q", "q0", "qd", "J", "s", *names, "K_v", "phi"],
         ["u", "tau", "sigma"],
     )
     _SPEC_CACHE[key] = fn

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import enum
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -89,36 +90,106 @@ def unpack_state(x: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
 # inputs
 
 
-@dataclass(frozen=True)
+#: The classic gain names (Liang et al. 2016), the positional form of :class:`Gains`.
+CLASSIC_GAIN_NAMES: tuple[str, ...] = ("K_o", "K_q", "beta")
+
+
+def _gain_value(name: str, v: Any) -> float | tuple[float, float, float]:
+    """A positive finite scalar, or three of them (a diagonal gain)."""
+    if isinstance(v, (tuple, list, np.ndarray)):
+        vals = [_gain_value(name, x) for x in np.asarray(v, dtype=object).ravel()]
+        if len(vals) != 3:
+            raise InputError(f"expected a scalar or 3 diagonal entries for gain {name}, received "
+                             f"{len(vals)} values")
+        return (float(vals[0]), float(vals[1]), float(vals[2]))  # type: ignore[arg-type]
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.number)):
+        raise InputError(f"expected a positive finite gain {name}, received {type(v).__name__}")
+    if not math.isfinite(float(v)) or v <= 0:
+        raise InputError(f"expected a positive finite gain {name}, received {float(v):g}")
+    return float(v)
+
+
+@dataclass(frozen=True, init=False)
 class Gains:
-    """Controller gains: scalars ``K_o, K_q, beta`` and ``K_v`` per spacecraft.
+    """Controller gains of a design (by name, in the design's order) and the switching
+    gain ``K_v`` per spacecraft (empty or zeros for a design without a switching term).
+
+    ``Gains(K_o, K_q, beta, K_v)`` (positional) gives the classic gains of liang2016;
+    ``Gains({"k_p": 0.5, "k_d": 1.2})`` or ``Gains(k_p=0.5, k_d=1.2)`` any design's.  A
+    diagonal gain is three values.  Each gain is also an attribute (``g.K_o``).
 
     >>> Gains(1.6, 0.4, 0.3, (0.01,) * 8).K_v[0]
     0.01
+    >>> g = Gains(k_p=0.5, k_d=(1.0, 1.2, 1.4))
+    >>> g.names, g.vector(), g.K_v
+    (('k_p', 'k_d'), [0.5, 1.0, 1.2, 1.4], ())
     """
 
-    K_o: float
-    K_q: float
-    beta: float
+    values: tuple[tuple[str, Any], ...]
     K_v: tuple[float, ...]
 
-    def __post_init__(self) -> None:
-        for name in ("K_o", "K_q", "beta"):
-            v = getattr(self, name)
-            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.number)):
-                raise InputError(f"expected a positive finite gain {name}, received {type(v).__name__}")
-            if not math.isfinite(float(v)) or v <= 0:
-                raise InputError(f"expected a positive finite gain {name}, received {float(v):g}")
+    def __init__(self, *args: Any, K_v: Any = (), values: Any = None, **named: Any) -> None:
+        if args and isinstance(args[0], Mapping):
+            if len(args) > 2 or values is not None or named:
+                raise InputError("expected Gains(mapping[, K_v]), received more arguments")
+            items = list(args[0].items())
+            if len(args) == 2:
+                K_v = args[1]
+        elif args:
+            if len(args) != 4 or values is not None or named:
+                raise InputError("expected Gains(K_o, K_q, beta, K_v) or gains by name, received "
+                                 f"{len(args)} positional values")
+            items = list(zip(CLASSIC_GAIN_NAMES, args[:3]))
+            K_v = args[3]
+        elif values is not None:
+            items = list(values.items()) if isinstance(values, Mapping) else list(values)
+        else:
+            items = list(named.items())
+        if not items:
+            raise InputError("expected at least one controller gain, received none")
+        names = [str(n) for n, _ in items]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise InputError(f"expected each gain once, received {dup} more than once")
+        vals = tuple((str(n), _gain_value(str(n), v)) for n, v in items)
         try:
-            kv = tuple(float(k) for k in np.atleast_1d(np.asarray(self.K_v, dtype=float)))
+            kv = tuple(float(k) for k in np.atleast_1d(np.asarray(K_v, dtype=float)))
         except (TypeError, ValueError):
-            raise InputError(f"expected numeric K_v values, received {type(self.K_v).__name__}") from None
+            raise InputError(f"expected numeric K_v values, received {type(K_v).__name__}") from None
         bad = [k for k in kv if not (math.isfinite(k) and k >= 0)]
         if bad:
             raise InputError(f"expected finite K_v >= 0, received {bad[0]:g}")
+        object.__setattr__(self, "values", vals)
         object.__setattr__(self, "K_v", kv)
-        for name in ("K_o", "K_q", "beta"):
-            object.__setattr__(self, name, float(getattr(self, name)))
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("__"):
+            raise AttributeError(name)
+        for n, v in object.__getattribute__(self, "values"):
+            if n == name:
+                return v
+        raise AttributeError(f"{type(self).__name__!s} has no gain {name!r}")
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(n for n, _ in self.values)
+
+    def as_dict(self) -> dict[str, Any]:
+        return dict(self.values)
+
+    def vector(self, names: tuple[str, ...] | None = None) -> list[float]:
+        """The values in ``names`` order (default: own order), a diagonal gain as 3 entries."""
+        d = self.as_dict()
+        order = self.names if names is None else names
+        missing = [n for n in order if n not in d]
+        if missing or (names is not None and set(d) - set(order)):
+            raise InputError(f"expected the gains {', '.join(order)}, received "
+                             f"{', '.join(self.names)}")
+        out: list[float] = []
+        for n in order:
+            v = d[n]
+            out.extend(v if isinstance(v, tuple) else (v,))
+        return out
 
 
 @dataclass(frozen=True)
@@ -162,6 +233,8 @@ class Formation:
             raise InputError(f"expected {n} rate vectors of length 3, received shape {W.shape}")
         if len(self.gains.K_v) == 1:
             object.__setattr__(self, "gains", replace(self.gains, K_v=self.gains.K_v * n))
+        elif len(self.gains.K_v) == 0:  # a design without a switching term
+            object.__setattr__(self, "gains", replace(self.gains, K_v=(0.0,) * n))
         if len(self.gains.K_v) != n:
             raise InputError(f"expected {n} values of K_v (one per spacecraft), received {len(self.gains.K_v)}")
         if self.disturbance.n != n:

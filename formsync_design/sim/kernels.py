@@ -32,13 +32,13 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from formsync_design.errors import CompilerError
+from formsync_design.errors import CompilerError, InputError
 from formsync_design.models.disturbances import (
     disturbance_torque,
     disturbance_trig,
     kernel_parameters,
 )
-from formsync_design.sim.bridge import build_controller, model_function
+from formsync_design.sim.bridge import build_controller, controller_gain_names, model_function
 from formsync_design.sim.formation import Formation, SimOptions
 from formsync_design.sim.metrics import metrics_expr
 from formsync_design.spec.loader import Spec, load_spec
@@ -54,12 +54,24 @@ __all__ = [
     "clear_kernel_cache",
     "pack_params",
     "param_layout",
+    "gain_size",
 ]
 
 
-def param_layout(n: int) -> dict[str, slice]:
+def gain_size(spec: Spec) -> int:
+    """Entries of the controller gains in the parameter vector (a diagonal gain: 3).
+
+    >>> gain_size(load_spec(None))
+    3
+    """
+    return sum(3 if str(g.kind) == "diag" else 1 for g in spec.decl.gains
+               if g.name in controller_gain_names(spec))
+
+
+def param_layout(n: int, ngains: int = 3) -> dict[str, slice]:
+    """Slices of the flat kernel parameter vector (``ngains``: :func:`gain_size`)."""
     sizes = [
-        ("gains", 3),  # K_o, K_q, beta
+        ("gains", ngains),  # the design's controller gains (liang2016: K_o, K_q, beta)
         ("K_v", n),
         ("phi", 1),
         ("umax", 3 * n),
@@ -79,13 +91,22 @@ def param_layout(n: int) -> dict[str, slice]:
     return out
 
 
-def pack_params(f: Formation, opt: SimOptions) -> np.ndarray:
-    """The flat parameter vector of the compiled kernel for ``f`` and ``opt``."""
+def pack_params(f: Formation, opt: SimOptions, spec: Spec | None = None) -> np.ndarray:
+    """The flat parameter vector of the compiled kernel for ``f`` and ``opt``.
+
+    The controller gains are packed in the order of ``spec``'s declaration
+    (default: the gains' own order); gains that are not the design's are an
+    :class:`~formsync_design.errors.InputError`.
+    """
     n = f.n
-    lay = param_layout(n)
-    p = np.zeros(lay["_size"].stop)
     g = f.gains
-    p[lay["gains"]] = (g.K_o, g.K_q, g.beta)
+    gv = g.vector(controller_gain_names(spec) if spec is not None else None)
+    if spec is not None and spec.decl.switching is None and any(k != 0 for k in g.K_v):
+        raise InputError(f"expected no K_v for design {spec.name} (it has no switching term), "
+                         f"received K_v = {max(g.K_v):g}")
+    lay = param_layout(n, len(gv))
+    p = np.zeros(lay["_size"].stop)
+    p[lay["gains"]] = gv
     p[lay["K_v"]] = g.K_v
     p[lay["phi"]] = opt.phi
     p[lay["umax"]] = np.inf if opt.torque_limit is None else opt.torque_limit
@@ -134,12 +155,17 @@ class Kernel:
 def _build_symbolic(
     n: int, switch: str, inverse: str, spec: Spec
 ) -> tuple[ca.Function, ca.Function, ca.Function, ca.Function]:
-    lay = param_layout(n)
+    lay = param_layout(n, gain_size(spec))
     x = ca.SX.sym("x", 7 * n)
     u_in = ca.SX.sym("u", 3 * n)
     t = ca.SX.sym("t")
     p = ca.SX.sym("p", lay["_size"].stop)
-    K_o, K_q, beta = p[lay["gains"]][0], p[lay["gains"]][1], p[lay["gains"]][2]
+    gp = p[lay["gains"]]
+    gargs, k = [], 0
+    for gname in controller_gain_names(spec):
+        width = 3 if str(spec.decl.gain(gname).kind) == "diag" else 1
+        gargs.append(gp[k : k + width])
+        k += width
     Kv = p[lay["K_v"]]
     phi = p[lay["phi"]]
     umax = p[lay["umax"]]
@@ -164,7 +190,7 @@ def _build_symbolic(
     S = ca.mtimes(Qmat, L.T)  # column i = sum_j L_ij q_j = s_i
     us = []
     for i in range(n):
-        out = ctrl_fn(q[i], q0[i], qd[i], J[i], S[:, i], K_o, K_q, beta, Kv[i], phi)
+        out = ctrl_fn(q[i], q0[i], qd[i], J[i], S[:, i], *gargs, Kv[i], phi)
         ui = out[0]
         lim = umax[3 * i : 3 * i + 3]
         us.append(ca.fmin(lim, ca.fmax(-lim, ui)))

@@ -189,7 +189,7 @@ def _simulate_rk4(f: Formation, opt: SimOptions, spec: Spec) -> SimResult:
     kern = get_kernel(
         n, opt.switch, opt.sample_period is not None, M, Kc, opt.inverse, opt.compile, spec=spec
     )
-    p = pack_params(f, opt)
+    p = pack_params(f, opt, spec)
     xa = np.concatenate([f.initial_state(), [0.0]])
     Xs = [xa[:nx][None, :]]
     Us, MQ = [], []
@@ -399,7 +399,7 @@ def _simulate_cvodes(f: Formation, opt: SimOptions, spec: Spec) -> SimResult:
     n = f.n
     Ktot = _grid_count(opt)
     kern = get_kernel(n, opt.switch, False, 1, 1, opt.inverse, compile=False, spec=spec)
-    p = pack_params(f, opt)
+    p = pack_params(f, opt, spec)
     x = ca.SX.sym("x", 7 * n)
     t = ca.SX.sym("t")
     ps = ca.SX.sym("p", p.size)
