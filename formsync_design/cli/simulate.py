@@ -17,7 +17,7 @@ from formsync_design.cli.options import (
     emit_json,
 )
 from formsync_design.errors import InputError
-from formsync_design.gains import parse_number
+from formsync_design.gains import parse_gain_range, parse_number
 from formsync_design.graphs.build import GRAPH_SPEC_HELP
 from formsync_design.models.disturbances import DISTURBANCES
 from formsync_design.sim.bridge import SWITCHES
@@ -33,7 +33,8 @@ examples:
   formsync simulate --switch tanh --boundary-layer 0.05 --torque-limit 5 --out out/
   formsync simulate --sample-period 0.1 --disturbance gravity-gradient --format json
   formsync simulate --case my_case.toml --integrator cvodes --rtol 1e-9
-  formsync simulate --spec my_design.py               # another controller (own cached kernel)
+  formsync simulate --design my_design.py             # another controller (own cached kernel)
+  formsync simulate --design pd_consensus --gain k_p=0.5 --gain k_d=1.5   # the PD baseline
 
 outputs (with --out DIR): summary.json, trajectory.npz (t, x, u, omega_m, q_m, names)
 and/or trajectory.csv, and figures omega_m, q_m, torques_1-4, torques_5-8 (.png or .svg).
@@ -104,6 +105,9 @@ def add_parser(sub: Any) -> None:
 
 def add_spec_option(p: argparse.ArgumentParser) -> None:
     """``--spec FILE``: the controller/Lyapunov specification (default: the case's, else the paper's)."""
+    p.add_argument("--gain", action="append", default=None, metavar="NAME=X",
+                   help="a controller gain of the design (repeat); default: the case's gain of "
+                   "that name")
     p.add_argument("--design", "--spec", dest="spec", metavar="NAME|FILE", default=None,
                    help="the design: a shipped design's name or a design .py (default: the case's "
                         "[case] spec, else liang2016; --spec is the old name)")
@@ -116,10 +120,49 @@ def resolve_cli_spec(args: argparse.Namespace, case: Any) -> Any:
 
     given = getattr(args, "spec", None)
     spec = load_spec(given if given is not None else getattr(case, "spec", None))
-    from formsync_design.cli.certify import require_classic
-
-    require_classic(spec, "simulation (the compiled simulator takes those gains)")
     return spec
+
+
+def design_gains(spec: Any, case_gains: Any, given: Any) -> Any:
+    """The controller gains of a run of ``spec``: ``--gain NAME=X`` values over the case's.
+
+    Every controller gain of the design needs a value: from ``--gain`` or, when the
+    case has a gain of that name, the case's; the switching gains ``K_v`` are the
+    case's when the design has a switching term, else none.  Nothing is guessed:
+    a gain with neither is an :class:`~formsync_design.errors.InputError`.
+
+    >>> from formsync_design.spec.loader import load_spec
+    >>> from formsync_design.sim import Gains
+    >>> g = design_gains(load_spec("pd_consensus"), Gains(1.6, 0.4, 0.3, (0.01,) * 4),
+    ...                  ["k_p=0.5", "k_d=1.5"])
+    >>> g.as_dict(), g.K_v
+    ({'k_p': 0.5, 'k_d': 1.5}, ())
+    """
+    from formsync_design.cli.options import parse_gain_assignments
+    from formsync_design.sim import Gains
+
+    named = parse_gain_assignments(given)
+    ctrl = spec.decl.controller_gains
+    unknown = [n for n in named if n not in ctrl]
+    if unknown:
+        raise InputError(f"expected --gain for the controller gains of design {spec.name} "
+                         f"({', '.join(ctrl)}), received {unknown}")
+    have = case_gains.as_dict()
+    vals: dict[str, Any] = {}
+    for n in ctrl:
+        if n in named:
+            r = parse_gain_range(named[n], n)
+            if not r.is_point:
+                raise InputError(f"expected a single value for --gain {n}= in a simulation, "
+                                 f"received the range {named[n]!r}")
+            vals[n] = float(r.lo)
+        elif n in have:
+            vals[n] = have[n]
+        else:
+            raise InputError(f"expected --gain {n}=X for design {spec.name} (the case has no gain "
+                             f"{n}), received none")
+    kv = case_gains.K_v if spec.decl.switching is not None else ()
+    return Gains(vals, kv)
 
 
 def check_out_dir(out: str | None) -> Path | None:
@@ -194,6 +237,8 @@ def _text(case: Any, graph: Any, f: Any, r: Any, written: list[str], spec: Any =
     o = r.options
     ctl = "continuous control" if o.sample_period is None else f"ZOH control Ts = {o.sample_period:g} s"
     sw = o.switch if o.switch == "sgn" else f"{o.switch} (phi = {o.phi:g})"
+    if spec is not None and spec.decl.switching is None:
+        sw = "none (the design has no switching term)"
     lim = "unlimited torque" if o.torque_limit is None else f"|u_k| <= {o.torque_limit:g} N m"
     lines = [
         f"case {case.name} ({Path(case.path).name}): {r.n} spacecraft, graph {graph.name}, tf = {o.tf:g} s",
@@ -243,6 +288,8 @@ def run(args: argparse.Namespace) -> int:
     graph = case.graph(args.graph)
     opt = options_from_args(args, case.options)
     f = case.formation(graph, args.disturbance)
+    if args.gain or tuple(f.gains.names) != spec.decl.controller_gains:
+        f = replace(f, gains=design_gains(spec, f.gains, args.gain))
     r = simulate(f, opt, spec=spec)
     written: list[str] = []
     summary = {
@@ -251,6 +298,7 @@ def run(args: argparse.Namespace) -> int:
         "specification": spec.name,
         "specification_source": spec.source,
         "graph": graph.name,
+        "gains": f.gains.as_dict(),
         "disturbance": f.disturbance.kind,
         "assumptions": list(case.assumptions),
         **r.to_dict(),
