@@ -156,7 +156,9 @@ def test_case_spec_is_resolved_against_the_case_file(raw, tmp_path):
     from formsync_design.tomlio import load_toml
 
     (tmp_path / "sub").mkdir()
-    (tmp_path / "sub" / "d.py").write_text("def controller(v):\n    return 0\n")
+    from formsync_design.resources import design_file
+
+    (tmp_path / "sub" / "d.py").write_text(design_file("liang2016").read_text())
     c = parse_case(_mutate(raw, lambda d: d["case"].update(spec="sub/d.py")), str(tmp_path / "c.toml"))
     assert c.spec == str(tmp_path / "sub" / "d.py")
     with pytest.raises(InputError, match="case.spec"):

@@ -94,10 +94,6 @@ def run(args: argparse.Namespace) -> int:
     case = load_case(path)
     spec_arg = args.spec if args.spec is not None else case.spec
     spec = load_spec(spec_arg) if spec_arg is not None else None
-    if spec is not None:
-        from formsync_design.cli.certify import require_classic
-
-        require_classic(spec, "verify (its simulations take those gains)")
 
     def say(msg: str) -> None:
         sys.stderr.write(f"verify: {msg}\n")

@@ -5,9 +5,12 @@ A case file holds everything physical about a formation run.  Layout
 
     [case]          name, title, source, graph (a graph spec, e.g. "ring:8"),
                     assumptions = ["...", ...],
-                    spec = "my_design.py" (optional: the controller / Lyapunov
-                    specification, relative to the case file; default the paper's)
-    [gains]         K_o, K_q, beta, K_v (one number or one per spacecraft)
+                    design = "pd_consensus" or "my_design.py" (optional: a shipped
+                    design's name or a design file relative to the case file; default the
+                    paper's liang2016; ``spec`` is the old name of this key)
+    [gains]         the design's controller gains (liang2016: K_o, K_q, beta; a diagonal
+                    gain: one number or [x, y, z]) and its switching gain (liang2016: K_v,
+                    one number or one per spacecraft)
     [orbit]         altitude_km (circular), optional mu, earth_radius_km
     [disturbance]   model = "paper" | "gravity-gradient" | "none" | "constant" | "harmonic"
                     paper: signs = [1, 1, 1]; constant: vector = [ux, uy, uz] (N m);
@@ -48,13 +51,14 @@ from formsync_design.models.disturbances import (
     paper_disturbance,
 )
 from formsync_design.sim.simulator import Formation, Gains, SimOptions
+from formsync_design.spec.loader import load_spec
 from formsync_design.tomlio import load_toml
 
 __all__ = ["Case", "load_case", "default_case_path", "parse_case", "make_disturbance"]
 
 _TABLES = {
-    "case": {"name", "title", "source", "graph", "assumptions", "spec"},
-    "gains": {"K_o", "K_q", "beta", "K_v"},
+    "case": {"name", "title", "source", "graph", "assumptions", "spec", "design"},
+    "gains": None,  # the design's declared gains (checked against the design below)
     "orbit": {"altitude_km", "mu", "earth_radius_km"},
     "disturbance": {"model", "signs", "vector", "amplitude", "frequency", "offset"},
     "simulation": {
@@ -205,6 +209,31 @@ def load_case(path: str | Path | None = None) -> Case:
     return replace(case, digest=hashlib.sha256(p.read_bytes()).hexdigest())
 
 
+def _case_design(meta: dict, path: str) -> str | None:
+    """``[case] design`` (or its old name ``spec``): a shipped design's name, or a design
+    ``.py`` file relative to the case file; ``None``: the paper's (liang2016)."""
+    from formsync_design.resources import design_names
+
+    if "spec" in meta and "design" in meta:
+        raise InputError(f"expected one of case.design or case.spec in {path}, received both")
+    key = "design" if "design" in meta else "spec"
+    spec = meta.get(key)
+    if spec is None:
+        return None
+    if not (isinstance(spec, str) and spec.strip()):
+        raise InputError(f"expected case.{key} = a design name or a .py file, received {spec!r}")
+    if spec.isidentifier() and spec in design_names():
+        return spec
+    sp = Path(spec)
+    if not sp.is_absolute():
+        sp = Path(path).parent / sp
+    if not sp.is_file():
+        raise InputError(f"expected case.{key} to name a shipped design ({', '.join(design_names())}) "
+                         f"or an existing .py file (relative to the case file), received {spec!r} "
+                         f"({str(sp)!r} does not exist)")
+    return str(sp)
+
+
 def parse_case(data: dict, path: str = "<memory>") -> Case:
     """Validate a parsed TOML document (see module docstring)."""
     for k, v in data.items():
@@ -253,13 +282,31 @@ def parse_case(data: dict, path: str = "<memory>") -> Case:
             if qb[3] <= 0:
                 raise InputError(f"expected q0 > 0 for spacecraft {i}, received q0 = {qb[3]:g}")
             A.append(list(qb))
+    spec = _case_design(meta, path)
+    design = load_spec(spec)
     g = data.get("gains", {})
-    for k in ("K_o", "K_q", "beta", "K_v"):
+    if not isinstance(g, dict):
+        raise InputError(f"expected a table [gains] in {path}, received {g!r}")
+    ctrl, sw = design.decl.controller_gains, design.decl.switching
+    want = [*ctrl, *([sw] if sw is not None else [])]
+    extra = sorted(set(g) - set(want))
+    if extra:
+        raise InputError(f"expected keys {sorted(want)} in [gains] (the gains of design "
+                         f"{design.name}), received unknown {extra}")
+    for k in want:
         if k not in g:
             raise InputError(f"expected gains.{k} in {path}, received none")
-    kv = g["K_v"]
-    kvs = tuple(_numlist(kv, "gains.K_v", len(sc))) if isinstance(kv, list) else (_num(kv, "gains.K_v"),) * len(sc)
-    gains = Gains(_num(g["K_o"], "gains.K_o"), _num(g["K_q"], "gains.K_q"), _num(g["beta"], "gains.beta"), kvs)
+    kvs: tuple[float, ...] = ()
+    if sw is not None:
+        kv = g[sw]
+        kvs = (tuple(_numlist(kv, f"gains.{sw}", len(sc))) if isinstance(kv, list)
+               else (_num(kv, f"gains.{sw}"),) * len(sc))
+    gvals: dict[str, Any] = {}
+    for k in ctrl:
+        diag = str(design.decl.gain(k).kind) == "diag"
+        gvals[k] = (tuple(_numlist(g[k], f"gains.{k}", 3)) if diag and isinstance(g[k], list)
+                    else _num(g[k], f"gains.{k}"))
+    gains = Gains(gvals, kvs)
     o = data.get("orbit", {})
     orbit = Orbit(
         altitude=_num(o.get("altitude_km", 400.0), "orbit.altitude_km") * 1e3,
@@ -282,17 +329,6 @@ def parse_case(data: dict, path: str = "<memory>") -> Case:
     assumptions = meta.get("assumptions", [])
     if not (isinstance(assumptions, list) and all(isinstance(a, str) for a in assumptions)):
         raise InputError("expected case.assumptions to be a list of strings")
-    spec = meta.get("spec")
-    if spec is not None:
-        if not (isinstance(spec, str) and spec.strip()):
-            raise InputError(f"expected case.spec = a path to a specification .py file, received {spec!r}")
-        sp = Path(spec)
-        if not sp.is_absolute():
-            sp = Path(path).parent / sp
-        if not sp.is_file():
-            raise InputError(f"expected case.spec to name an existing .py file (relative to the case "
-                             f"file), received {spec!r} ({str(sp)!r} does not exist)")
-        spec = str(sp)
     dist = dict(data.get("disturbance", {"model": "paper"}))
     inertias = np.array(J)
     case = Case(

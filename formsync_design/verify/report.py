@@ -199,8 +199,11 @@ def write_verification_report(
     w("")
     w(f"Regenerate with `{command}`. Case file: `{res.case_path}`. Specification: "
       f"`{res.spec_source}` ({res.spec_name}). The verification re-derives the conditions, "
-      "certifies the published gains with the derived and with the printed conditions, simulates "
-      "the nonlinear formation on every candidate topology, and judges each published claim.")
+      + ("certifies the published gains with the derived and with the printed conditions, "
+         if any(t.paper_status != "n/a" for t in res.topologies) else
+         "certifies the published gains with the derived conditions, ")
+      + "simulates the nonlinear formation on every candidate topology, and judges each "
+      "published claim.")
     w("")
     w("## Assumptions")
     w("")
@@ -257,21 +260,35 @@ def write_verification_report(
         w(f"- **{c.spec.key}** ({c.verdict}: {c.reason}). {note} "
           f"Quantity: {_settings_text(QUANTITIES[c.spec.quantity][0], res)}.")
     w("")
-    w("## Disturbance bound and K_vi")
-    w("")
-    w("| spacecraft | ū_d (N m) | K_vi* derived | K_vi used |")
-    w("| --- | --- | --- | --- |")
-    for i, (u, kr, k) in enumerate(zip(res.ubar, res.kv_required, res.kv_used, strict=True), start=1):
-        w(f"| {i} | {u:.4g} | {kr:.4g} | {k:g} |")
-    w("")
-    w("## Derivation verdicts")
-    w("")
-    w(f"From the derivation report [`{res.derivation_report}`]({res.derivation_report}) "
-      "(paper versus derivation):")
-    w("")
-    for key, verdict, meaning in res.derivation_verdicts:
-        w(f"- `{key}` ({meaning}): **{verdict}**")
-    w("")
+    if res.kv_used:
+        w("## Disturbance bound and K_vi")
+        w("")
+        w("| spacecraft | ū_d (N m) | K_vi* derived | K_vi used |")
+        w("| --- | --- | --- | --- |")
+        for i, (u, kr, k) in enumerate(zip(res.ubar, res.kv_required, res.kv_used, strict=True),
+                                       start=1):
+            w(f"| {i} | {u:.4g} | {kr:.4g} | {k:g} |")
+        w("")
+    else:
+        w("## Disturbance bound")
+        w("")
+        if any(u > 0 for u in res.ubar):
+            w("The design has no switching term, so no K_vi condition applies; the disturbance "
+              "bound per spacecraft is " + ", ".join(f"{u:.4g}" for u in res.ubar) + " N m (the "
+              "formation is at best ultimately bounded under it).")
+        else:
+            w("The case has no disturbance and the design no switching term: no K_vi condition "
+              "applies.")
+        w("")
+    if res.derivation_verdicts:
+        w("## Derivation verdicts")
+        w("")
+        w(f"From the derivation report [`{res.derivation_report}`]({res.derivation_report}) "
+          "(paper versus derivation):")
+        w("")
+        for key, verdict, meaning in res.derivation_verdicts:
+            w(f"- `{key}` ({meaning}): **{verdict}**")
+        w("")
     w(f"## Figures (default topology `{res.topologies[0].graph}`, mirroring the paper's Figs. 3-6)")
     w("")
     for p in figs:
@@ -279,9 +296,13 @@ def write_verification_report(
         w("")
     w("## Sensitivity study")
     w("")
-    w("The paper notes that widening the saturation function's boundary layer removes chattering "
-      "but lowers accuracy, and that the control saturates at the start; it does not quantify "
-      f"either. On the default topology, horizon {res.tf:g} s (n/a: not applicable):")
+    if any(r.parameter == "boundary_layer" for r in res.sensitivity):
+        w("The paper notes that widening the saturation function's boundary layer removes "
+          "chattering but lowers accuracy, and that the control saturates at the start; it does "
+          f"not quantify either. On the default topology, horizon {res.tf:g} s (n/a: not "
+          "applicable):")
+    else:
+        w(f"Torque limits on the default topology, horizon {res.tf:g} s (n/a: not applicable):")
     w("")
     w("| parameter | value | status | convergence time | tail Q_m | tail Ω_m (rad/s) | "
       "final abs. rate (rad/s) | chattering ends | reversals in tail | saturation ends |")
