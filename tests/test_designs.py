@@ -301,3 +301,36 @@ def test_pd_simulation_matches_the_linear_closed_loop_exactly():
         z = expm(M * r.t[k]) @ np.vstack([q, qd0])  # per axis in columns
         sim_q = r.x[k, : 4 * n].reshape(n, 4)[:, :3]
         np.testing.assert_allclose(sim_q, z[:n], atol=1e-8)
+
+
+# --------------------------------------------------------------------------- verification
+def test_verify_pd_case_judges_every_claim_by_computation():
+    from formsync_design.resources import case_file
+    from formsync_design.verify.verification import verify_case
+
+    res = verify_case(case_file("pd_consensus"))
+    assert res.spec_name == PD and res.kv_used == () and res.derivation_verdicts == ()
+    assert {t.paper_status for t in res.topologies} == {"n/a"}
+    for t in res.topologies:  # every claim measured on a run of this design
+        assert t.derived_status == "certified" and t.sim["status"] == "converged"
+    assert {c.spec.key: str(c.verdict) for c in res.claims}["rates_to_zero"] == "holds"
+
+
+def test_case_gains_follow_the_design(tmp_path):
+    from formsync_design.resources import case_file
+    from formsync_design.verify.case import load_case
+
+    text = case_file("pd_consensus").read_text()
+    c = load_case(case_file("pd_consensus"))
+    assert c.gains.as_dict() == {"k_p": 0.4, "k_d": 1.6} and c.spec == PD
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace("\nk_d = 1.6\n", "\nk_d = 1.6\nK_v = 0.01\n"))
+    with pytest.raises(InputError, match=r"received unknown \['K_v'\]"):
+        load_case(bad)
+    bad.write_text(text.replace("\nk_d = 1.6\n", "\n"))
+    with pytest.raises(InputError, match="expected gains.k_d"):
+        load_case(bad)
+    kv_claim = text + '\n[claims.items.kv]\ntext = "x"\npaper = "y"\nquantity = "kv_ratio"\nop = ">="\nvalue = 1\n'
+    bad.write_text(kv_claim)
+    r = _formsync("verify", str(bad), "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and "no switching gain" in r.stderr

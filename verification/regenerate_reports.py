@@ -9,6 +9,8 @@ documented commands produce:
 * ``formsync verify liang2016``  -> reports/liang2016-verification.md (+ figures) and
   the derivation report it links to, reports/liang2016-derivation-ring8.{md,tex}
   (the same files ``formsync derive`` writes);
+* ``formsync verify pd_consensus`` -> reports/pd_consensus-verification.md (+ figures) and
+  reports/pd_consensus-derivation-ring4.{md,tex}: the PD consensus baseline design end to end;
 * ``verification/region_report.py`` -> reports/liang2016-region.md (+ figures);
 * ``verification/analysis_report.py`` -> reports/liang2016-certificates.md (+ figure): the
   paper's, exact, searched and spectral certificates side by side;
@@ -35,6 +37,7 @@ def main() -> int:
     shutil.rmtree(ROOT / "reports" / "sweep-atlas6", ignore_errors=True)
     jobs: list[list[str]] = [
         ["verify", "liang2016"],
+        ["verify", "pd_consensus"],
         ["sweep", "--campaign", "verification/sweep_atlas6.toml", "--out", "reports/sweep-atlas6",
          "--overwrite"],
     ]
