@@ -197,12 +197,20 @@ def _matrix(v: Any, what: str) -> np.ndarray:
 
 
 def load_case(path: str | Path | None = None) -> Case:
-    """Load and validate a case file (default: the paper's).
+    """Load and validate a case file (default: the paper's); a shipped case's name
+    (``"pd_consensus"``) is that case.
 
     >>> c = load_case()
     >>> c.name, c.n, c.graph_spec, c.options.phi
     ('liang2016', 8, 'ring:8', 0.01)
+    >>> load_case("pd_consensus").spec
+    'pd_consensus'
     """
+    from formsync_design.resources import case_file, case_names
+
+    if isinstance(path, str) and path.isidentifier() and not Path(path).exists() \
+            and path in case_names():
+        path = case_file(path)
     p = Path(path) if path is not None else default_case_path()
     data = load_toml(p, "case TOML file")
     case = parse_case(data, str(p))
