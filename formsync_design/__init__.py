@@ -17,7 +17,8 @@ data flows through the stages:
   :func:`certify_with_multipliers` (designs whose candidate has multipliers),
   :func:`region_map`, :func:`plot_slices`, :func:`design_gains`;
 * simulation: :class:`Formation`, :class:`Gains`, :class:`SimOptions`,
-  :func:`simulate`, :func:`metric_figure`, :func:`torque_figures`,
+  :func:`simulate`, :func:`simulate_sampled` (per-spacecraft sample-and-hold and
+  trigger rules), :func:`metric_figure`, :func:`torque_figures`,
   :func:`monte_carlo`;
 * verification of a published case: :func:`load_case`, :func:`verify_case`;
 * campaigns: :func:`load_campaign`, :func:`run_sweep`;
@@ -104,6 +105,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "SimOptions": "formsync_design.sim",
     "SimResult": "formsync_design.sim",
     "simulate": "formsync_design.sim",
+    "simulate_sampled": "formsync_design.sim",
     "metric_figure": "formsync_design.sim.figures",
     "torque_figures": "formsync_design.sim.figures",
     "MonteCarloSettings": "formsync_design.sim",

@@ -5,7 +5,9 @@ statuses), :mod:`~.kernels` (building, compiling and caching the closed loop, ke
 by the specification's content), :mod:`~.metrics`, :mod:`~.result`,
 :mod:`~.simulator` (the driver; re-exports the public names), :mod:`~.montecarlo`,
 :mod:`~.figures`; :mod:`~.hybrid` (exact hybrid simulation with per-agent periodic,
-event-, self- and dynamic-event triggering, representation-agnostic).
+event-, self- and dynamic-event triggering, representation-agnostic); :mod:`~.sampled`
+(a design's controller with per-spacecraft sample-and-hold on the formation, through
+:mod:`~.hybrid`).
 """
 
 from formsync_design.sim.formation import SimStatus
@@ -16,6 +18,7 @@ from formsync_design.sim.montecarlo import (
     RunStatus,
     run_montecarlo,
 )
+from formsync_design.sim.sampled import SampledResult, TriggerSpec, parse_trigger, simulate_sampled
 from formsync_design.sim.simulator import Formation, Gains, SimOptions, SimResult, simulate
 
 __all__ = [
@@ -33,4 +36,8 @@ __all__ = [
     "HybridResult",
     "HybridStatus",
     "simulate_hybrid",
+    "SampledResult",
+    "TriggerSpec",
+    "parse_trigger",
+    "simulate_sampled",
 ]
