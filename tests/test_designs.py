@@ -453,3 +453,8 @@ def test_cli_simulate_trigger_reports_transmissions():
     assert doc["transmissions"] == [200] * 4 and doc["trigger"] == "periodic:0.5"
     r = _formsync("simulate", "--case", "pd_consensus", "--trigger", "event:0:0")
     assert r.returncode == 2 and "SIGMA > 0 or FLOOR > 0" in r.stderr
+
+
+def test_cli_sweep_refuses_a_design_its_campaigns_cannot_take(tmp_path):
+    r = _formsync("sweep", "--graphs", "ring:4..5", "--design", PD, "--out", str(tmp_path / "s"))
+    assert r.returncode == 2 and "sweep campaign" in r.stderr and not (tmp_path / "s").exists()

@@ -231,8 +231,11 @@ def run(args: argparse.Namespace) -> int:
             prog = Progress(total, "sweep tasks", enabled=not args.no_progress)
         prog.update(done - prog.done)
 
+    from formsync_design.cli.certify import require_classic
     from formsync_design.spec.loader import load_spec
 
+    design = load_spec(args.spec if args.spec else (camp.spec_path if camp.spec else None))
+    require_classic(design, "a sweep campaign (its boxes are over those gains)")
     try:
         res = run_sweep(
             camp, args.out, resume=args.resume, overwrite=args.overwrite, scheduler=args.scheduler,
