@@ -439,7 +439,7 @@ def test_event_triggered_pd_transmits_less_and_still_synchronizes():
     assert ev.transmissions.sum() < per.transmissions.sum()
     # every event after the first broadcast happened because the error reached at least
     # the floor of its threshold (the rule was monitored, not a clock)
-    for i, states in enumerate(ev.hybrid.trigger_states):
+    for states in ev.hybrid.trigger_states:
         S = np.asarray(states)
         assert len(S) > 1
         assert (np.linalg.norm(np.diff(S[:, :3], axis=0), axis=1) >= 1e-5 * (1 - 1e-6)).all()
@@ -458,3 +458,14 @@ def test_cli_simulate_trigger_reports_transmissions():
 def test_cli_sweep_refuses_a_design_its_campaigns_cannot_take(tmp_path):
     r = _formsync("sweep", "--graphs", "ring:4..5", "--design", PD, "--out", str(tmp_path / "s"))
     assert r.returncode == 2 and "sweep campaign" in r.stderr and not (tmp_path / "s").exists()
+
+
+def test_a_representation_the_engine_cannot_derive_is_refused(tmp_path):
+    p = _write(tmp_path, 'REPRESENTATION = "mrp"\n' + _PD_BODY % ("", "(v.B - v.k_d * v.A) * v.qd - v.k_p * v.A * v.s"))
+    spec = load_spec(str(p))  # the declarations are valid: mrp is in the model library
+    assert spec.representation == "mrp"
+    for args in (["derive", "--design", str(p), "--out", str(tmp_path / "o")],
+                 ["certify", "--design", str(p), "--graph", "ring:4"],
+                 ["simulate", "--design", str(p), "--gain", "k_p=1", "--gain", "k_d=1"]):
+        r = _formsync(*args)
+        assert r.returncode == 2 and "REPRESENTATION" in r.stderr and "'mrp'" in r.stderr, r.stderr

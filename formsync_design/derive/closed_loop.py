@@ -16,10 +16,11 @@ from typing import Any
 import sympy as sp
 
 from formsync_design.errors import DerivationError
-from formsync_design.spec.declarations import CLASSIC, Declarations, GainKind, GainRole
+from formsync_design.spec.declarations import CLASSIC, DERIVABLE, Declarations, GainKind, GainRole
 from formsync_design.spec.loader import ControllerView, Spec, load_spec
 
-__all__ = ["ClosedLoop", "SpecLike", "derive_closed_loop", "resolve_spec", "spec_cache_key", "registered_spec"]
+__all__ = ["ClosedLoop", "SpecLike", "derive_closed_loop", "resolve_spec", "spec_cache_key", "registered_spec",
+           "require_derivable"]
 
 SpecLike = Spec | str | Path | None
 
@@ -149,7 +150,22 @@ def derive_closed_loop(spec: SpecLike = None) -> ClosedLoop:
     return _closed_loop_cached(spec_cache_key(resolve_spec(spec)))
 
 
+def require_derivable(spec: Spec, stage: str = "the derivation") -> None:
+    """Refuse a design whose representation ``stage`` does not support (one line, exit 2).
+
+    >>> require_derivable(resolve_spec(None))
+    """
+    rep = spec.decl.representation
+    if rep not in DERIVABLE:
+        raise DerivationError(
+            f"{spec.path}: REPRESENTATION: expected one of {list(DERIVABLE)} for {stage} "
+            f"(the quaternion-vector Lagrangian form), received {rep!r} (its model is in "
+            "formsync_design.models, the Lyapunov derivation for it is not)"
+        )
+
+
 def _derive_closed_loop(spec: Spec) -> ClosedLoop:
+    require_derivable(spec)
     v = ControllerView(spec.decl)
     u = spec.controller(v)
     if getattr(u, "shape", None) != (3, 1):

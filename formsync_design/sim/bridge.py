@@ -406,6 +406,11 @@ def build_controller(
     if inverse not in ("E", "solve"):
         raise InputError(f"expected inverse 'E' or 'solve', received {inverse!r}")
     sp_spec = load_spec(spec)
+    if sp_spec.decl.representation != "quaternion":
+        raise DerivationError(
+            f"{sp_spec.path}: REPRESENTATION: expected 'quaternion' for the compiled simulator "
+            f"(the quaternion formation kernel), received {sp_spec.decl.representation!r}"
+        )
     m = model if model is not None else derive_attitude_model()
     fn = _controller_cached(sp_spec, m, switch, inverse)
     return ControllerBridge(
