@@ -94,8 +94,10 @@ def region_with_multipliers(
     m0 = maps[0][1]
     axes = [m0.grid(a) for a in range(3)]
     sidx = [names.index(n) for n in search]
-    boxes = []
-    for cell in itertools.product(*(range(s) for s in first.shape)):
+    boxes: list[RegionBox] = []
+    spans = [range(int(first.shape[a])) for a in range(first.ndim)]
+    cells: list[tuple[int, ...]] = list(itertools.product(*spans))
+    for cell in cells:
         idx: list[int] = []
         lo: list[Fraction] = []
         hi: list[Fraction] = []
@@ -131,8 +133,8 @@ def region_with_multipliers(
                 for a, n in enumerate(names))
     recheck: dict[str, int] = {}
     for _, m in maps:
-        for key, v in m.recheck.items():
-            recheck[key] = recheck.get(key, 0) + v
+        for key, count in m.recheck.items():
+            recheck[key] = recheck.get(key, 0) + count
     return RegionMap(
         graph=m0.graph, n=m0.n,
         source=f"{m0.source}; {', '.join(search)} searched ({len(combos)} values)",

@@ -390,7 +390,8 @@ def certify_design(conds: Any, box: GainBox, spec: Any, *, margin: Any = 0, kv: 
     from formsync_design.certify.engine import certify_box
     from formsync_design.certify.multipliers import certify_with_multipliers
 
-    mult = {n: spec.decl.gain(n).range for n in spec.decl.multipliers if n not in box}
+    mult = {n: r for n in spec.decl.multipliers
+            if n not in box and (r := spec.decl.gain(n).range) is not None}
     if conds.source == "derived" and mult:
         return certify_with_multipliers(conds, box, mult, margin=margin, kv=kv, use_sdp=use_sdp)
     return certify_box(conds, box, margin=margin, kv=kv, use_sdp=use_sdp)

@@ -275,6 +275,9 @@ def _parse_gain(name: Any, spec: Any, where: str) -> GainDecl:
     desc = spec.get("description", "")
     if not isinstance(desc, str):
         raise _fail(where, f"GAINS[{name!r}].description", "a string", type(desc).__name__)
+    if role == GainRole.MULTIPLIER and rng is None:
+        raise _fail(where, f"GAINS[{name!r}].range",
+                    "a range for a multiplier (the values a certificate may choose from)", "none")
     if role == GainRole.SWITCHING and kind != GainKind.SCALAR:
         raise _fail(where, f"GAINS[{name!r}]", "a scalar switching gain", "kind 'diag'")
     return GainDecl(name, role, kind, rng, desc)
@@ -293,7 +296,8 @@ def parse_declarations(attrs: Mapping[str, Any], where: str) -> Declarations:
     Examples
     --------
     >>> d = parse_declarations({"GAINS": {"k_p": {"range": "0.1:2"}, "k_d": {},
-    ...                                   "eps": {"role": "multiplier"}}}, "demo.py")
+    ...                                   "eps": {"role": "multiplier", "range": "0.01:1"}}},
+    ...                        "demo.py")
     >>> d.family_gains, d.multipliers, d.switching
     (('k_p', 'k_d', 'eps'), ('eps',), None)
     >>> parse_declarations({"GAINS": ["k", "k"]}, "demo.py")

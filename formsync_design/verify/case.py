@@ -297,10 +297,10 @@ def parse_case(data: dict, path: str = "<memory>") -> Case:
         raise InputError(f"expected a table [gains] in {path}, received {g!r}")
     ctrl, sw = design.decl.controller_gains, design.decl.switching
     want = [*ctrl, *([sw] if sw is not None else [])]
-    extra = sorted(set(g) - set(want))
-    if extra:
+    unknown_gains = sorted(set(g) - set(want))
+    if unknown_gains:
         raise InputError(f"expected keys {sorted(want)} in [gains] (the gains of design "
-                         f"{design.name}), received unknown {extra}")
+                         f"{design.name}), received unknown {unknown_gains}")
     for k in want:
         if k not in g:
             raise InputError(f"expected gains.{k} in {path}, received none")

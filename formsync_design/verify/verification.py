@@ -150,7 +150,7 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
         v = gains.as_dict()[n]
         box[n] = ((Fraction(str(min(v))), Fraction(str(max(v)))) if isinstance(v, tuple)
                   else Fraction(str(v)))
-    multipliers = {n: sp.decl.gain(n).range for n in sp.decl.multipliers}
+    multipliers = {n: r for n in sp.decl.multipliers if (r := sp.decl.gain(n).range) is not None}
     dist = case.formation(graphs[0]).disturbance
     ubar = dist.bound(case.inertias)
     switching = sp.decl.switching is not None
