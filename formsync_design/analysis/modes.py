@@ -33,15 +33,25 @@ this gradient is a positive multiple of ``arg_i`` (the paper's proof relies on
 it).  The *searched* class keeps it: ``P_k = [[p, kappa rho_s lambda],
 [kappa rho_s lambda, kappa rho_qd]]`` with free ``p`` (``kappa = 1``; ``V`` is
 defined up to a positive factor).
+
+Small-gain perturbed modes (:func:`robust_modes`, used by
+:mod:`~formsync_design.analysis.inertia`): when the commanded acceleration ``a`` reaches
+the plant as ``a + r`` with ``|r| <= theta |a|`` (an unstructured perturbation coupling the
+modes), a quadratic ``V = sum_k z_k^T P_k z_k`` decays at ``2 mu`` if every mode satisfies
+the Riccati inequality ``A_k^T P_k + P_k A_k + theta P_k e e^T P_k + theta K_k^T K_k +
+2 mu P_k <= 0`` (``2 |g| theta |a| <= theta (|g|^2 + |a|^2)``); it is feasible iff
+``theta |K_k (sI - A_k - mu I)^-1 e|_inf < 1`` (bounded-real lemma).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from fractions import Fraction
 from functools import cache
 from typing import Any
 
+import numpy as np
 import sympy as sp
 
 from formsync_design.derive.closed_loop import derive_closed_loop, resolve_spec, spec_cache_key
@@ -49,7 +59,8 @@ from formsync_design.derive.templates import derive_local_template
 from formsync_design.errors import DerivationError
 from formsync_design.spec.loader import gain_symbols
 
-__all__ = ["LAMBDA", "P_FREE", "ModeModel", "mode_model", "poly_coeffs_in_lambda", "sym_to_fraction"]
+__all__ = ["LAMBDA", "P_FREE", "ModeModel", "mode_model", "poly_coeffs_in_lambda", "sym_to_fraction",
+           "RobustModes", "robust_decay_hint", "robust_modes"]
 
 #: The Laplacian eigenvalue symbol of the mode reduction.
 LAMBDA = sp.Symbol("lambda", positive=True)
@@ -195,3 +206,190 @@ def poly_coeffs_in_lambda(expr: sp.Expr, subs: dict) -> list[Fraction]:
     if e == 0:
         return [Fraction(0)]
     return [sym_to_fraction(c) for c in reversed(sp.Poly(e, LAMBDA).all_coeffs())]
+
+
+# --- small-gain perturbed modes (inertia uncertainty) -------------------------------------
+
+_UP = 1 + 1e-12
+
+
+def _pmul(a: list[Fraction], b: list[Fraction]) -> list[Fraction]:
+    out = [Fraction(0)] * (len(a) + len(b) - 1)
+    for i, x in enumerate(a):
+        if x:
+            for j, y in enumerate(b):
+                out[i + j] += x * y
+    return out
+
+
+def _padd(*ps: list[Fraction]) -> list[Fraction]:
+    out = [Fraction(0)] * max(len(p) for p in ps)
+    for p in ps:
+        for i, x in enumerate(p):
+            out[i] += x
+    return out
+
+
+def _pmin(p: list[Fraction], lo: Fraction, hi: Fraction) -> Fraction:
+    """Exact lower bound of the polynomial ``p`` (ascending coefficients) on ``[lo, hi]``:
+    Taylor-shift to the centre ``c``, then ``q_0 - sum_k |q_k| w^k``, ``w = (hi - lo) / 2``.
+
+    >>> _pmin([Fraction(0), Fraction(0), Fraction(1)], Fraction(-1), Fraction(1))  # x^2 on [-1, 1]
+    Fraction(-1, 1)
+    """
+    c, w = (lo + hi) / 2, (hi - lo) / 2
+    q = [Fraction(0)] * len(p)
+    for k, a in enumerate(p):  # a (c + t)^k
+        binom = 1
+        for j in range(k + 1):
+            q[j] += a * binom * c ** (k - j)
+            binom = binom * (k - j) // (j + 1)
+    return q[0] - sum(abs(x) * w**k for k, x in enumerate(q) if k)
+
+
+def _mode_matrices(lam: float, cqd: float, cs: float, dim: int) -> tuple[np.ndarray, np.ndarray]:
+    if dim == 1:
+        return np.array([[cqd]]), np.array([[cqd]])
+    return np.array([[0.0, 1.0], [cs * lam, cqd]]), np.array([[cs * lam, cqd]])
+
+
+def _riccati_hint(a: np.ndarray, k: np.ndarray, theta: float, mu: float, sigma: float) -> np.ndarray | None:
+    """Stabilizing solution of ``(A + mu I)^T P + P (A + mu I) + theta P e e^T P + theta K^T K
+    + sigma I = 0`` from the Hamiltonian's stable subspace (None if there is none)."""
+    n = a.shape[0]
+    am = a + mu * np.eye(n)
+    if np.linalg.eigvals(am).real.max() >= 0:
+        return None
+    e = np.zeros((n, 1))
+    e[-1, 0] = 1.0
+    qm = theta * (k.T @ k) + sigma * np.eye(n)
+    h = np.block([[am, theta * (e @ e.T)], [-qm, -am.T]])
+    w, v = np.linalg.eig(h)
+    if np.abs(w.real).min() <= 1e-10 * max(1.0, float(np.abs(w).max())):
+        return None
+    st = v[:, w.real < 0]
+    if st.shape[1] != n:
+        return None
+    p = np.real(st[n:] @ np.linalg.inv(st[:n]))
+    p = (p + p.T) / 2
+    return p if np.linalg.eigvalsh(p).min() > 0 else None
+
+
+def _mode_mu_max(a: np.ndarray, k: np.ndarray, theta: float, sigma: float) -> float:
+    lo, hi = 0.0, float(-np.linalg.eigvals(a).real.max())
+    if _riccati_hint(a, k, theta, 0.0, sigma) is None:
+        return 0.0
+    for _ in range(24):
+        mid = (lo + hi) / 2
+        if _riccati_hint(a, k, theta, mid, sigma) is None:
+            hi = mid
+        else:
+            lo = mid
+    return lo
+
+
+def _exact_mode_check(p: np.ndarray, lo: Fraction, hi: Fraction, cqd: Fraction, cs: Fraction,
+                      theta: Fraction, mu: Fraction) -> tuple[Fraction, ...] | None:
+    """Round the hint ``P`` to rationals and check exactly, for every ``lambda in [lo, hi]``,
+    ``P > 0`` and the Riccati inequality (``-M >= 0``: diagonal entries and determinant, as
+    polynomials in ``lambda``, bounded below by :func:`_pmin`).  Returns
+    ``(trace, det, P_22, (P^-1)_22)`` of the rational ``P``, or None when a check fails."""
+    dim = p.shape[0]
+    fp = [[Fraction(float(p[i, j])).limit_denominator(10**12) for j in range(dim)] for i in range(dim)]
+    fp[0][dim - 1] = fp[dim - 1][0]
+    one, zero, lam = [Fraction(1)], [Fraction(0)], [Fraction(0), Fraction(1)]
+    if dim == 1:
+        am, km = [[[cqd]]], [[[cqd]]]
+    else:
+        am = [[zero, one], [_pmul(lam, [cs]), [cqd]]]
+        km = [[_pmul(lam, [cs]), [cqd]]]
+    pe = [fp[i][dim - 1] for i in range(dim)]
+    mm = [[zero for _ in range(dim)] for _ in range(dim)]
+    for i in range(dim):
+        for j in range(dim):
+            terms = [_pmul(am[r][i], [fp[r][j]]) for r in range(dim)]          # (A^T P)_ij
+            terms += [_pmul([fp[i][r]], am[r][j]) for r in range(dim)]         # (P A)_ij
+            terms += [[theta * pe[i] * pe[j] + 2 * mu * fp[i][j]], _pmul([theta], _pmul(km[0][i], km[0][j]))]
+            mm[i][j] = [-x for x in _padd(*terms)]                             # -M
+    if dim == 1:
+        ok = fp[0][0] > 0 and _pmin(mm[0][0], lo, hi) >= 0
+        return (fp[0][0], fp[0][0], fp[0][0], 1 / fp[0][0]) if ok else None
+    det_p = fp[0][0] * fp[1][1] - fp[0][1] ** 2
+    if not (fp[0][0] > 0 and det_p > 0):
+        return None
+    det_m = _padd(_pmul(mm[0][0], mm[1][1]), [-x for x in _pmul(mm[0][1], mm[0][1])])
+    if min(_pmin(mm[0][0], lo, hi), _pmin(mm[1][1], lo, hi), _pmin(det_m, lo, hi)) < 0:
+        return None
+    return fp[0][0] + fp[1][1], det_p, fp[1][1], fp[0][0] / det_p
+
+
+@dataclass(frozen=True)
+class RobustModes:
+    """An exactly checked per-mode Riccati certificate of a small-gain perturbed loop
+    (:func:`robust_modes`; the floats are rounded outward)."""
+
+    mu: float       # certified V' <= -2 mu V of the linear part (rounded down)
+    p_max: float    # max_k lambda_max(P_k)
+    p_min: float    # min over the disagreement modes of lambda_min(P_k)
+    p_0: float      # the consensus mode's P (scalar)
+    big_g: float    # max_k (P_k)_22
+    kappa: float    # max_k (P_k^-1)_22
+
+
+def robust_decay_hint(modes: list[tuple[Fraction, Fraction, int]], cqd: Fraction, cs: Fraction,
+             theta: float, sigma: float) -> float:
+    """The smallest per-mode largest ``mu`` with a Riccati solution (floating point: a hint).
+
+    >>> from fractions import Fraction as F
+    >>> 0 < robust_decay_hint([(F(0), F(0), 1), (F(2), F(2), 2)], F(-8, 5), F(-2, 5), 0.1, 0.01) < 0.8
+    True
+    """
+    return min(_mode_mu_max(*_mode_matrices(float((lo + hi) / 2), float(cqd), float(cs), dim), theta, sigma)
+               for lo, hi, dim in modes)
+
+
+def robust_modes(modes: list[tuple[Fraction, Fraction, int]], cqd: Fraction, cs: Fraction,
+                  theta: float, mu_try: float, sigma: float, *, exact: bool = True) -> RobustModes | None:
+    """Per-mode Riccati certificate of ``z_k' = A_k z_k + e r_k`` with ``|r| <= theta |a|``,
+    ``a_k = K_k z_k`` (see :mod:`formsync_design.analysis.inertia`): for every mode
+    ``(lo, hi, dim)`` (``modes[0]`` the consensus mode, ``dim = 1``) a ``P_k`` with
+    ``A_k^T P_k + P_k A_k + theta P_k e e^T P_k + theta K_k^T K_k + 2 mu P_k <= 0`` for every
+    ``lambda in [lo, hi]``, checked in exact rational arithmetic (the Riccati solution with
+    weight ``sigma I`` at the interval's centre is only the hint).  None when a check fails.
+    ``exact=False`` returns the floating-point preview of the same numbers (no proof; used
+    to skip exact checks that could not close the argument).
+
+    >>> from fractions import Fraction as F
+    >>> r = robust_modes([(F(0), F(0), 1), (F(2), F(2), 2)], F(-8, 5), F(-2, 5), 0.1, 0.05, 0.01)
+    >>> r is not None and r.mu > 0.04 and r.p_min > 0
+    True
+    """
+    mats = [_mode_matrices(float((lo + hi) / 2), float(cqd), float(cs), dim) for lo, hi, dim in modes]
+    if mu_try <= 0:
+        return None
+    mu = Fraction(mu_try).limit_denominator(10**9)
+    th = Fraction(theta)
+    p_max, p_min, p_0, big_g, kappa = 0.0, math.inf, 0.0, 0.0, 0.0
+    for (lo, hi, dim), (a, k) in zip(modes, mats):
+        hint = _riccati_hint(a, k, theta, float(mu), sigma)
+        if hint is None:
+            return None
+        if exact:
+            got = _exact_mode_check(hint, lo, hi, cqd, cs, th, mu)
+        else:
+            f = [Fraction(float(x)) for x in hint.ravel()]
+            dt = f[0] * f[-1] - f[1] * f[1] if dim == 2 else f[0]
+            got = (f[0] + f[-1], dt, f[-1], f[0] / dt) if dim == 2 else (f[0], f[0], f[0], 1 / f[0])
+        if got is None:
+            return None
+        ftr, fdet, fp22, fpinv22 = got
+        tr, det = float(ftr), float(fdet)
+        if dim == 1:
+            p_0 = tr / _UP
+            p_max = max(p_max, tr * _UP)
+        else:  # lambda_max = (tr + sqrt(tr^2 - 4 det)) / 2, the discriminant exact (>= 0 for symmetric P)
+            top = (tr + math.sqrt(float(ftr * ftr - 4 * fdet))) / 2 * _UP**2
+            p_max = max(p_max, top)
+            p_min = min(p_min, det / top / _UP)
+        big_g, kappa = max(big_g, float(fp22) * _UP), max(kappa, float(fpinv22) * _UP)
+    return RobustModes(float(mu) / _UP, p_max, p_min, p_0, big_g, kappa)
