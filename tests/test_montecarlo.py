@@ -48,6 +48,15 @@ def test_seeded_and_deterministic(base, campaign):
     assert np.all(ks >= lo) and np.all(ks <= hi) and len({tuple(k) for k in ks}) == 6
 
 
+def test_classic_run_record_layout(campaign):
+    """liang2016 records keep their flat layout (runs.csv columns, JSON failures)."""
+    assert list(campaign.runs[0].to_dict()) == [
+        "index", "seed", "K_o", "K_q", "beta", "K_v", "status", "convergence_time", "final_q_m",
+        "final_omega_m", "min_q0", "peak_torque", "norm_error", "event_time"]
+    assert [n for n, _ in campaign.runs[0].gains] == ["K_o", "K_q", "beta", "K_v"]
+    assert set(campaign.to_dict()["box"]) == {"K_o", "K_q", "beta", "K_v"}
+
+
 def test_replay_reproduces_a_run(base, campaign):
     """The batch kernel and a single full simulation of the replayed seed agree."""
     for run in campaign.runs[:2]:
@@ -152,3 +161,19 @@ def test_phases_randomised_and_zoh_campaign(base):
     opt = SimOptions(tf=10.0, step=0.1, sample_period=0.5, norm_tol=1e-5, compile=False)
     res = run_montecarlo(base, None, s, opt, certify=False)
     assert len(res.runs) == 2 and all(r.status == "not-converged" for r in res.runs)
+
+
+def test_kv_check_with_zero_kv_or_no_disturbance(base):
+    """K_v = 0 in the box fails K_v >= K_v* (> 0 under a disturbance) instead of being an input
+    error; without a disturbance K_v* = 0 and the check holds."""
+    from formsync_design.certify.engine import check_kv
+    from formsync_design.sim.montecarlo import certify_sampled_box
+
+    c = certify_sampled_box(base, {"K_o": 1.6, "K_q": 0.4, "beta": 0.3, "K_v": "0:0.02"})
+    ref = check_kv(0.02, list(base.inertias), c["ubar"])  # same K_v* whatever K_v is
+    assert c["ubar"] > 0 and c["kv_holds"] is False and c["gains_and_kv_certified"] is False
+    assert c["required_kv"] == pytest.approx([float(v) for v in ref.required], rel=1e-15)
+    quiet = load_case().formation(disturbance="none")
+    c0 = certify_sampled_box(quiet, {"K_o": 1.6, "K_q": 0.4, "beta": 0.3, "K_v": 0})
+    assert c0["ubar"] == 0 and c0["kv_holds"] is True and c0["required_kv"] == [0.0] * 8
+    assert c0["gains_and_kv_certified"] is (c0["status"] == "certified")

@@ -12,17 +12,14 @@ from formsync_design.cli.options import (
     EXIT_NEGATIVE,
     EXIT_OK,
     Progress,
+    add_design_option,
     add_format_option,
     emit_json,
+    parse_gain_assignments,
 )
-from formsync_design.cli.simulate import (
-    add_spec_option,
-    check_out_dir,
-    options_from_args,
-    resolve_cli_spec,
-)
+from formsync_design.cli.simulate import check_out_dir, options_from_args
 from formsync_design.errors import InputError
-from formsync_design.gains import parse_gain_range, parse_number
+from formsync_design.gains import GainBox, parse_gain_range, parse_number
 from formsync_design.graphs.build import GRAPH_SPEC_HELP
 from formsync_design.models.disturbances import DISTURBANCES
 from formsync_design.sim.bridge import SWITCHES
@@ -36,7 +33,7 @@ from formsync_design.sim.montecarlo import (
 from formsync_design.sim.simulator import simulate
 from formsync_design.verify.case import load_case
 
-__all__ = ["add_parser", "run"]
+__all__ = ["add_parser", "run", "montecarlo_box"]
 
 _EPILOG = """\
 examples:
@@ -44,13 +41,26 @@ examples:
   formsync montecarlo --ko 1.5:1.7 --kq 0.35:0.45 --beta 0.25:0.3 --runs 2000 --seed 7
   formsync montecarlo --graph path:8 --torque-limit 2 --max-rate 0.5 --out mc/
   formsync montecarlo --ko 1.5:1.7 --replay 1234567890123   # full simulation of one flagged run
+  formsync montecarlo --case pd_consensus --gain k_p=0.2:1 --gain k_d=1:2 --runs 200
+  formsync montecarlo --design pd_consensus --disturbance none   # declared k_p, k_d ranges
 
 Each run draws its gains uniformly from the box, initial attitudes (random axis, angle
 uniform in [0, --max-angle]) and rates (components uniform in [-max-rate, max-rate]) and
 disturbance phases from its own seed, printed for every failure; --replay SEED (with the
 same box and settings) re-simulates that run with `simulate` in full.  When the
-certification module is available the sampled (K_o, K_q, beta) box is certified with the
-derived conditions and the smallest K_v is checked against the disturbance bound.
+certification module is available the sampled box of controller gains ((K_o, K_q, beta)
+for liang2016) is certified with the conditions derived for the design (its multipliers,
+such as pd_consensus's eps, searched over their declared ranges) and, for a design with a
+switching gain, the smallest K_v is checked against the disturbance bound.
+
+Gains of --design (default: the case's design): --gain NAME=X|LO:HI for any controller
+gain (and the switching gain K_v); --ko/--kq/--beta/--kv are the same for liang2016's
+gains.  A gain not given takes the case's value when the case has that gain, else the
+design's declared range.  A multiplier of the Lyapunov candidate is not a controller gain:
+it is never sampled.  --kv for a design without a switching gain is an error.
+The 0.1 s default step suits the paper's gains; stiffer gains (pd_consensus near the top
+of its declared ranges) can drift the quaternion norm past 1e-5, flagged "inaccurate":
+rerun with --step 0.05.
 
 At most 100000 runs per campaign (each sampled formation is kept in memory); split
 larger campaigns over several seeds.
@@ -77,7 +87,10 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument("--case", metavar="FILE", default=None, help="case TOML (default: the paper's)")
     p.add_argument("--graph", metavar="SPEC", default=None, help=f"graph ({GRAPH_SPEC_HELP})")
-    add_spec_option(p)
+    add_design_option(p)
+    p.add_argument("--gain", action="append", default=None, metavar="NAME=X|LO:HI",
+                   help="a controller gain of the design, a value or an interval to sample "
+                        "(repeat); default: the case's value, else the design's declared range")
     for flag, name in (("--ko", "K_o"), ("--kq", "K_q"), ("--beta", "beta"), ("--kv", "K_v")):
         p.add_argument(flag, metavar="X|LO:HI", default=None,
                        help=f"{name} value or interval to sample (default: the case's)")
@@ -121,22 +134,102 @@ def _float(text: str, name: str) -> float:
     return float(parse_number(text, name))
 
 
+_LEGACY_FLAGS = {"K_o": "--ko", "K_q": "--kq", "beta": "--beta", "K_v": "--kv"}
+
+
+def montecarlo_box(spec: Any, case_gains: Any, gains: Any = None,
+                   legacy: dict[str, Any] | None = None) -> GainBox:
+    """The sampled box of a Monte-Carlo campaign of ``spec``: its controller gains (then its
+    switching gain ``K_v`` when it has one) from ``--gain NAME=X|LO:HI`` and the legacy
+    ``--ko/--kq/--beta/--kv`` (``legacy``: gain name -> text or None).
+
+    A gain not given takes the case's value when ``case_gains`` has it (``K_v``: from the
+    smallest to the largest spacecraft's; a diagonal gain: from its smallest to its largest
+    entry), else the design's declared range; with neither it is an
+    :class:`~formsync_design.errors.InputError`.  A multiplier is not a controller gain
+    (never sampled), and ``--kv`` for a design without a switching gain is refused.
+
+    >>> from formsync_design.spec.loader import load_spec
+    >>> from formsync_design.sim import Gains
+    >>> liang = Gains(1.6, 0.4, 0.3, (0.01,) * 4)
+    >>> str(montecarlo_box(load_spec("pd_consensus"), liang, ["k_d=1:2"]))
+    'k_p=0.1:2, k_d=1:2'
+    >>> str(montecarlo_box(load_spec(None), liang, None, {"K_o": "1.5:1.7"}))
+    'K_o=1.5:1.7, K_q=0.4, beta=0.3, K_v=0.01'
+    >>> montecarlo_box(load_spec("pd_consensus"), liang, ["eps=0.1"])
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected --gain for the gains of design pd_consensus (k_p, k_d), received ['eps'] (eps: a multiplier of the Lyapunov candidate, never sampled; the certification searches it)
+    """
+    d = spec.decl
+    sw = d.switching
+    allowed = tuple(d.controller_gains) + ((sw,) if sw is not None else ())
+    named = parse_gain_assignments(gains)
+    for name, text in (legacy or {}).items():
+        if text is None:
+            continue
+        flag = _LEGACY_FLAGS.get(name, name)
+        if name == "K_v" and sw is None:
+            raise InputError(f"expected no {flag} for design {spec.name} (it has no switching gain), "
+                             f"received {flag} {text}")
+        target = sw if name == "K_v" else name
+        if target not in allowed:
+            raise InputError(f"expected the gains of design {spec.name} ({', '.join(allowed)}), "
+                             f"received {flag} ({name})")
+        if target in named:
+            raise InputError(f"expected {target} once, received it as --gain and as {flag}")
+        named[target] = text
+    unknown = [n for n in named if n not in allowed]
+    if unknown:
+        mult = [n for n in unknown if n in d.multipliers]
+        note = (f" ({', '.join(mult)}: a multiplier of the Lyapunov candidate, never sampled; the "
+                "certification searches it)" if mult else "")
+        raise InputError(f"expected --gain for the gains of design {spec.name} ({', '.join(allowed)}), "
+                         f"received {unknown}{note}")
+    have = case_gains.as_dict()
+    box: dict[str, Any] = {}
+    for n in d.controller_gains:
+        decl = d.gain(n).range
+        if n in named:
+            box[n] = parse_gain_range(named[n], n)
+        elif n in have:
+            v = have[n]
+            box[n] = (min(v), max(v)) if isinstance(v, tuple) else v
+        elif decl is not None:
+            box[n] = decl
+        else:
+            raise InputError(f"expected --gain {n}=X|LO:HI for design {spec.name} (neither the case "
+                             "nor the design gives a value), received none")
+    if sw is not None:
+        decl = d.gain(sw).range
+        if sw in named:
+            box[sw] = parse_gain_range(named[sw], sw, positive=False, nonnegative=True)
+        elif case_gains.K_v:
+            box[sw] = (min(case_gains.K_v), max(case_gains.K_v))
+        elif decl is not None:
+            box[sw] = decl
+        else:
+            raise InputError(f"expected --gain {sw}=X|LO:HI for design {spec.name} (neither the case "
+                             "nor the design gives a value), received none")
+    return mc_box(box, spec)
+
+
+def _resolve_spec(args: argparse.Namespace, case: Any) -> Any:
+    """``--design``, else the case's design, else the paper's (any design the simulator takes)."""
+    from formsync_design.spec.loader import load_spec
+
+    return load_spec(args.spec if args.spec is not None else getattr(case, "spec", None))
+
+
 def run(args: argparse.Namespace) -> int:
     out_dir = check_out_dir(args.out)
     case = load_case(args.case)
-    spec = resolve_cli_spec(args, case)
+    spec = _resolve_spec(args, case)
     graph = case.graph(args.graph)
     base = case.formation(graph, args.disturbance)
-    g = base.gains
-    iv: dict[str, Any] = {}
-    for attr, name, default in (("ko", "K_o", (g.K_o, g.K_o)), ("kq", "K_q", (g.K_q, g.K_q)),
-                                ("beta", "beta", (g.beta, g.beta)), ("kv", "K_v", (min(g.K_v), max(g.K_v)))):
-        text = getattr(args, attr)
-        if text is None:
-            iv[name] = default
-        else:
-            iv[name] = parse_gain_range(text, name, positive=name != "K_v", nonnegative=name == "K_v")
-    box = mc_box(iv)
+    legacy = {name: getattr(args, attr) for attr, name in
+              (("ko", "K_o"), ("kq", "K_q"), ("beta", "beta"), ("kv", "K_v"))}
+    box = montecarlo_box(spec, base.gains, args.gain, legacy)
     settings = MonteCarloSettings(
         runs=_int(args.runs, "--runs", 1), seed=_int(args.seed, "--seed", 0),
         max_angle_deg=_float(args.max_angle, "--max-angle"), max_rate=_float(args.max_rate, "--max-rate"),
@@ -145,15 +238,16 @@ def run(args: argparse.Namespace) -> int:
     opt = options_from_args(args, replace(case.options, norm_tol=1e-5))
     if args.replay is not None:
         seed = _int(args.replay, "--replay", 0)
-        f = replay(base, box, settings, seed)
+        f = replay(base, box, settings, seed, spec)
         r = simulate(f, opt, spec=spec)
-        out = {"seed": seed, "gains": {"K_o": f.gains.K_o, "K_q": f.gains.K_q, "beta": f.gains.beta,
-                                       "K_v": f.gains.K_v[0]}, **r.to_dict()}
+        gains = f.gains.as_dict()
+        if spec.decl.switching is not None:
+            gains[spec.decl.switching] = f.gains.K_v[0]
+        out = {"seed": seed, "gains": gains, **r.to_dict()}
         if args.format == "json":
             emit_json(out)
         else:
-            print(f"replay of run seed {seed}: K_o={f.gains.K_o:.6g} K_q={f.gains.K_q:.6g} "
-                  f"beta={f.gains.beta:.6g} K_v={f.gains.K_v[0]:.6g}")
+            print(f"replay of run seed {seed}: " + " ".join(f"{n}={_v(v, '.6g')}" for n, v in gains.items()))
             print(f"status: {r.status} - {r.message()}")
         return EXIT_OK if r.converged else EXIT_NEGATIVE
     threads = _int(args.threads, "--threads", 1) if args.threads is not None else None
@@ -177,19 +271,29 @@ def run(args: argparse.Namespace) -> int:
     if args.format == "json":
         emit_json({**summ, "written": written})
     else:
-        print(_text(case, graph, base, res, written))
+        print(_text(case, graph, base, res, written, spec))
     return EXIT_OK if res.all_converged else EXIT_NEGATIVE
 
 
-def _text(case: Any, graph: Any, base: Any, res: Any, written: list[str]) -> str:
+def _v(v: Any, fmt: str) -> str:
+    """A gain value (a diagonal gain as its three entries)."""
+    if isinstance(v, tuple):
+        return "(" + ", ".join(format(x, fmt) for x in v) + ")"
+    return format(v, fmt)
+
+
+def _text(case: Any, graph: Any, base: Any, res: Any, written: list[str], spec: Any) -> str:
     s = res.settings
     o = res.options
     bx = res.box.as_floats()
     fmt = lambda iv: f"{iv[0]:g}" if iv[0] == iv[1] else f"[{iv[0]:g}, {iv[1]:g}]"  # noqa: E731
+    sw = spec.decl.switching
+    switch = o.switch if sw is not None else "none (the design has no switching term)"
     lines = [
         f"Monte-Carlo: case {case.name}, graph {graph.name}, {len(res.runs)} runs, seed {s.seed}, "
-        f"tf = {o.tf:g} s, switch {o.switch}, disturbance {base.disturbance.kind}",
-        f"  box: K_o {fmt(bx['K_o'])}, K_q {fmt(bx['K_q'])}, beta {fmt(bx['beta'])}, K_v {fmt(bx['K_v'])}; "
+        f"tf = {o.tf:g} s, switch {switch}, disturbance {base.disturbance.kind}",
+        *([f"  design {spec.name} ({spec.source})"] if spec.name != "liang2016" else []),
+        "  box: " + ", ".join(f"{n} {fmt(iv)}" for n, iv in bx.items()) + "; "
         f"initial angle <= {s.max_angle_deg:g} deg, |rate_k| <= {s.max_rate:g} rad/s, "
         f"random phases {'on' if s.phases else 'off'}",
         "  outcomes: " + ", ".join(f"{k} {v}" for k, v in res.counts.items()),
@@ -206,15 +310,21 @@ def _text(case: Any, graph: Any, base: Any, res: Any, written: list[str]) -> str
     if c.get("status") in ("skipped", "unavailable"):
         lines.append(f"  certification of the box: {c['status']}")
     else:
-        lines.append(f"  certification of the (K_o, K_q, beta) box (derived conditions): {c['status']}"
-                     + (f" - {c['reason']}" if c.get("reason") else ""))
-        lines.append(f"  K_v >= required for ubar = {c['ubar']:.3g} N m: {'yes' if c['kv_holds'] else 'NO'}")
+        lines.append(f"  certification of the ({', '.join(spec.decl.controller_gains)}) box (derived "
+                     f"conditions): {c['status']}" + (f" - {c['reason']}" if c.get("reason") else ""))
+        if c["kv_holds"] is None:
+            lines.append("  no switching gain: the certificate covers the undisturbed loop"
+                         + (f" only (ubar = {c['ubar']:.3g} N m here)" if c["ubar"] > 0 else
+                            " (no disturbance here)"))
+        else:
+            lines.append(f"  {sw} >= required for ubar = {c['ubar']:.3g} N m: "
+                         f"{'yes' if c['kv_holds'] else 'NO'}")
     if res.failures:
         lines.append(f"FAILURES ({len(res.failures)}; replay with --replay SEED and the same box/settings):")
         for r in res.failures[:20]:
             ev = f" at t = {r.event_time:g} s" if r.event_time is not None else ""
-            lines.append(f"  run {r.index} seed {r.seed}: {r.status}{ev}; K_o={r.K_o:.5g} K_q={r.K_q:.5g} "
-                         f"beta={r.beta:.5g} K_v={r.K_v:.5g}; final Q_m {r.final_q_m:.2e}, "
+            gains = " ".join(f"{n}={_v(v, '.5g')}" for n, v in r.gains)
+            lines.append(f"  run {r.index} seed {r.seed}: {r.status}{ev}; {gains}; final Q_m {r.final_q_m:.2e}, "
                          f"Omega_m {r.final_omega_m:.2e}")
         if len(res.failures) > 20:
             lines.append(f"  ... {len(res.failures) - 20} more (see --out runs.csv or --format json)")

@@ -1,7 +1,10 @@
 """Monte-Carlo validation of gains on the full nonlinear formation.
 
-Each run draws, from its own seed, a gain point in a box (``K_o, K_q, beta,
-K_v``; uniform), initial attitudes (uniform random axis, rotation angle
+Each run draws, from its own seed, a gain point in a box (uniform; the design's
+controller gains in declaration order, then its switching gain ``K_v`` when it has
+one - ``K_o, K_q, beta, K_v`` for the paper's design; a diagonal gain draws its three
+entries independently; a multiplier of the Lyapunov candidate is never sampled),
+initial attitudes (uniform random axis, rotation angle
 uniform in ``[0, max_angle]``, so ``q0 = cos(angle/2) > 0``), initial body
 rates (each component uniform in ``[-max_rate, max_rate]``) and - with
 ``phases=True`` - random phases of every oscillating disturbance factor and of
@@ -38,16 +41,18 @@ import casadi as ca
 import numpy as np
 
 from formsync_design.errors import InputError
-from formsync_design.gains import GainBox, json_number
+from formsync_design.gains import GainBox, GainRange, json_number
 from formsync_design.sim.formation import Formation, Gains, SimOptions
 from formsync_design.sim.kernels import CHUNK, get_kernel, pack_params
 from formsync_design.sim.metrics import convergence_time, metrics_expr
+from formsync_design.spec.declarations import GainKind
 from formsync_design.spec.loader import Spec, load_spec
 
 __all__ = [
     "GainBox",
     "MC_GAINS",
     "MAX_RUNS",
+    "mc_gain_names",
     "RunStatus",
     "RUN_STATUSES",
     "mc_box",
@@ -89,25 +94,66 @@ class RunStatus(enum.StrEnum):
 RUN_STATUSES = tuple(s.value for s in RunStatus)
 
 
-def mc_box(box: Any) -> GainBox:
-    """``box`` as the one gain-box type over ``K_o, K_q, beta, K_v`` (``K_v >= 0``).
+def _design(spec: Spec | str | Path | None) -> tuple[tuple[str, ...], str | None, frozenset[str]]:
+    """Controller gains, switching gain (or None) and diagonal gains of ``spec``
+    (``None``: the paper's design, without loading it)."""
+    if spec is None:
+        return MC_GAINS[:3], MC_GAINS[3], frozenset()
+    sp = spec if isinstance(spec, Spec) else load_spec(spec)
+    d = sp.decl
+    diag = frozenset(n for n in d.controller_gains if d.gain(n).kind == GainKind.DIAG)
+    return tuple(d.controller_gains), d.switching, diag
+
+
+def mc_gain_names(spec: Spec | str | Path | None = None) -> tuple[str, ...]:
+    """The dimensions of a Monte-Carlo box of ``spec`` (default: the paper's design): its
+    controller gains in declaration order, then its switching gain when it has one.
+    Multipliers of the Lyapunov candidate are not dimensions (they are not controller gains).
+
+    >>> mc_gain_names(), mc_gain_names("pd_consensus")
+    (('K_o', 'K_q', 'beta', 'K_v'), ('k_p', 'k_d'))
+    """
+    ctrl, sw, _ = _design(spec)
+    return ctrl + ((sw,) if sw is not None else ())
+
+
+def mc_box(box: Any, spec: Spec | str | Path | None = None) -> GainBox:
+    """``box`` as the one gain-box type over :func:`mc_gain_names` of ``spec`` (default:
+    the paper's ``K_o, K_q, beta, K_v``): controller gains ``> 0``, the switching gain ``>= 0``.
 
     Accepts a :class:`~formsync_design.gains.GainBox` or anything
     :meth:`GainBox.parse <formsync_design.gains.GainBox.parse>` accepts.
 
     >>> mc_box({"K_o": "1.5:1.7", "K_q": 0.4, "beta": 0.3, "K_v": 0}).as_floats()["K_o"]
     (1.5, 1.7)
+    >>> str(mc_box({"k_p": "0.5:1", "k_d": 2}, "pd_consensus"))
+    'k_p=0.5:1, k_d=2'
     """
-    return GainBox.parse(box, MC_GAINS, positive=MC_GAINS[:3])
+    ctrl, _, _ = _design(spec)
+    return GainBox.parse(box, mc_gain_names(spec), positive=ctrl)
 
 
-def point_box(g: Gains) -> GainBox:
-    """The point box of the gains ``g`` (``K_v`` from its min to max over spacecraft).
+def point_box(g: Gains, spec: Spec | str | Path | None = None) -> GainBox:
+    """The point box of the gains ``g`` for ``spec`` (default: the paper's design);
+    ``K_v`` (when the design has a switching gain) and a diagonal gain from their smallest to
+    their largest entry.
 
     >>> point_box(Gains(1.6, 0.4, 0.3, (0.01, 0.02))).as_floats()["K_v"]
     (0.01, 0.02)
+    >>> str(point_box(Gains(k_p=0.5, k_d=1.5), "pd_consensus"))
+    'k_p=0.5, k_d=1.5'
     """
-    return mc_box({"K_o": g.K_o, "K_q": g.K_q, "beta": g.beta, "K_v": (min(g.K_v), max(g.K_v))})
+    ctrl, sw, _ = _design(spec)
+    have = g.as_dict()
+    missing = [n for n in ctrl if n not in have]
+    if missing:
+        raise InputError(f"expected the controller gains of the design ({', '.join(ctrl)}), "
+                         f"received {', '.join(g.names)}")
+    box: dict[str, Any] = {n: (min(have[n]), max(have[n])) if isinstance(have[n], tuple) else have[n]
+                           for n in ctrl}
+    if sw is not None:
+        box[sw] = (min(g.K_v), max(g.K_v))
+    return mc_box(box, spec)
 
 
 @dataclass(frozen=True)
@@ -145,8 +191,10 @@ def _run_seeds(settings: MonteCarloSettings) -> np.ndarray:
     return ss.generate_state(settings.runs, dtype=np.uint64) >> np.uint64(1)
 
 
-def sample_formation(base: Formation, box: Any, settings: MonteCarloSettings, run_seed: int) -> Formation:
-    """The formation of one run (deterministic in ``run_seed``).
+def sample_formation(base: Formation, box: Any, settings: MonteCarloSettings, run_seed: int,
+                     spec: Spec | str | Path | None = None) -> Formation:
+    """The formation of one run (deterministic in ``run_seed``): gains of the design ``spec``
+    (default: the paper's) drawn from ``box`` (:func:`mc_box`), attitudes, rates and phases.
 
     >>> from formsync_design.verify.case import load_case
     >>> f = load_case().formation()
@@ -154,14 +202,27 @@ def sample_formation(base: Formation, box: Any, settings: MonteCarloSettings, ru
     >>> a = sample_formation(f, box, s, 12345); b = sample_formation(f, box, s, 12345)
     >>> bool(np.array_equal(a.attitudes, b.attitudes)), bool((a.attitudes[:, 3] > 0).all())
     (True, True)
+    >>> g = sample_formation(f, {"k_p": "0.5:1", "k_d": 2}, s, 7, "pd_consensus").gains
+    >>> g.names, bool(0.5 <= g.k_p <= 1), g.k_d, g.K_v[0]  # no switching gain: K_v = 0
+    (('k_p', 'k_d'), True, 2.0, 0.0)
     """
     rng = np.random.default_rng(int(run_seed))
     n = base.n
-    b = mc_box(box).as_floats()
-    lo = np.array([b[g][0] for g in MC_GAINS])
-    hi = np.array([b[g][1] for g in MC_GAINS])
-    g = rng.uniform(lo, hi)
-    gains = Gains(float(g[0]), float(g[1]), float(g[2]), (float(g[3]),) * n)
+    ctrl, sw, diag = _design(spec)
+    b = mc_box(box, spec).as_floats()
+    dims = [name for name in ctrl for _ in range(3 if name in diag else 1)]
+    dims += [sw] if sw is not None else []
+    lo = np.array([b[name][0] for name in dims])
+    hi = np.array([b[name][1] for name in dims])
+    g = [float(v) for v in rng.uniform(lo, hi)]  # one draw for every dimension, in box order
+    vals: dict[str, Any] = {}
+    k = 0
+    for name in ctrl:
+        if name in diag:
+            vals[name], k = (g[k], g[k + 1], g[k + 2]), k + 3
+        else:
+            vals[name], k = g[k], k + 1
+    gains = Gains(vals, (g[k],) * n if sw is not None else ())
     axis = rng.normal(size=(n, 3))
     axis /= np.linalg.norm(axis, axis=1, keepdims=True)
     ang = rng.uniform(0.0, math.radians(settings.max_angle_deg), size=n)
@@ -172,21 +233,29 @@ def sample_formation(base: Formation, box: Any, settings: MonteCarloSettings, ru
     return Formation(base.graph, base.inertias, att, rates, gains, dist)
 
 
-def replay(base: Formation, box: Any, settings: MonteCarloSettings, run_seed: int) -> Formation:
+def replay(base: Formation, box: Any, settings: MonteCarloSettings, run_seed: int,
+           spec: Spec | str | Path | None = None) -> Formation:
     """Alias of :func:`sample_formation`: rebuild a flagged run from its seed."""
-    return sample_formation(base, box, settings, run_seed)
+    return sample_formation(base, box, settings, run_seed, spec)
 
 
 @dataclass(frozen=True)
 class MonteCarloRun:
-    """Outcome of one run (``seed`` replays it)."""
+    """Outcome of one run (``seed`` replays it).
+
+    ``gains``: the sampled gains by name (the design's controller gains, then its
+    switching gain ``K_v`` when it has one; a diagonal gain as its three entries), each
+    also an attribute (``run.K_o``).
+
+    >>> r = MonteCarloRun(0, 5, (("k_p", 0.5), ("k_d", (1.0, 1.1, 1.2))), RunStatus.CONVERGED,
+    ...                   12.5, 1e-5, 1e-6, 0.7, 3.0, 1e-9)
+    >>> r.k_p, list(r.to_dict())[:6]
+    (0.5, ['index', 'seed', 'k_p', 'k_d_1', 'k_d_2', 'k_d_3'])
+    """
 
     index: int
     seed: int
-    K_o: float
-    K_q: float
-    beta: float
-    K_v: float
+    gains: tuple[tuple[str, Any], ...]
     status: RunStatus
     convergence_time: float | None
     final_q_m: float
@@ -196,9 +265,34 @@ class MonteCarloRun:
     norm_error: float
     event_time: float | None = None
 
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("__") or name == "gains":
+            raise AttributeError(name)
+        for n, v in self.gains:
+            if n == name:
+                return v
+        raise AttributeError(f"{type(self).__name__} has no attribute or gain {name!r}")
+
+    def gain_items(self) -> list[tuple[str, float]]:
+        """The sampled gains as flat ``(name, value)`` pairs (a diagonal gain ``k`` as
+        ``k_1, k_2, k_3``), in box order."""
+        out: list[tuple[str, float]] = []
+        for n, v in self.gains:
+            if isinstance(v, tuple):
+                out += [(f"{n}_{i + 1}", float(x)) for i, x in enumerate(v)]
+            else:
+                out.append((n, float(v)))
+        return out
+
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready (numbers by :func:`~formsync_design.gains.json_number`; NaN as "nan")."""
-        return {k: (str(v) if k == "status" else json_number(v)) for k, v in self.__dict__.items()}
+        """JSON-ready, flat (numbers by :func:`~formsync_design.gains.json_number`; NaN as
+        "nan"): ``index``, ``seed``, the gains (:meth:`gain_items`), then the outcome."""
+        out = {"index": json_number(self.index), "seed": json_number(self.seed)}
+        out.update((n, json_number(v)) for n, v in self.gain_items())
+        for k, v in self.__dict__.items():
+            if k not in ("index", "seed", "gains"):
+                out[k] = str(v) if k == "status" else json_number(v)
+        return out
 
 
 @dataclass(frozen=True)
@@ -277,26 +371,67 @@ def _jsonable(x: Any) -> Any:
 
 
 def certify_sampled_box(base: Formation, box: Any, spec: Spec | str | Path | None = None) -> dict[str, Any]:
-    """Certification status of the sampled ``(K_o, K_q, beta)`` box with the conditions
-    derived for ``spec`` (default: the paper's) and of the smallest ``K_v`` against the disturbance bound, when
-    :mod:`formsync_design.certify.engine` is available; ``{"status": "unavailable"}`` otherwise."""
+    """Certification of the sampled box of controller gains with the conditions derived for
+    ``spec`` (default: the paper's), the design's multipliers searched over their declared
+    ranges (:func:`~formsync_design.certify.multipliers.certify_with_multipliers`), and -
+    when the design has a switching gain - of the smallest ``K_v`` against the disturbance
+    bound; ``{"status": "unavailable"}`` when the certification modules are not available.
+
+    For a design without a switching gain ``kv_holds`` and ``required_kv`` are None and
+    ``gains_and_kv_certified`` is true only for a certified box under no disturbance
+    (``ubar == 0``): the certificate covers the undisturbed loop only.
+
+    >>> from formsync_design.verify.case import load_case
+    >>> f = load_case().formation(disturbance="none")
+    >>> c = certify_sampled_box(f, {"k_p": "0.5:1", "k_d": "1:2"}, "pd_consensus")
+    >>> str(c["status"]), c["kv_holds"], c["gains_and_kv_certified"]
+    ('certified', None, True)
+    """
     try:
         from formsync_design.certify.engine import certify_box, check_kv
-        from formsync_design.derive.conditions import derive_conditions
+        from formsync_design.certify.multipliers import certify_with_multipliers
+        from formsync_design.derive.conditions import derive_conditions, required_kv
     except ImportError as e:  # pragma: no cover - depends on the other modules
         return {"status": "unavailable", "reason": str(e)}
+    sp = load_spec(spec)
+    ctrl, sw, _ = _design(sp)
     ubar = float(np.max(base.disturbance.bound(base.inertias)))
-    b = mc_box(box)
-    kv = check_kv(float(b["K_v"].lo), list(base.inertias), ubar)
-    res = certify_box(derive_conditions(base.graph, load_spec(spec)), {g: (b[g].lo, b[g].hi) for g in MC_GAINS[:3]})
+    b = mc_box(box, sp)
+    mult: dict[str, GainRange] = {}
+    for m in sp.decl.multipliers:
+        r = sp.decl.gain(m).range
+        if r is None:
+            return {"status": "unavailable",
+                    "reason": f"the multiplier {m} has no declared range to search"}
+        mult[m] = r
+    conds = derive_conditions(base.graph, sp)
+    gbox = {g: (b[g].lo, b[g].hi) for g in ctrl}
+    res = certify_with_multipliers(conds, gbox, mult) if mult else certify_box(conds, gbox)
     status = res.status
+    if sw is None:
+        return {
+            "status": status,
+            "reason": getattr(res, "reason", ""),
+            "kv_holds": None,
+            "ubar": ubar,
+            "required_kv": None,
+            "gains_and_kv_certified": status == "certified" and ubar == 0,
+        }
+    kv_lo = float(b[sw].lo)
+    if ubar > 0 and kv_lo > 0:
+        kv = check_kv(kv_lo, list(base.inertias), ubar)
+        holds, required = bool(kv.holds), [float(v) for v in kv.required]
+    elif ubar > 0:  # K_v = 0 is in the box: K_v >= K_v* > 0 fails there
+        holds, required = False, [float(required_kv(J, ubar)) for J in base.inertias]
+    else:  # no disturbance: K_v* = 0, which every K_v >= 0 meets
+        holds, required = True, [0.0] * base.n
     return {
         "status": status,
         "reason": getattr(res, "reason", ""),
-        "kv_holds": bool(kv.holds),
+        "kv_holds": holds,
         "ubar": ubar,
-        "required_kv": [float(v) for v in kv.required],
-        "gains_and_kv_certified": status == "certified" and bool(kv.holds),
+        "required_kv": required,
+        "gains_and_kv_certified": status == "certified" and holds,
     }
 
 
@@ -318,8 +453,8 @@ def run_montecarlo(
     base : Formation
         Graph, inertias and disturbance model (its gains/attitudes/rates are replaced).
     box : GainBox or mapping, optional
-        Over ``K_o, K_q, beta, K_v`` (see :func:`mc_box`).  Default: the point box of
-        ``base.gains``.
+        Over the design's :func:`mc_gain_names` (``K_o, K_q, beta, K_v`` for the paper's;
+        see :func:`mc_box`).  Default: the point box of ``base.gains``.
     settings : MonteCarloSettings, optional
     options : SimOptions, optional
         Default ``SimOptions(step=0.1, output_step=0.5, norm_tol=1e-5)``.
@@ -328,10 +463,10 @@ def run_montecarlo(
     batch : int
         Runs per mapped call.
     certify : bool
-        Also report :func:`certify_sampled_box` (the paper's conditions).
+        Also report :func:`certify_sampled_box` (the conditions derived for ``spec``).
     spec : Spec, str, Path or None
-        The specification whose controller is simulated (default: the paper's); its
-        kernel is cached under ``spec.key``.
+        The design whose controller is simulated and whose gains are sampled (default:
+        the paper's); its kernel is cached under ``spec.key``.
 
     Examples
     --------
@@ -343,8 +478,8 @@ def run_montecarlo(
     >>> len(r.runs), str(r.runs[0].status)  # 5 s is too short to synchronise
     (2, 'not-converged')
     """
-    bx = mc_box(box) if box is not None else point_box(base.gains)
     sp_spec = load_spec(spec)
+    bx = mc_box(box, sp_spec) if box is not None else point_box(base.gains, sp_spec)
     st = settings if settings is not None else MonteCarloSettings()
     opt = options if options is not None else SimOptions(step=0.1, output_step=0.5, norm_tol=1e-5)
     if opt.integrator != "rk4":
@@ -365,7 +500,7 @@ def run_montecarlo(
         n, opt.switch, opt.sample_period is not None, M, Kc, opt.inverse, opt.compile, spec=sp_spec
     )
     seeds = _run_seeds(st)
-    forms = [sample_formation(base, bx, st, int(s)) for s in seeds]
+    forms = [sample_formation(base, bx, st, int(s), sp_spec) for s in seeds]
     t_grid = np.arange(Ktot + 1) * opt.interval
     runs: list[MonteCarloRun] = []
     t0 = time.perf_counter()
@@ -373,7 +508,7 @@ def run_montecarlo(
         fb = forms[b0 : b0 + batch]
         B = len(fb)
         XA = np.column_stack([np.concatenate([f.initial_state(), [0.0]]) for f in fb])
-        P = np.column_stack([pack_params(f, opt) for f in fb])
+        P = np.column_stack([pack_params(f, opt, sp_spec) for f in fb])
         F = kern.mc_chunk.map(B, "thread", nthreads) if B > 1 else kern.mc_chunk
         S_parts = []
         done = 0
@@ -384,7 +519,8 @@ def run_montecarlo(
             done += Kc
         S = np.concatenate(S_parts, axis=2)  # (5, B, Ktot)
         for j, f in enumerate(fb):
-            runs.append(_summarize_run(b0 + j, int(seeds[b0 + j]), f, S[:, j, :], t_grid, opt))
+            runs.append(_summarize_run(b0 + j, int(seeds[b0 + j]), f, S[:, j, :], t_grid, opt,
+                                       bx.names))
     wall = time.perf_counter() - t0
     counts = {s: sum(r.status == s for r in runs) for s in RUN_STATUSES}
     ct = np.array([r.convergence_time for r in runs if r.convergence_time is not None])
@@ -399,7 +535,8 @@ def run_montecarlo(
     )
 
 
-def _summarize_run(index: int, seed: int, f: Formation, S: np.ndarray, t: np.ndarray, opt: SimOptions) -> MonteCarloRun:
+def _summarize_run(index: int, seed: int, f: Formation, S: np.ndarray, t: np.ndarray, opt: SimOptions,
+                   names: tuple[str, ...]) -> MonteCarloRun:
     om, qm, minq, umax, nerr = S
     f0 = f.attitudes[:, 3].min()
     minq_all = float(min(f0, np.nanmin(minq))) if np.isfinite(minq).any() else float("nan")
@@ -423,11 +560,18 @@ def _summarize_run(index: int, seed: int, f: Formation, S: np.ndarray, t: np.nda
         status = RunStatus.CONVERGED if ctime is not None else RunStatus.NOT_CONVERGED
     fin = lambda a: float(a[-1]) if np.isfinite(a[-1]) else float("nan")  # noqa: E731
     return MonteCarloRun(
-        index=index, seed=seed, K_o=f.gains.K_o, K_q=f.gains.K_q, beta=f.gains.beta, K_v=f.gains.K_v[0],
+        index=index, seed=seed, gains=_run_gains(f.gains, names),
         status=status, convergence_time=ctime, final_q_m=fin(qm), final_omega_m=fin(om),
         min_q0=minq_all, peak_torque=float(np.nanmax(umax)) if np.isfinite(umax).any() else float("nan"),
         norm_error=float(np.nanmax(nerr)) if np.isfinite(nerr).any() else float("nan"), event_time=event,
     )
+
+
+def _run_gains(g: Gains, names: tuple[str, ...]) -> tuple[tuple[str, Any], ...]:
+    """The sampled gains of a run in box order (a box name that is not a controller gain of
+    ``g`` is the switching gain: every spacecraft has the same sampled ``K_v``)."""
+    have = g.as_dict()
+    return tuple((n, have[n]) if n in have else (n, g.K_v[0]) for n in names)
 
 
 _M0: dict = {}
