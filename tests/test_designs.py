@@ -470,3 +470,17 @@ def test_a_representation_the_engine_cannot_derive_is_refused(tmp_path):
                  ["simulate", "--design", str(p), "--gain", "k_p=1", "--gain", "k_d=1"]):
         r = _formsync(*args)
         assert r.returncode == 2 and "REPRESENTATION" in r.stderr and "'mrp'" in r.stderr, r.stderr
+
+
+def test_cli_region_for_the_pd_design(tmp_path):
+    r = _formsync("region", "--design", PD, "--graph", "star:6", "--gain", "k_p=0.01:2",
+                  "--gain", "k_d=0.001:2", "--resolution", "8", "--out", str(tmp_path),
+                  "--format", "json", "--no-progress")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(r.stdout)
+    f = doc["maps"][0]["fractions"]
+    assert f["refuted"] == 0 and 0.8 < f["certified"] < 1  # the cell at k_d -> 0 stays undecided
+    assert (tmp_path / "region.json").is_file() and (tmp_path / "pd_consensus-region-k_p-k_d.png").is_file()
+    r = _formsync("region", "--design", PD, "--graph", "star:6", "--out", str(tmp_path),
+                  "--beta-slices", "0.1")
+    assert r.returncode == 2 and "--beta-slices" in r.stderr

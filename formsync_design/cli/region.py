@@ -48,6 +48,8 @@ examples:
       --resolution 32 --conditions both --beta-slices 0.1,0.3 --out out/compare
   formsync region --graph star:8 --ko 0.5:4 --kq 0.1:2 --beta 0.05:0.5 --certificate searched \\
       --decay 0.02 --resolution 4 --out out/star8
+  formsync region --design pd_consensus --graph star:8 --gain k_p=0.01:2 --gain k_d=0.01:2 \\
+      --out out/pd        # another design: its gains, its multipliers searched per cell
 """
 
 
@@ -104,10 +106,14 @@ def run(args: argparse.Namespace) -> int:
         parse_margin,
         requirements_from_args,
     )
+    from formsync_design.spec.loader import load_spec
 
-    box = gain_box_from_args(args)
+    spec = load_spec(args.spec)
+    box = gain_box_from_args(args, spec)
     margin = parse_margin(args.margin)
     req = requirements_from_args(args, args.graph[0])
+    if tuple(spec.gains) != ("K_o", "K_q", "beta"):
+        return _run_design(args, spec, box, margin, req)
     if args.certificate != "paper" or req.any():
         return _run_cells(args, box, margin, req)
     if args.resolution is None:
@@ -156,6 +162,75 @@ def run(args: argparse.Namespace) -> int:
                   f"({len(m.boxes)} boxes, {m.vertices_evaluated} vertices, {m.elapsed:.2f} s)")
         for p in paths:
             print(f"wrote {p}")
+    return EXIT_OK
+
+
+def _run_design(args: argparse.Namespace, spec: Any, box: Any, margin: Any, req: Any) -> int:
+    """The region of a design other than liang2016: its own box gains, multipliers searched
+    per cell (:func:`~formsync_design.certify.multiregion.region_with_multipliers`)."""
+    import json
+    from pathlib import Path
+
+    from formsync_design.certify.multiregion import region_with_multipliers
+    from formsync_design.certify.plots import plot_slices
+    from formsync_design.certify.region import map_to_dict
+    from formsync_design.cli.certify import require_classic
+    from formsync_design.cli.options import to_json_value
+    from formsync_design.derive.conditions import derive_conditions
+    from formsync_design.graphs import make_graph
+
+    if args.certificate != "paper" or req.any():
+        require_classic(spec, "--certificate or a requirement option")
+    if args.conditions != "derived":
+        raise InputError(f"expected --conditions derived for design {spec.name} (printed "
+                         f"conditions are liang2016's), received --conditions {args.conditions}")
+    if args.beta_slices or args.kq_slices:
+        raise InputError(f"expected no --beta-slices/--kq-slices for design {spec.name} (its gains "
+                         f"are {', '.join(spec.gains)}), received them")
+    res = 32 if args.resolution is None else args.resolution
+    if not 1 <= res <= 512:
+        raise InputError(f"expected --resolution in 1..512, received {res}")
+    if len(spec.gains) != 3:
+        raise InputError(f"expected a design with three box dimensions for a region map, "
+                         f"received {spec.name} with {', '.join(spec.gains)}")
+    mult = {n: r for n in spec.decl.multipliers
+            if n not in box and (r := spec.decl.gain(n).range) is not None}
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    prog = Progress(len(args.graph), "region", enabled=not args.no_progress)
+    maps = []
+    for gspec in args.graph:
+        conds = derive_conditions(make_graph(gspec), spec)
+        maps.append(region_with_multipliers(conds, box, mult, resolution=res, margin=margin))
+        prog.update()
+    ctrl = [n for n in spec.gains if n not in mult]
+    fixed = next(n for n in spec.gains if n not in ctrl[:2])
+    fa = spec.gains.index(fixed)
+    value = float(maps[0].ranges[fa][0])
+    fig = plot_slices(maps, axes=(ctrl[0], ctrl[1]), fixed=fixed, values=[value])
+    if mult:
+        for ax, m in zip(fig.axes, maps):
+            ax.set_title(f"{m.graph}: {fixed} searched per cell", fontsize=9)
+    stem = f"{spec.name}-region"
+    fig_path = out / f"{stem}-{ctrl[0]}-{ctrl[1]}.png"
+    fig.savefig(fig_path, dpi=120, metadata={"Software": None})
+    json_path = out / "region.json"
+    doc = {"design": spec.name, "maps": [map_to_dict(m, timing=False) for m in maps]}
+    json_path.write_text(json.dumps(to_json_value(doc), indent=1, allow_nan=False) + "\n")
+    paths = [json_path, fig_path]
+    if args.format == "json":
+        emit_json({"files": [str(p) for p in paths],
+                   "maps": [{"graph": m.graph, "conditions": m.source, "fractions": m.fractions,
+                             "boxes": len(m.boxes), "vertices_evaluated": m.vertices_evaluated}
+                            for m in maps]})
+    else:
+        for m in maps:
+            f = m.fractions
+            print(f"{m.graph} ({m.source}): certified {f['certified']:.1%}, refuted "
+                  f"{f['refuted']:.1%}, undecided {f['undecided']:.1%} of the box "
+                  f"({len(m.boxes)} boxes, {m.vertices_evaluated} vertices, {m.elapsed:.2f} s)")
+        for pth in paths:
+            print(f"wrote {pth}")
     return EXIT_OK
 
 
