@@ -484,3 +484,15 @@ def test_cli_region_for_the_pd_design(tmp_path):
     r = _formsync("region", "--design", PD, "--graph", "star:6", "--out", str(tmp_path),
                   "--beta-slices", "0.1")
     assert r.returncode == 2 and "--beta-slices" in r.stderr
+
+
+def test_cli_design_for_the_pd_design_holds_the_multiplier_in_the_box():
+    r = _formsync("design", "--design", PD, "--graph", "star:6", "--format", "json")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(r.stdout)
+    assert doc["status"] == "designed" and set(doc["gains"]) == {"k_p", "k_d", "eps"}
+    lo, hi = doc["largest_certified_box"]["eps"]
+    assert lo == hi == doc["gains"]["eps"]  # one Lyapunov candidate for the whole box
+    assert doc["box_certificate"]["status"] == "certified"
+    r = _formsync("design", "--design", PD, "--graph", "star:6", "--min-delay", "0.1")
+    assert r.returncode == 2 and "k_p, k_d, eps" in r.stderr

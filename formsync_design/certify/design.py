@@ -114,13 +114,16 @@ class DesignResult:
 
 
 def _affine_split(st: Any, gains: tuple[str, ...]) -> None:
-    ko, kq = gains.index("K_o"), gains.index("K_q")
+    # the first two box gains are optimized, the third is swept (liang2016: K_o, K_q; beta)
+    ko, kq = 0, 1
+    if len(gains) != 3:
+        raise DerivationError(f"expected three box gains (two optimized, one swept), received {gains}")
     for b in st.blocks:
         for e in b.exps:
             if e[ko] + e[kq] > 1:
                 raise DerivationError(
-                    "expected every family affine in (K_o, K_q) for fixed beta, received a term "
-                    f"with exponents {dict(zip(gains, e))}"
+                    f"expected every family affine in ({gains[0]}, {gains[1]}) for fixed "
+                    f"{gains[2]}, received a term with exponents {dict(zip(gains, e))}"
                 )
 
 
@@ -128,7 +131,7 @@ def _sdp_at_beta(st: Any, gains: tuple[str, ...], beta: Fraction, rko: tuple, rk
                  penalty: float) -> BetaStep:
     import cvxpy as cp
 
-    iko, ikq, ib = gains.index("K_o"), gains.index("K_q"), gains.index("beta")
+    iko, ikq, ib = 0, 1, 2  # the optimized pair and the swept gain (see _affine_split)
     ko = cp.Variable()
     kq = cp.Variable()
     t = cp.Variable()
@@ -253,8 +256,14 @@ def design_gains(
     betas: int | Sequence[Any] = 11,
     penalty: float = 0.0,
     margin: Any = 0,
+    hold: Sequence[str] = (),
 ) -> DesignResult:
     """Recommend ``(K_o, K_q, beta)`` maximizing the certified margin.
+
+    For another design the first two box gains play ``K_o, K_q`` (optimized by the
+    SDP, the families must be affine in them) and the third ``beta`` (swept); a gain
+    named in ``hold`` (a design's multiplier) keeps its recommended value when the
+    largest certified box is grown around the point.
 
     Parameters
     ----------
@@ -283,7 +292,7 @@ def design_gains(
         raise InputError(f"expected a non-negative finite penalty, received {penalty!r}")
     st = analyze(conditions.families)
     _affine_split(st, gains)
-    ib = gains.index("beta")
+    ib = 2
     blo, bhi = rng[ib]
     if isinstance(betas, (int, np.integer)) and not isinstance(betas, bool):
         if betas < 1:
@@ -293,14 +302,14 @@ def design_gains(
         else:
             bl = [blo + (bhi - blo) * Fraction(i, betas - 1) for i in range(betas)]
     else:
-        bl = [as_box({**{g: rng[k] for k, g in enumerate(gains)}, "beta": b}, gains).bounds[ib][0]
+        bl = [as_box({**{g: rng[k] for k, g in enumerate(gains)}, gains[ib]: b}, gains).bounds[ib][0]
               for b in cast(Sequence[Any], betas)]
         for b in bl:
             if not blo <= b <= bhi:
                 raise InputError(
                     f"expected beta values in [{float(blo):g}, {float(bhi):g}], received {float(b):g}"
                 )
-    rko, rkq = rng[gains.index("K_o")], rng[gains.index("K_q")]
+    rko, rkq = rng[0], rng[1]
     sweep = tuple(_sdp_at_beta(st, gains, b, rko, rkq, penalty) for b in bl)
     good = [s for s in sweep if s.outcome == "ok" and s.objective is not None]
     if any(s.outcome == "error" for s in sweep) and not good:
@@ -313,9 +322,9 @@ def design_gains(
     best = max(good, key=lambda s: (s.objective, -float(s.beta)))
     assert best.K_o is not None and best.K_q is not None
     gk = {
-        "K_o": _nice(best.K_o, *rko),
-        "K_q": _nice(best.K_q, *rkq),
-        "beta": best.beta,
+        gains[0]: _nice(best.K_o, *rko),
+        gains[1]: _nice(best.K_q, *rkq),
+        gains[2]: best.beta,
     }
     pt = {g: gk[g] for g in gains}
     res = certify_box(conditions, pt, margin=margin)
@@ -323,7 +332,8 @@ def design_gains(
         return DesignResult("undecided", pt, None, penalty, sweep, res, None, 0.0, None, rng,
                             time.perf_counter() - t0,
                             f"the rounded optimum is {res.status}: {res.reason}")
-    bx, s, bres = largest_certified_box(conditions, pt, rng, margin=margin)
+    grow = tuple((pt[g], pt[g]) if g in hold else r for g, r in zip(gains, rng))
+    bx, s, bres = largest_certified_box(conditions, pt, grow, margin=margin)
     return DesignResult(
         status="designed",
         gains=pt,

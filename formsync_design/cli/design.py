@@ -71,9 +71,19 @@ def run(args: argparse.Namespace) -> int:
     from formsync_design.certify.design import design_gains
     from formsync_design.cli.certify import gain_box_from_args, load_conditions, parse_margin
     from formsync_design.errors import InputError
-    from formsync_design.gains import parse_number
+    from formsync_design.gains import GainBox, parse_number
+    from formsync_design.spec.loader import load_spec
 
-    box = gain_box_from_args(args)
+    spec = load_spec(args.spec)
+    box = gain_box_from_args(args, spec)
+    hold = tuple(n for n in spec.decl.multipliers if n not in box)
+    if hold:  # a multiplier not given: swept over its declared range, held in the box
+        rs = {r.name: r for r in box}
+        for n in hold:
+            r = spec.decl.gain(n).range
+            assert r is not None  # a multiplier declares its range (checked at load)
+            rs[n] = r
+        box = GainBox(tuple(rs[n] for n in spec.gains))
     margin = parse_margin(args.margin)
     pen = parse_number(args.penalty, "penalty")
     if pen < 0:
@@ -81,9 +91,13 @@ def run(args: argparse.Namespace) -> int:
     if not 1 <= args.betas <= 1000:
         raise InputError(f"expected --betas in 1..1000, received {args.betas}")
     if args.min_delay is not None or args.graphs_set is not None or args.torque_limit is not None:
+        from formsync_design.cli.certify import require_classic
+
+        require_classic(spec, "--min-delay, --graphs-set or --torque-limit")
         return _run_constrained(args, box)
     conds = load_conditions(args.graph, args.conditions, args.spec)
-    d = design_gains(conds, box, betas=args.betas, penalty=float(pen), margin=margin)
+    d = design_gains(conds, box, betas=args.betas, penalty=float(pen), margin=margin, hold=hold)
+    g0, g1, g2 = conds.gains
     if args.format == "json":
         emit_json(d.to_dict())
     else:
@@ -98,12 +112,13 @@ def run(args: argparse.Namespace) -> int:
             print(f"  largest certified box (relative half-width {d.box_half_width:.3g}): "
                   + ", ".join(f"{k} in [{float(lo):.4g}, {float(hi):.4g}]"
                               for k, (lo, hi) in zip(conds.gains, d.box)))
-        print("  beta sweep (SDP hints):")
+        print(f"  {g2} sweep (SDP hints):")
         for s in d.sweep:
             tt = "-" if s.t is None else f"{s.t:.5g}"
             ko = "-" if s.K_o is None else f"{s.K_o:.4g}"
             kq = "-" if s.K_q is None else f"{s.K_q:.4g}"
-            print(f"    beta={float(s.beta):<8.4g} {s.outcome:<10} margin={tt:<10} K_o={ko:<8} K_q={kq}")
+            print(f"    {g2}={float(s.beta):<8.4g} {s.outcome:<10} margin={tt:<10} {g0}={ko:<8} "
+                  f"{g1}={kq}")
     return EXIT_OK if d.status == "designed" else EXIT_NEGATIVE
 
 
