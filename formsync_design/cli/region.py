@@ -155,14 +155,18 @@ def run(args: argparse.Namespace) -> int:
             ],
         })
     else:
-        for m in maps + (omaps or []):
-            f = m.fractions
-            print(f"{m.graph} ({m.source}): certified {f['certified']:.1%}, refuted "
-                  f"{f['refuted']:.1%}, undecided {f['undecided']:.1%} of the box "
-                  f"({len(m.boxes)} boxes, {m.vertices_evaluated} vertices, {m.elapsed:.2f} s)")
-        for p in paths:
-            print(f"wrote {p}")
+        _print_maps(maps + (omaps or []), paths)
     return EXIT_OK
+
+
+def _print_maps(maps: list[Any], paths: Any) -> None:
+    for m in maps:
+        f = m.fractions
+        print(f"{m.graph} ({m.source}): certified {f['certified']:.1%}, refuted "
+              f"{f['refuted']:.1%}, undecided {f['undecided']:.1%} of the box "
+              f"({len(m.boxes)} boxes, {m.vertices_evaluated} vertices, {m.elapsed:.2f} s)")
+    for p in paths:
+        print(f"wrote {p}")
 
 
 def _run_design(args: argparse.Namespace, spec: Any, box: Any, margin: Any, req: Any) -> int:
@@ -224,13 +228,7 @@ def _run_design(args: argparse.Namespace, spec: Any, box: Any, margin: Any, req:
                              "boxes": len(m.boxes), "vertices_evaluated": m.vertices_evaluated}
                             for m in maps]})
     else:
-        for m in maps:
-            f = m.fractions
-            print(f"{m.graph} ({m.source}): certified {f['certified']:.1%}, refuted "
-                  f"{f['refuted']:.1%}, undecided {f['undecided']:.1%} of the box "
-                  f"({len(m.boxes)} boxes, {m.vertices_evaluated} vertices, {m.elapsed:.2f} s)")
-        for pth in paths:
-            print(f"wrote {pth}")
+        _print_maps(maps, paths)
     return EXIT_OK
 
 

@@ -17,7 +17,7 @@ import sympy as sp
 
 from formsync_design.errors import DerivationError
 from formsync_design.spec.declarations import CLASSIC, DERIVABLE, Declarations, GainKind, GainRole
-from formsync_design.spec.loader import ControllerView, Spec, load_spec
+from formsync_design.spec.loader import ControllerView, Spec, controller_expression, load_spec
 
 __all__ = ["ClosedLoop", "SpecLike", "derive_closed_loop", "resolve_spec", "spec_cache_key", "registered_spec",
            "require_derivable"]
@@ -166,13 +166,7 @@ def require_derivable(spec: Spec, stage: str = "the derivation") -> None:
 
 def _derive_closed_loop(spec: Spec) -> ClosedLoop:
     require_derivable(spec)
-    v = ControllerView(spec.decl)
-    u = spec.controller(v)
-    if getattr(u, "shape", None) != (3, 1):
-        raise DerivationError(
-            f"expected controller() to return a 3x1 matrix expression, received shape "
-            f"{getattr(u, 'shape', None)}"
-        )
+    v, u = controller_expression(spec)
     ud = sp.MatrixSymbol("u_d", 3, 1)
     qdd = (v.A.I * (v.Q.T * (u + ud) - v.B * v.qd)).expand().doit()
     dist = (v.A.I * v.Q.T * ud).doit()

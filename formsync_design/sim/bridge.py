@@ -53,7 +53,7 @@ import sympy as sp
 from formsync_design.errors import DerivationError, InputError
 from formsync_design.models.attitude import AttitudeModel, derive_attitude_model
 from formsync_design.spec.declarations import GainKind
-from formsync_design.spec.loader import ControllerView, Spec, load_spec
+from formsync_design.spec.loader import Spec, controller_expression, load_spec
 
 __all__ = [
     "SWITCHES",
@@ -445,13 +445,7 @@ def _controller_cached(spec: Spec, m: AttitudeModel, switch: str, inverse: str) 
     hit = _SPEC_CACHE.get(key)
     if hit is not None:
         return hit
-    view = ControllerView(spec.decl)
-    expr = spec.controller(view)
-    if getattr(expr, "shape", None) != (3, 1):
-        raise DerivationError(
-            f"expected the controller to be a 3x1 matrix expression, received shape "
-            f"{getattr(expr, 'shape', None)}"
-        )
+    view, expr = controller_expression(spec)
     mf = model_function(m)
     q = ca.SX.sym("q", 3)
     q0 = ca.SX.sym("q0")

@@ -65,6 +65,7 @@ __all__ = [
     "validate_spec",
     "default_spec_path",
     "gain_symbols",
+    "controller_expression",
 ]
 
 
@@ -440,6 +441,23 @@ def validate_spec(
             )
         parts.append(sp.srepr(Vs))
     return "\n".join(parts)
+
+
+def controller_expression(spec: Spec) -> tuple[ControllerView, Any]:
+    """The view given to ``spec.controller`` and the 3x1 expression it returns.
+
+    >>> v, u = controller_expression(load_spec())
+    >>> u.shape, len(v.switch_arguments)
+    ((3, 1), 1)
+    """
+    view = ControllerView(spec.decl)
+    u = spec.controller(view)
+    if getattr(u, "shape", None) != (3, 1):
+        raise DerivationError(
+            f"expected controller() to return a 3x1 matrix expression, received shape "
+            f"{getattr(u, 'shape', None)}"
+        )
+    return view, u
 
 
 def default_spec_path() -> Path:
