@@ -340,6 +340,15 @@ class Digraph:
         """Every :class:`GraphProperty` with whether the graph has it."""
         return {str(p): self.has(p) for p in GraphProperty}
 
+    def why_not(self, prop: GraphProperty | str) -> str:
+        """Why the graph lacks ``prop`` (one phrase; meaningful when ``not has(prop)``).
+
+        >>> from formsync_design.graphs.digraph_io import make_digraph
+        >>> make_digraph([[0, 1], [0, 0]]).why_not("strongly-connected")
+        '2 strong components {1}; {2}'
+        """
+        return self._why_not(_property(prop))
+
     def _why_not(self, p: GraphProperty) -> str:
         if p is GraphProperty.WEAKLY_CONNECTED:
             return f"{len(self.weak_components)} weak components {_sets(self.weak_components)}"
