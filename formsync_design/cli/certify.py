@@ -15,7 +15,9 @@ from formsync_design.cli.options import (
     EXIT_OK,
     add_design_option,
     add_format_option,
+    add_theorem_option,
     design_box,
+    design_graph,
     emit_json,
 )
 from formsync_design.errors import InputError
@@ -103,6 +105,7 @@ def add_gain_options(p: argparse.ArgumentParser, *, ranges: bool = False) -> Non
                    help="matrices to check: 'derived' from the controller (default) or 'paper' "
                    "as printed in Liang et al. 2016")
     add_design_option(p)
+    add_theorem_option(p)
 
 
 def add_certificate_options(p: argparse.ArgumentParser, *, point_options: bool = True) -> None:
@@ -407,6 +410,7 @@ def run(args: argparse.Namespace) -> int:
     if args.certificate != "paper" or req.any():
         require_classic(spec, "--certificate or a requirement option")
         return _run_analysis(args, box, margin, req)
+    _, theorem = design_graph(args.graph, spec, args.allow_outside_theorem)
     conds = load_conditions(args.graph, args.conditions, args.spec)
     kv = _kv_from_args(args, conds)
     if kv is not None and spec.decl.switching is None:
@@ -414,9 +418,10 @@ def run(args: argparse.Namespace) -> int:
                          f"{spec.name}: it has no switching term")
     res = certify_design(conds, box, spec, margin=margin, kv=kv)
     if args.format == "json":
-        emit_json(res.to_dict())
+        emit_json({**({"outside_theorem": theorem.to_dict()} if not theorem.inside else {}),
+                   **res.to_dict()})
     else:
-        print(format_result(res))
+        print(("" if theorem.inside else theorem.note() + "\n") + format_result(res))
     return EXIT_OK if res.certified else EXIT_NEGATIVE
 
 

@@ -12,6 +12,7 @@ from formsync_design.cli.options import (
     EXIT_OK,
     add_design_option,
     add_format_option,
+    add_theorem_option,
     design_box,
     emit_json,
     parse_gain_assignments,
@@ -53,6 +54,7 @@ def add_parser(sub: Any) -> None:
                    help=f"communication graph: {GRAPH_SPEC_HELP} (default: ring:8, "
                         "an assumption: the paper's Fig. 2 topology was lost)")
     add_design_option(p)
+    add_theorem_option(p)
     p.add_argument("--ko", help="K_o (a single value) for numeric output (liang2016)")
     p.add_argument("--kq", help="K_q (a single value) for numeric output (liang2016)")
     p.add_argument("--beta", help="beta (a single value) for numeric output (liang2016)")
@@ -90,13 +92,15 @@ def numeric_conditions(conds: Any, point: tuple[float, ...]) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
+    from formsync_design.cli.options import design_graph
     from formsync_design.derive.conditions import derive_conditions
     from formsync_design.derive.report import DEFAULT_GRAPH, write_derivation_report
-    from formsync_design.graphs.build import make_graph
     from formsync_design.spec.loader import load_spec
 
     spec = load_spec(args.spec)
-    graph = make_graph(args.graph or DEFAULT_GRAPH)
+    graph, theorem = design_graph(args.graph or DEFAULT_GRAPH, spec, args.allow_outside_theorem)
+    if not theorem.inside:
+        sys.stderr.write(theorem.note() + "\n")
     gains = [args.ko, args.kq, args.beta]
     named = parse_gain_assignments(getattr(args, "gain", None))
     if any(x is not None for x in gains) or named:

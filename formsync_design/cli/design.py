@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from formsync_design.cli.options import EXIT_NEGATIVE, EXIT_OK, add_format_option, emit_json
@@ -70,11 +71,15 @@ def add_parser(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from formsync_design.certify.design import design_gains
     from formsync_design.cli.certify import gain_box_from_args, load_conditions, parse_margin
+    from formsync_design.cli.options import design_graph
     from formsync_design.errors import InputError
     from formsync_design.gains import GainBox, parse_number
     from formsync_design.spec.loader import load_spec
 
     spec = load_spec(args.spec)
+    _, theorem = design_graph(args.graph, spec, args.allow_outside_theorem)
+    if not theorem.inside:
+        sys.stderr.write(theorem.note() + "\n")
     box = gain_box_from_args(args, spec)
     hold = tuple(n for n in spec.decl.multipliers if n not in box)
     if hold:  # a multiplier not given: swept over its declared range, held in the box

@@ -14,13 +14,14 @@ from formsync_design.cli.options import (
     Progress,
     add_design_option,
     add_format_option,
+    add_theorem_option,
     emit_json,
     parse_gain_assignments,
 )
-from formsync_design.cli.simulate import check_out_dir, options_from_args
+from formsync_design.cli.simulate import check_out_dir, options_from_args, simulation_graph
 from formsync_design.errors import InputError
 from formsync_design.gains import GainBox, parse_gain_range, parse_number
-from formsync_design.graphs.build import GRAPH_SPEC_HELP
+from formsync_design.graphs.build import GRAPH_SPEC_HELP, Graph
 from formsync_design.models.disturbances import DISTURBANCES
 from formsync_design.sim.bridge import SWITCHES
 from formsync_design.sim.montecarlo import (
@@ -116,6 +117,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--replay", metavar="SEED", default=None, help="re-simulate one run in full from its seed")
     p.add_argument("--out", metavar="DIR", default=None, help="write summary.json and runs.csv here")
     p.add_argument("--no-compile", action="store_true", help="use CasADi's VM instead of compiled C")
+    add_theorem_option(p)
     add_format_option(p)
     p.set_defaults(func=run, integrator=None, rtol=None, atol=None)
 
@@ -225,8 +227,9 @@ def run(args: argparse.Namespace) -> int:
     out_dir = check_out_dir(args.out)
     case = load_case(args.case)
     spec = _resolve_spec(args, case)
-    graph = case.graph(args.graph)
+    graph, theorem = simulation_graph(args, case, spec)
     base = case.formation(graph, args.disturbance)
+    flag = {} if theorem.inside else {"outside_theorem": theorem.to_dict()}
     legacy = {name: getattr(args, attr) for attr, name in
               (("ko", "K_o"), ("kq", "K_q"), ("beta", "beta"), ("kv", "K_v"))}
     box = montecarlo_box(spec, base.gains, args.gain, legacy)
@@ -243,19 +246,22 @@ def run(args: argparse.Namespace) -> int:
         gains = f.gains.as_dict()
         if spec.decl.switching is not None:
             gains[spec.decl.switching] = f.gains.K_v[0]
-        out = {"seed": seed, "gains": gains, **r.to_dict()}
+        out = {**flag, "seed": seed, "gains": gains, **r.to_dict()}
         if args.format == "json":
             emit_json(out)
         else:
+            if flag:
+                print(theorem.note())
             print(f"replay of run seed {seed}: " + " ".join(f"{n}={_v(v, '.6g')}" for n, v in gains.items()))
             print(f"status: {r.status} - {r.message()}")
         return EXIT_OK if r.converged else EXIT_NEGATIVE
     threads = _int(args.threads, "--threads", 1) if args.threads is not None else None
     prog = Progress(1, "montecarlo", enabled=args.format == "text")
-    res = run_montecarlo(base, box, settings, opt, threads=threads,
-                         certify=not args.no_certify, spec=spec)
+    # the certificate needs the derivation, which needs an undirected graph inside the theorem
+    certify = not args.no_certify and theorem.inside and isinstance(graph, Graph)
+    res = run_montecarlo(base, box, settings, opt, threads=threads, certify=certify, spec=spec)
     prog.update(1)
-    summ = {"case": case.name, "specification": spec.name, "graph": graph.name,
+    summ = {**flag, "case": case.name, "specification": spec.name, "graph": graph.name,
             "disturbance": base.disturbance.kind, **res.to_dict()}
     written = []
     if out_dir is not None:
@@ -271,7 +277,8 @@ def run(args: argparse.Namespace) -> int:
     if args.format == "json":
         emit_json({**summ, "written": written})
     else:
-        print(_text(case, graph, base, res, written, spec))
+        print(("" if theorem.inside else theorem.note() + "\n")
+              + _text(case, graph, base, res, written, spec))
     return EXIT_OK if res.all_converged else EXIT_NEGATIVE
 
 

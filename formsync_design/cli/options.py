@@ -37,6 +37,8 @@ __all__ = [
     "design_box",
     "parse_gain_assignments",
     "DESIGN_HELP",
+    "add_theorem_option",
+    "design_graph",
 ]
 
 DESIGN_HELP = (
@@ -54,6 +56,47 @@ def add_design_option(p: argparse.ArgumentParser) -> None:
     """``--design NAME|FILE`` (alias ``--spec``), stored as ``args.spec``."""
     p.add_argument("--design", "--spec", dest="spec", default=None, metavar="NAME|FILE",
                    help=DESIGN_HELP)
+
+
+def add_theorem_option(p: argparse.ArgumentParser) -> None:
+    """``--allow-outside-theorem``: run on a graph the design's theorem does not cover."""
+    p.add_argument("--allow-outside-theorem", action="store_true",
+                   help="run on a graph that lacks a property the design's theorem needs (e.g. a "
+                   "directed graph for an undirected-graph design); every output is flagged")
+
+
+def design_graph(graph: Any, spec: Any, allow_outside: bool = False, *,
+                 derivation: bool = True) -> tuple[Any, Any]:
+    """The graph of a command and its :class:`~formsync_design.graphs.theorem.TheoremCheck`
+    against ``spec``'s declared graph class.
+
+    ``derivation=True`` (derive, certify, region, design): the Lyapunov derivation needs an
+    undirected unweighted graph, so a directed or weighted one is refused even with
+    ``allow_outside``; simulations take any graph the check allows.
+
+    >>> from formsync_design.spec.loader import load_spec
+    >>> g, chk = design_graph("ring:6", load_spec())
+    >>> g.name, chk.inside
+    ('ring:6', True)
+    """
+    from formsync_design.errors import GraphError
+    from formsync_design.graphs import Graph
+    from formsync_design.graphs.theorem import check_theorem_graph, load_graph
+
+    g = load_graph(graph)
+    chk = check_theorem_graph(g, spec.decl.graphs, allow_outside=allow_outside, design=spec.name)
+    if derivation and not isinstance(g, Graph):
+        raise GraphError(
+            f"expected an undirected unweighted graph for the Lyapunov derivation of design "
+            f"{spec.name}, received {g.name!r} (directed or weighted); simulate it with "
+            "--allow-outside-theorem"
+        )
+    if not isinstance(g, Graph) and g.has_leader and "leader-reachable" not in spec.decl.graphs:
+        raise GraphError(
+            f"expected no leader for design {spec.name} (its controller has no pinning term), "
+            f"received {g.name!r} with pinning gains"
+        )
+    return g, chk
 
 
 def parse_gain_assignments(items: Any) -> dict[str, str]:

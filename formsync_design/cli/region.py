@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from formsync_design.cli.certify import CERTIFICATE_HELP
@@ -106,9 +107,14 @@ def run(args: argparse.Namespace) -> int:
         parse_margin,
         requirements_from_args,
     )
+    from formsync_design.cli.options import design_graph
     from formsync_design.spec.loader import load_spec
 
     spec = load_spec(args.spec)
+    for gspec in args.graph:  # the design's graph class (a note on stderr when outside it)
+        _, theorem = design_graph(gspec, spec, args.allow_outside_theorem)
+        if not theorem.inside:
+            sys.stderr.write(theorem.note() + "\n")
     box = gain_box_from_args(args, spec)
     margin = parse_margin(args.margin)
     req = requirements_from_args(args, args.graph[0])

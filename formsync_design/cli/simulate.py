@@ -14,6 +14,7 @@ from formsync_design.cli.options import (
     EXIT_NEGATIVE,
     EXIT_OK,
     add_format_option,
+    add_theorem_option,
     emit_json,
 )
 from formsync_design.errors import InputError
@@ -106,6 +107,7 @@ def add_parser(sub: Any) -> None:
 
 def add_spec_option(p: argparse.ArgumentParser) -> None:
     """``--spec FILE``: the controller/Lyapunov specification (default: the case's, else the paper's)."""
+    add_theorem_option(p)
     p.add_argument("--trigger", default=None, metavar="periodic:T|event:SIGMA[:FLOOR]",
                    help="per-spacecraft sample-and-hold: broadcast every T s, or when |q_i - "
                    "qhat_i| >= SIGMA |shat_i| + FLOOR (exact hybrid integration; outputs the "
@@ -168,6 +170,17 @@ def design_gains(spec: Any, case_gains: Any, given: Any) -> Any:
                              f"{n}), received none")
     kv = case_gains.K_v if spec.decl.switching is not None else ()
     return Gains(vals, kv)
+
+
+def simulation_graph(args: argparse.Namespace, case: Any, spec: Any) -> tuple[Any, Any]:
+    """``--graph`` (any graph the design's theorem covers, or with
+    ``--allow-outside-theorem`` any graph, directed and weighted included) or the case's,
+    sized to the case, and its theorem check."""
+    from formsync_design.cli.options import design_graph
+
+    g, chk = design_graph(args.graph if args.graph is not None else case.graph(),
+                          spec, getattr(args, "allow_outside_theorem", False), derivation=False)
+    return case.graph(g), chk
 
 
 def check_out_dir(out: str | None) -> Path | None:
@@ -287,7 +300,7 @@ def _text(case: Any, graph: Any, f: Any, r: Any, written: list[str], spec: Any =
 
 
 def _run_sampled(args: argparse.Namespace, case: Any, graph: Any, f: Any, opt: Any, spec: Any,
-                 out_dir: Path | None) -> int:
+                 out_dir: Path | None, theorem: Any) -> int:
     """``--trigger``: the exact hybrid simulation with per-spacecraft sample-and-hold."""
     from formsync_design.sim.sampled import parse_trigger, simulate_sampled
 
@@ -299,7 +312,8 @@ def _run_sampled(args: argparse.Namespace, case: Any, graph: Any, f: Any, opt: A
                          "hybrid integrator is DOP853 with event location)")
     trig = parse_trigger(args.trigger)
     r = simulate_sampled(f, opt, trig, spec)
-    doc = {"case": case.name, "graph": graph.name, "gains": f.gains.as_dict(),
+    doc = {**({"outside_theorem": theorem.to_dict()} if not theorem.inside else {}),
+           "case": case.name, "graph": graph.name, "gains": f.gains.as_dict(),
            "disturbance": f.disturbance.kind, **r.to_dict()}
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -323,6 +337,8 @@ def _run_sampled(args: argparse.Namespace, case: Any, graph: Any, f: Any, opt: A
         ]
         if r.hybrid.message:
             lines.append(r.hybrid.message)
+        if not theorem.inside:
+            lines.insert(0, theorem.note())
         print("\n".join(lines))
     return EXIT_OK if r.converged else EXIT_NEGATIVE
 
@@ -331,16 +347,17 @@ def run(args: argparse.Namespace) -> int:
     out_dir = check_out_dir(args.out)
     case = load_case(args.case)
     spec = resolve_cli_spec(args, case)
-    graph = case.graph(args.graph)
+    graph, theorem = simulation_graph(args, case, spec)
     opt = options_from_args(args, case.options)
     f = case.formation(graph, args.disturbance)
     if args.gain or tuple(f.gains.names) != spec.decl.controller_gains:
         f = replace(f, gains=design_gains(spec, f.gains, args.gain))
     if args.trigger is not None or spec.decl.sampling != "continuous":
-        return _run_sampled(args, case, graph, f, opt, spec, out_dir)
+        return _run_sampled(args, case, graph, f, opt, spec, out_dir, theorem)
     r = simulate(f, opt, spec=spec)
     written: list[str] = []
     summary = {
+        **({"outside_theorem": theorem.to_dict()} if not theorem.inside else {}),
         "case": case.name,
         "case_file": case.path,
         "specification": spec.name,
@@ -369,5 +386,5 @@ def run(args: argparse.Namespace) -> int:
     if args.format == "json":
         emit_json({**summary, "written": written})
     else:
-        print(_text(case, graph, f, r, written, spec))
+        print(("" if theorem.inside else theorem.note() + "\n") + _text(case, graph, f, r, written, spec))
     return EXIT_OK if r.converged else EXIT_NEGATIVE

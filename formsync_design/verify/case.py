@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from formsync_design.errors import InputError
-from formsync_design.graphs.build import Graph, make_graph
+from formsync_design.graphs.build import make_graph
 from formsync_design.models.disturbances import (
     R_EARTH,
     DisturbanceModel,
@@ -119,9 +119,13 @@ class Case:
     def n(self) -> int:
         return int(self.inertias.shape[0])
 
-    def graph(self, spec: Any = None) -> Graph:
-        """The case's graph, or ``spec`` (checked against the case size)."""
-        g = make_graph(spec if spec is not None else self.graph_spec)
+    def graph(self, spec: Any = None) -> Any:
+        """The case's graph, or ``spec`` (a graph spec, a ``Graph`` or a ``Digraph``; checked
+        against the case size)."""
+        from formsync_design.graphs import Digraph
+
+        g = spec if isinstance(spec, Digraph) else make_graph(
+            spec if spec is not None else self.graph_spec)
         if g.n != self.n:
             raise InputError(
                 f"expected a graph of {self.n} spacecraft (the case has {self.n}), received "

@@ -124,6 +124,7 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
     from formsync_design.derive.compare import all_findings
     from formsync_design.derive.conditions import derive_conditions, paper_conditions, required_kv
     from formsync_design.derive.report import report_basename
+    from formsync_design.graphs.theorem import check_theorem_graph
     from formsync_design.sim.simulator import simulate
     from formsync_design.spec.loader import Spec, load_spec
     from formsync_design.verify.case import default_case_path, load_case
@@ -142,6 +143,8 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
     # None keeps every stage on its default (the paper's) specification
     with_spec: dict[str, Any] = {} if spec_arg is None else {"spec": sp}
     graphs = [case.graph(g) for g in settings.topologies]
+    for g in graphs:  # every candidate topology inside the design's theorem (else exit 2)
+        check_theorem_graph(g, sp.decl.graphs, design=sp.name)
     gains = case.gains
     # a diagonal gain: the per-axis families share one symbol, so the hull of its
     # entries is certified (sound for every axis)
