@@ -4,7 +4,8 @@ synchronization controllers for spacecraft formations.
 The curated public surface (``import formsync_design as fs``), in the order
 data flows through the stages:
 
-* graphs: :func:`make_graph`, :class:`Graph`;
+* graphs: :func:`make_graph`, :class:`Graph`; :func:`load_graph` (also directed, weighted,
+  with a leader: :class:`Digraph`) and :func:`check_theorem_graph` (a design's graph class);
 * the design (controller law, Lyapunov candidate, declared gains, representation,
   graph class): :func:`load_design` / :func:`load_spec` (a shipped design's name such
   as ``"pd_consensus"``, or a file), :class:`Design` (= :class:`Spec`; or
@@ -65,6 +66,10 @@ __version__ = "0.1.0"
 # subpackage is named where it re-exports the name, so modules may move inside
 # a stage without changing the surface.
 _LAZY: dict[str, str | tuple[str, str]] = {
+    # graphs beyond the undirected Graph
+    "Digraph": "formsync_design.graphs",
+    "load_graph": "formsync_design.graphs",
+    "check_theorem_graph": "formsync_design.graphs",
     # models and specification
     "AttitudeModel": "formsync_design.models",
     "derive_attitude_model": "formsync_design.models",
