@@ -61,6 +61,7 @@ from formsync_design.analysis.modes import (
     ModeModel,
     mode_model,
     poly_coeffs_in_lambda,
+    poly_mul,
 )
 from formsync_design.analysis.results import Certificate, CertificateResult, Verdict
 from formsync_design.analysis.spectrum import (
@@ -82,15 +83,6 @@ GAINS = ("K_o", "K_q", "beta")
 
 def gain_subs(mm: ModeModel, vertex: tuple[Fraction, ...]) -> dict:
     return dict(zip(mm.gains, vertex))
-
-
-def _pmul(a: list[Fraction], b: list[Fraction]) -> list[Fraction]:
-    out = [Fraction(0)] * (len(a) + len(b) - 1)
-    for i, x in enumerate(a):
-        if x:
-            for j, y in enumerate(b):
-                out[i + j] += x * y
-    return out
 
 
 def _psub(a: list[Fraction], b: list[Fraction]) -> list[Fraction]:
@@ -118,7 +110,7 @@ def check_pd_coeffs(
     -1
     """
     r11 = poly_range(m11, cluster.lo, cluster.hi)
-    det = poly_range(_psub(_pmul(m11, m22), _pmul(m12, m12)), cluster.lo, cluster.hi)
+    det = poly_range(_psub(poly_mul(m11, m22), poly_mul(m12, m12)), cluster.lo, cluster.hi)
     if r11[1] <= 0:
         return -1, "M11", r11
     if det[1] <= 0:

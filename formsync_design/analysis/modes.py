@@ -60,7 +60,7 @@ from formsync_design.errors import DerivationError
 from formsync_design.spec.loader import gain_symbols
 
 __all__ = ["LAMBDA", "P_FREE", "ModeModel", "mode_model", "poly_coeffs_in_lambda", "sym_to_fraction",
-           "RobustModes", "robust_decay_hint", "robust_modes"]
+           "RobustModes", "robust_decay_hint", "robust_modes", "poly_mul"]
 
 #: The Laplacian eigenvalue symbol of the mode reduction.
 LAMBDA = sp.Symbol("lambda", positive=True)
@@ -213,7 +213,12 @@ def poly_coeffs_in_lambda(expr: sp.Expr, subs: dict) -> list[Fraction]:
 _UP = 1 + 1e-12
 
 
-def _pmul(a: list[Fraction], b: list[Fraction]) -> list[Fraction]:
+def poly_mul(a: list[Fraction], b: list[Fraction]) -> list[Fraction]:
+    """Product of two polynomials given by coefficient lists (lowest degree first), exact.
+
+    >>> poly_mul([Fraction(1), Fraction(1)], [Fraction(-1), Fraction(1)])
+    [Fraction(-1, 1), Fraction(0, 1), Fraction(1, 1)]
+    """
     out = [Fraction(0)] * (len(a) + len(b) - 1)
     for i, x in enumerate(a):
         if x:
@@ -301,15 +306,15 @@ def _exact_mode_check(p: np.ndarray, lo: Fraction, hi: Fraction, cqd: Fraction, 
     if dim == 1:
         am, km = [[[cqd]]], [[[cqd]]]
     else:
-        am = [[zero, one], [_pmul(lam, [cs]), [cqd]]]
-        km = [[_pmul(lam, [cs]), [cqd]]]
+        am = [[zero, one], [poly_mul(lam, [cs]), [cqd]]]
+        km = [[poly_mul(lam, [cs]), [cqd]]]
     pe = [fp[i][dim - 1] for i in range(dim)]
     mm = [[zero for _ in range(dim)] for _ in range(dim)]
     for i in range(dim):
         for j in range(dim):
-            terms = [_pmul(am[r][i], [fp[r][j]]) for r in range(dim)]          # (A^T P)_ij
-            terms += [_pmul([fp[i][r]], am[r][j]) for r in range(dim)]         # (P A)_ij
-            terms += [[theta * pe[i] * pe[j] + 2 * mu * fp[i][j]], _pmul([theta], _pmul(km[0][i], km[0][j]))]
+            terms = [poly_mul(am[r][i], [fp[r][j]]) for r in range(dim)]          # (A^T P)_ij
+            terms += [poly_mul([fp[i][r]], am[r][j]) for r in range(dim)]         # (P A)_ij
+            terms += [[theta * pe[i] * pe[j] + 2 * mu * fp[i][j]], poly_mul([theta], poly_mul(km[0][i], km[0][j]))]
             mm[i][j] = [-x for x in _padd(*terms)]                             # -M
     if dim == 1:
         ok = fp[0][0] > 0 and _pmin(mm[0][0], lo, hi) >= 0
@@ -317,7 +322,7 @@ def _exact_mode_check(p: np.ndarray, lo: Fraction, hi: Fraction, cqd: Fraction, 
     det_p = fp[0][0] * fp[1][1] - fp[0][1] ** 2
     if not (fp[0][0] > 0 and det_p > 0):
         return None
-    det_m = _padd(_pmul(mm[0][0], mm[1][1]), [-x for x in _pmul(mm[0][1], mm[0][1])])
+    det_m = _padd(poly_mul(mm[0][0], mm[1][1]), [-x for x in poly_mul(mm[0][1], mm[0][1])])
     if min(_pmin(mm[0][0], lo, hi), _pmin(mm[1][1], lo, hi), _pmin(det_m, lo, hi)) < 0:
         return None
     return fp[0][0] + fp[1][1], det_p, fp[1][1], fp[0][0] / det_p
