@@ -193,7 +193,7 @@ def _model_findings(pr: ModuleType) -> tuple[Finding, ...]:
 
     # 2. A positive semi-definite: det Q symbolically, eigenvalues at the state
     detQ = reduce_unit(m.Q.det(), m.q, m.q0)
-    A_num = m.A.subs(sub)
+    A_num = m.A.xreplace(sub)
     eigA = sorted(float(x) for x in np.linalg.eigvalsh(np.array(A_num.evalf(30).tolist(), float)))
     minors = [sp.N(A_num[:k, :k].det(), 30) for k in (1, 2, 3)]
     psd = all(x > 0 for x in minors) and detQ.free_symbols <= {m.q0} and detQ != 0
@@ -213,7 +213,7 @@ def _model_findings(pr: ModuleType) -> tuple[Finding, ...]:
     ))
 
     # 3. B skew-symmetric: (B + B^T)/2 at the state, exactly
-    B_num = m.B.subs(sub)
+    B_num = m.B.xreplace(sub)
     sym = (B_num + B_num.T) / 2
     sym_zero = all(_exact_zero(x) for x in sym)
     out.append(Finding(
@@ -234,13 +234,13 @@ def _model_findings(pr: ModuleType) -> tuple[Finding, ...]:
     # 4./5. printed B formula, two readings: B qdot against Euler's equation
     B_pr = pr.printed_B(m.Q, m.J, m.qd, skew)
     B_alt = pr.printed_B_alt(m.Q, m.Qdot, m.J, m.qd, skew)
-    true_vec = m.coriolis_vector.subs(sub)
+    true_vec = m.coriolis_vector.xreplace(sub)
     for key, Bp, reading in (
         ("B-formula", B_pr, "read with $\\dot{\\mathbf{J}} = 0$ (rigid body)"),
         ("B-formula-alt", B_alt, "read as $\\mathbf{Q}^T\\mathbf{J}\\dot{\\mathbf{Q}}$ in place of "
                                  "$\\mathbf{Q}^T\\dot{\\mathbf{J}}\\mathbf{Q}$"),
     ):
-        pv = (Bp * m.qd).subs(sub)
+        pv = (Bp * m.qd).xreplace(sub)
         diff = pv - true_vec
         zero_here = all(_exact_zero(x) for x in diff)
         if zero_here:  # no counterexample at the state: decide by the symbolic identity
