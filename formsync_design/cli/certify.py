@@ -80,6 +80,8 @@ examples:
   formsync certify --graph star:8 --ko 1.6 --kq 0.4 --beta 0.3 --certificate spectral
   formsync certify --graph ring:8 --ko 1.6 --kq 0.4 --beta 0.3 --certificate exact --decay 0.05 \\
       --settle 120 --delay 0.5 --graphs-set minus:1
+  formsync certify --design pd_consensus --graph star:8 --gain k_p=0.1:2 --gain k_d=0.5:3
+      (another design: its own gains; its multiplier eps searched, the certifying value reported)
 """
 
 
