@@ -234,6 +234,7 @@ def test_cli_certify_pd_searches_the_multiplier_and_spec_is_an_alias():
     r2 = _formsync("certify", "--spec", PD, "--graph", "star:8", "--gain", "k_p=1",
                    "--gain", "k_d=0.5", "--gain", "eps=1")
     assert r2.returncode == 1 and r2.stdout.startswith("REFUTED")
+    assert "with the given multiplier eps only" in r2.stdout
 
 
 @pytest.mark.parametrize("args, needle", [

@@ -399,7 +399,15 @@ def certify_design(conds: Any, box: GainBox, spec: Any, *, margin: Any = 0, kv: 
             if n not in box and (r := spec.decl.gain(n).range) is not None}
     if conds.source == "derived" and mult:
         return certify_with_multipliers(conds, box, mult, margin=margin, kv=kv, use_sdp=use_sdp)
-    return certify_box(conds, box, margin=margin, kv=kv, use_sdp=use_sdp)
+    res = certify_box(conds, box, margin=margin, kv=kv, use_sdp=use_sdp)
+    given = [n for n in spec.decl.multipliers if n in box]
+    if given and str(res.status) == "refuted":
+        import dataclasses
+
+        note = (f"refutes the Lyapunov candidate with the given multiplier "
+                f"{', '.join(given)} only; leave it out to search its declared range")
+        res = dataclasses.replace(res, reason=f"{res.reason}; {note}" if res.reason else note)
+    return res
 
 
 def run(args: argparse.Namespace) -> int:
