@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from formsync_design.cli.options import EXIT_NEGATIVE, EXIT_OK, add_format_option
+from formsync_design.cli.options import add_format_option
 from formsync_design.errors import InputError
 
 __all__ = ["add_parser", "run", "resolve_case"]
@@ -77,49 +77,20 @@ def resolve_case(name: str) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
-    from formsync_design.derive.report import write_derivation_report
-    from formsync_design.spec.loader import load_spec
-    from formsync_design.verify.case import load_case
+    from formsync_design.tomlio import load_toml
+    from formsync_design.verify.kinds import VerifyRequest, case_kind, verifier
     from formsync_design.verify.output import check_output, display_path
-    from formsync_design.verify.verification import (
-        verification_json,
-        verify_case,
-        write_verification_report,
-    )
 
     # everything the user gave is checked before any computation (nothing is written yet)
     path = resolve_case(args.case)
-    case_display = display_path(path)
-    check_output(args.out, path.stem, case_display, overwrite=args.overwrite)
-    case = load_case(path)
-    spec_arg = args.spec if args.spec is not None else case.spec
-    spec = load_spec(spec_arg) if spec_arg is not None else None
+    kind = case_kind(load_toml(path, "case TOML file"), display_path(path))
+    check_output(args.out, path.stem, display_path(path), overwrite=args.overwrite)
 
     def say(msg: str) -> None:
         sys.stderr.write(f"verify: {msg}\n")
         sys.stderr.flush()
 
-    res = verify_case(path, spec=spec, progress=say)
-    say("write reports")
-    g0 = res.topologies[0].graph
-    spec_opt = f" --spec {res.spec_source}" if spec is not None else ""
-    out_opt = f" --out {args.out}" if args.out != "reports" else ""
-    write_derivation_report(
-        g0, args.out, spec=spec,
-        command="formsync derive" + (f" --graph {g0}" if g0 != "ring:8" else "") + spec_opt + out_opt,
-    )
-    cmd = "formsync verify " + (args.case if args.case == path.stem and not Path(args.case).exists()
-                                else case_display)
-    if args.spec is not None:
-        cmd += spec_opt
-    cmd += out_opt
-    md, figs = write_verification_report(res, args.out, command=cmd)
-    if args.format == "json":
-        sys.stdout.write(verification_json(res) + "\n")
-    else:
-        sys.stdout.write(f"wrote {md} ({len(figs)} figures)\n")
-        for c in res.claims:
-            sys.stdout.write(f"  {c.verdict:28s} {c.spec.text}\n")
-    if args.strict and not res.all_hold:
-        return EXIT_NEGATIVE
-    return EXIT_OK
+    req = VerifyRequest(path=path, case_arg=args.case, out=args.out, design=args.spec,
+                        overwrite=args.overwrite, strict=args.strict, format=args.format,
+                        progress=say)
+    return verifier(kind)(req)

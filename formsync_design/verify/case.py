@@ -57,7 +57,7 @@ from formsync_design.tomlio import load_toml
 __all__ = ["Case", "load_case", "default_case_path", "parse_case", "make_disturbance"]
 
 _TABLES = {
-    "case": {"name", "title", "source", "graph", "assumptions", "spec", "design"},
+    "case": {"name", "title", "source", "graph", "assumptions", "spec", "design", "kind"},
     "gains": None,  # the design's declared gains (checked against the design below)
     "orbit": {"altitude_km", "mu", "earth_radius_km"},
     "disturbance": {"model", "signs", "vector", "amplitude", "frequency", "offset"},
@@ -264,6 +264,9 @@ def parse_case(data: dict, path: str = "<memory>") -> Case:
             if extra:
                 raise InputError(f"expected keys {sorted(allowed)} in [{k}], received unknown {sorted(extra)}")
     meta = data.get("case", {})
+    if meta.get("kind", "formation") != "formation":
+        raise InputError(f"expected a formation case ([case] kind = \"formation\") in {path}, "
+                         f"received kind {meta.get('kind')!r} (formsync verify dispatches it)")
     sc = data.get("spacecraft")
     if not sc:
         raise InputError(f"expected at least two [[spacecraft]] tables in {path}, received none")
