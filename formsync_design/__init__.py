@@ -9,19 +9,25 @@ data flows through the stages:
 * the design (controller law, Lyapunov candidate, declared gains, representation,
   graph class): :func:`load_design` / :func:`load_spec` (a shipped design's name such
   as ``"pd_consensus"``, or a file), :class:`Design` (= :class:`Spec`; or
-  ``Spec.from_functions`` in a notebook), :class:`Declarations`;
+  ``Spec.from_functions`` in a notebook), :class:`Declarations`; agent designs
+  (``FORM = "agent"``: a per-spacecraft law in quaternion, MRP or SO(3) quantities on a
+  directed weighted graph, with a leader, controller states, trigger rules):
+  :class:`AgentDesign`;
 * derivation: :func:`derive_closed_loop`, :func:`derive_conditions`,
   :func:`paper_conditions`, :func:`closed_form_conditions`,
   :func:`required_kv`, :func:`lyapunov_findings`,
-  :func:`write_derivation_report`;
+  :func:`write_derivation_report`; for agent designs :func:`agent_closed_loop` and
+  :func:`agent_conditions`;
 * certification: :class:`GainBox` (the one gain-box type), :func:`certify_box`,
   :func:`certify_with_multipliers` (designs whose candidate has multipliers),
   :func:`region_map`, :func:`plot_slices`, :func:`design_gains`;
 * simulation: :class:`Formation`, :class:`Gains`, :class:`SimOptions`,
   :func:`simulate`, :func:`simulate_sampled` (per-spacecraft sample-and-hold and
   trigger rules), :func:`metric_figure`, :func:`torque_figures`,
-  :func:`monte_carlo`;
+  :func:`monte_carlo`; agent designs: :class:`AgentFormation`, :class:`Reference`,
+  :class:`AgentOptions`, :func:`simulate_agents` (:class:`AgentResult`);
 * verification of a published case: :func:`load_case`, :func:`verify_case`;
+  :func:`load_agent_case` (the case files of agent designs);
 * campaigns: :func:`load_campaign`, :func:`run_sweep`;
 * numbers: :func:`parse_number` (the exact-number parser) and
   :func:`json_number` (the JSON number convention);
@@ -78,6 +84,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "Design": "formsync_design.spec",
     "load_design": "formsync_design.spec",
     "Declarations": "formsync_design.spec",
+    "AgentDesign": "formsync_design.spec",
     # derivation
     "ClosedLoop": "formsync_design.derive",
     "MatrixFamily": "formsync_design.derive",
@@ -89,6 +96,8 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "required_kv": "formsync_design.derive",
     "lyapunov_findings": "formsync_design.derive.compare",
     "write_derivation_report": "formsync_design.derive.report",
+    "agent_closed_loop": "formsync_design.derive",
+    "agent_conditions": "formsync_design.derive",
     # gains and numbers
     "GainBox": "formsync_design.gains",
     "GainRange": "formsync_design.gains",
@@ -111,6 +120,11 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "SimResult": "formsync_design.sim",
     "simulate": "formsync_design.sim",
     "simulate_sampled": "formsync_design.sim",
+    "AgentFormation": "formsync_design.sim",
+    "AgentOptions": "formsync_design.sim",
+    "AgentResult": "formsync_design.sim",
+    "Reference": "formsync_design.sim",
+    "simulate_agents": "formsync_design.sim",
     "metric_figure": "formsync_design.sim.figures",
     "torque_figures": "formsync_design.sim.figures",
     "MonteCarloSettings": "formsync_design.sim",
@@ -121,6 +135,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "load_case": "formsync_design.verify",
     "VerificationResult": "formsync_design.verify",
     "verify_case": "formsync_design.verify",
+    "load_agent_case": "formsync_design.verify",
     # campaigns
     "load_campaign": "formsync_design.sweep",
     "run_sweep": "formsync_design.sweep",

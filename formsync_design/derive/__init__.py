@@ -6,9 +6,18 @@ Modules: ``closed_loop`` (closed loop, specification resolution and cache keys),
 ``Theta_i`` and ``Pi`` by graph; re-exports the public names), ``closed_form``
 (closed-form and ``K_vi`` conditions), ``families`` (gain-polynomial matrix
 families), ``findings`` / ``compare`` (computed paper-versus-derivation verdicts),
-``printed`` (printed-expressions loader), ``report`` (the derivation report).
+``printed`` (printed-expressions loader), ``report`` (the derivation report);
+``agent`` (agent designs: symbolic closed loop, time derivatives along it, the design's
+certificate families).
 """
 
+from formsync_design.derive.agent import (
+    AgentClosedLoop,
+    AgentConditions,
+    agent_closed_loop,
+    agent_conditions,
+    time_derivative,
+)
 from formsync_design.derive.conditions import (
     ClosedFormCondition,
     ClosedLoop,
@@ -33,4 +42,9 @@ __all__ = [
     "closed_form_conditions",
     "required_kv",
     "kv_condition_holds",
+    "AgentClosedLoop",
+    "AgentConditions",
+    "agent_closed_loop",
+    "agent_conditions",
+    "time_derivative",
 ]

@@ -7,9 +7,19 @@ by the specification's content), :mod:`~.metrics`, :mod:`~.result`,
 :mod:`~.figures`; :mod:`~.hybrid` (exact hybrid simulation with per-agent periodic,
 event-, self- and dynamic-event triggering, representation-agnostic); :mod:`~.sampled`
 (a design's controller with per-spacecraft sample-and-hold on the formation, through
-:mod:`~.hybrid`).
+:mod:`~.hybrid`); agent designs (:mod:`formsync_design.spec.agent`): :mod:`~.agent_kernel`
+(their compiled formation kernels), :mod:`~.agents` (formations, options, results, the
+continuous driver) and :mod:`~.agent_sampled` (their sampled path).
 """
 
+from formsync_design.sim.agents import (
+    AgentFormation,
+    AgentOptions,
+    AgentResult,
+    AgentStatus,
+    Reference,
+    simulate_agents,
+)
 from formsync_design.sim.formation import SimStatus
 from formsync_design.sim.hybrid import HybridOptions, HybridResult, HybridStatus, simulate_hybrid
 from formsync_design.sim.montecarlo import (
@@ -40,4 +50,10 @@ __all__ = [
     "TriggerSpec",
     "parse_trigger",
     "simulate_sampled",
+    "AgentFormation",
+    "AgentOptions",
+    "AgentResult",
+    "AgentStatus",
+    "Reference",
+    "simulate_agents",
 ]

@@ -55,6 +55,7 @@ __all__ = [
     "pack_params",
     "param_layout",
     "gain_size",
+    "compile_function",
 ]
 
 
@@ -381,6 +382,10 @@ def _compile(fn: ca.Function, spec_key: str) -> tuple[ca.Function, bool]:
             "it to rebuild, or set FORMSYNC_NO_COMPILE=1"
         ) from None
 
+
+#: The public name of the compile step (C code generation + the C compiler, cached on disk by
+#: the generated source and a key; the CasADi VM without a compiler): ``(fn, key) -> (fn, ok)``.
+compile_function = _compile
 
 _KERNELS: dict[tuple[Any, ...], Kernel] = {}
 

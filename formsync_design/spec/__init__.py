@@ -1,6 +1,7 @@
 """Stage 3 — designs: the plug-in contract (controller, Lyapunov candidate, declared gains,
 representation, graph class, sampling) and its loader."""
 
+from formsync_design.spec.agent import AgentDeclarations, AgentDesign, AgentView
 from formsync_design.spec.declarations import (
     CLASSIC,
     Declarations,
@@ -15,16 +16,18 @@ from formsync_design.spec.loader import (
     Spec,
     default_spec_path,
     gain_symbols,
+    load_design,
     load_spec,
     validate_spec,
 )
 
 #: A design is a :class:`Spec` (the same type; "design" is the user-facing word).
 Design = Spec
-#: :func:`load_spec` under the user-facing name: a shipped design's name, a file, or a Spec.
-load_design = load_spec
 
 __all__ = [
+    "AgentDeclarations",
+    "AgentDesign",
+    "AgentView",
     "CLASSIC",
     "ControllerView",
     "Declarations",

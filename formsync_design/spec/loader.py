@@ -62,6 +62,9 @@ __all__ = [
     "LyapunovView",
     "Spec",
     "load_spec",
+    "load_design",
+    "FORMS",
+    "AGENT_COMMANDS",
     "validate_spec",
     "default_spec_path",
     "gain_symbols",
@@ -473,6 +476,10 @@ def default_spec_path() -> Path:
     return design_file("liang2016")
 
 
+#: Design forms: ``lagrangian`` (this module's :class:`Spec`) and ``agent``
+#: (:class:`~formsync_design.spec.agent.AgentDesign`).
+FORMS: tuple[str, ...] = ("lagrangian", "agent")
+
 #: Loaded files by (resolved path, content digest): a file loaded twice gives the same value.
 _LOADED: dict[tuple[str, str], Spec] = {}
 
@@ -522,6 +529,15 @@ def _load_file(p: Path) -> Spec:
         raise DerivationError(
             f"{where}: expected the specification module to import, it raised {_one_line(e)}"
         ) from None
+    form = mod.__dict__.get("FORM", "lagrangian")
+    if form not in FORMS:
+        raise DerivationError(f"{where}: FORM: expected one of {list(FORMS)}, received {form!r}")
+    if form == "agent":
+        from formsync_design.spec.agent import agent_design_from_module
+
+        agent = agent_design_from_module(mod, where, key, p.stem)
+        _LOADED[cache_key] = agent  # type: ignore[assignment]
+        return agent  # type: ignore[return-value]
     for fn in ("controller", "lyapunov"):
         if not callable(getattr(mod, fn, None)):
             got = "none" if not hasattr(mod, fn) else f"a {type(getattr(mod, fn)).__name__}"
@@ -543,11 +559,33 @@ def _load_file(p: Path) -> Spec:
 
 
 def load_spec(spec: Spec | str | Path | None = None) -> Spec:
-    """The specification ``spec`` resolves to.
+    """The Lagrangian design ``spec`` resolves to (see :func:`load_design`); an agent design is
+    a one-line :class:`DerivationError` naming the commands that run it.
+
+    >>> load_spec("liang2016").name
+    'liang2016'
+    """
+    d = load_design(spec)
+    if getattr(d, "form", "lagrangian") == "agent":
+        raise DerivationError(
+            f"{d.path}: FORM: expected a Lagrangian design (controller(view) in A, B, Q) here, "
+            f"received the agent design {d.name!r} (REPRESENTATION {d.representation!r}); "
+            f"agent designs run with {', '.join(AGENT_COMMANDS)}"
+        )
+    return d
+
+
+#: The commands that take agent designs (the others need a Lagrangian design).
+AGENT_COMMANDS: tuple[str, ...] = ("formsync simulate", "formsync certify", "formsync verify")
+
+
+def load_design(spec: Any = None) -> Any:
+    """The design ``spec`` resolves to: a Lagrangian :class:`Spec` or an agent design
+    (:class:`~formsync_design.spec.agent.AgentDesign`, ``FORM = "agent"``).
 
     Parameters
     ----------
-    spec : Spec, str, Path or None
+    spec : Spec, AgentDesign, str, Path or None
         ``None``: the paper's design (``liang2016``); the name of a shipped
         design (``"pd_consensus"``, see
         :func:`~formsync_design.resources.design_names`); a path: that file,
@@ -567,6 +605,8 @@ def load_spec(spec: Spec | str | Path | None = None) -> Spec:
 
     Examples
     --------
+    >>> load_design("pd_consensus").gains
+    ('k_p', 'k_d', 'eps')
     >>> spec = load_spec()
     >>> spec.name
     'liang2016'
@@ -577,7 +617,7 @@ def load_spec(spec: Spec | str | Path | None = None) -> Spec:
     >>> load_spec("liang2016") is spec
     True
     """
-    if isinstance(spec, Spec):
+    if isinstance(spec, Spec) or getattr(spec, "form", None) == "agent":
         return spec
     if spec is None:
         return _load_file(default_spec_path())

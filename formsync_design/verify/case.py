@@ -54,7 +54,8 @@ from formsync_design.sim.simulator import Formation, Gains, SimOptions
 from formsync_design.spec.loader import load_spec
 from formsync_design.tomlio import load_toml
 
-__all__ = ["Case", "load_case", "default_case_path", "parse_case", "make_disturbance"]
+__all__ = ["Case", "load_case", "default_case_path", "parse_case", "make_disturbance",
+           "case_number", "case_numbers", "case_matrix", "case_orbit"]
 
 _TABLES = {
     "case": {"name", "title", "source", "graph", "assumptions", "spec", "design", "kind"},
@@ -200,6 +201,25 @@ def _matrix(v: Any, what: str) -> np.ndarray:
     return np.array([[_num(x, what) for x in r] for r in v])
 
 
+#: The case files' value checks, public for the other case kinds (one line on bad input).
+case_number = _num
+case_numbers = _numlist
+case_matrix = _matrix
+
+
+def case_orbit(o: dict) -> Orbit:
+    """The ``[orbit]`` table (circular: ``altitude_km``, optional ``mu``, ``earth_radius_km``).
+
+    >>> round(case_orbit({"altitude_km": 500}).altitude)
+    500000
+    """
+    return Orbit(
+        altitude=_num(o.get("altitude_km", 400.0), "orbit.altitude_km") * 1e3,
+        mu=_num(o.get("mu", Orbit.mu), "orbit.mu"),
+        earth_radius=_num(o.get("earth_radius_km", R_EARTH / 1e3), "orbit.earth_radius_km") * 1e3,
+    )
+
+
 def load_case(path: str | Path | None = None) -> Case:
     """Load and validate a case file (default: the paper's); a shipped case's name
     (``"pd_consensus"``) is that case.
@@ -322,12 +342,7 @@ def parse_case(data: dict, path: str = "<memory>") -> Case:
         gvals[k] = (tuple(_numlist(g[k], f"gains.{k}", 3)) if diag and isinstance(g[k], list)
                     else _num(g[k], f"gains.{k}"))
     gains = Gains(gvals, kvs)
-    o = data.get("orbit", {})
-    orbit = Orbit(
-        altitude=_num(o.get("altitude_km", 400.0), "orbit.altitude_km") * 1e3,
-        mu=_num(o.get("mu", Orbit.mu), "orbit.mu"),
-        earth_radius=_num(o.get("earth_radius_km", R_EARTH / 1e3), "orbit.earth_radius_km") * 1e3,
-    )
+    orbit = case_orbit(data.get("orbit", {}))
     sim = data.get("simulation", {})
     kw: dict[str, Any] = {}
     for k, v in sim.items():

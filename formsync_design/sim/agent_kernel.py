@@ -1,0 +1,443 @@
+"""Compiled formation kernels of agent designs (:mod:`formsync_design.spec.agent`).
+
+The truth plant of every agent design is the same rigid body per spacecraft, integrated in
+the unit quaternion (normalised after every step) and Euler's equation; the design sees its
+own representation computed from it:
+
+* ``quaternion``: ``q``, ``q0`` of the integrated (normalised) quaternion, sign as integrated;
+* ``mrp``: ``sigma = q_v / (1 + q0)`` on the short set ``|sigma| <= 1`` (sign of ``q`` chosen
+  with ``q0 >= 0``): the shadow-set switch of an MRP integrator happens exactly where the
+  integrated ``q0`` changes sign (:func:`formsync_design.models.mrp.mrp_from_quat`);
+* ``so3``: ``R(q)`` (body to inertial), orthonormal to rounding for a unit ``q``
+  (``|R^T R - I| ~ 1e-16``): the rotation never drifts off the group.
+
+State order (pydy style; documented in every result): ``q1_1, q2_1, q3_1, q0_1, ..., q0_N,
+w1_1, ..., w3_N``, then the controller states ``z`` of spacecraft 1..N (declaration order),
+then the reference quaternion ``q1_ref, q2_ref, q3_ref, q0_ref`` for a design with a leader.
+
+Each spacecraft's law is translated once per in-degree ``m`` from SymPy to CasADi through the
+one numeric bridge :func:`formsync_design.sim.bridge.sympy_to_casadi`; ``sgn`` becomes
+``sign``, ``sat(x/phi)`` or ``tanh(x/phi)``.  The named CasADi function ``agent_law_m`` has
+inputs ``own`` (attitude entries, rate, states), ``J`` (3x3), ``t``, ``nbrs`` (``m`` rows of
+attitude, rate, states), ``a`` (``m`` weights), ``b``, ``ref`` (attitude, rate, rate
+derivative), ``gains``, ``phi`` and outputs ``u``, ``zdot``, ``monitors``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+import sympy as sp
+
+from formsync_design.errors import InputError
+from formsync_design.models.disturbances import disturbance_torque, disturbance_trig
+from formsync_design.sim.bridge import sympy_to_casadi
+from formsync_design.spec.agent import AgentDesign, AgentView, agent_expressions, sgn
+from formsync_design.spec.declarations import GainKind, GainRole
+
+__all__ = [
+    "ATTITUDE_SIZE",
+    "AgentLaw",
+    "agent_law",
+    "attitude_entries",
+    "reference_rate_function",
+    "AgentKernel",
+    "agent_param_layout",
+    "get_agent_kernel",
+    "agent_state_names",
+    "gain_vector",
+]
+
+#: Attitude entries a law receives per representation.
+ATTITUDE_SIZE = {"quaternion": 4, "mrp": 3, "so3": 9}
+
+
+def agent_state_names(n: int, design: AgentDesign) -> list[str]:
+    """Names of the kernel state entries (module docstring).
+
+    >>> from formsync_design.spec.agent import agent_design_from_functions
+    >>> d = agent_design_from_functions(lambda v: -v.k * v.w, gains={"k": {}})
+    >>> agent_state_names(2, d)[:4], agent_state_names(2, d)[-1]
+    (['q1_1', 'q2_1', 'q3_1', 'q0_1'], 'w3_2')
+    """
+    out = [f"{c}_{i}" for i in range(1, n + 1) for c in ("q1", "q2", "q3", "q0")]
+    out += [f"{c}_{i}" for i in range(1, n + 1) for c in ("w1", "w2", "w3")]
+    for i in range(1, n + 1):
+        for name, k in design.decl.states:
+            out += [f"{name}{c}_{i}" for c in range(1, k + 1)]
+    if design.decl.leader:
+        out += ["q1_ref", "q2_ref", "q3_ref", "q0_ref"]
+    return out
+
+
+def attitude_entries(rep: str, q: Any) -> Any:
+    """CasADi attitude entries of a representation from a quaternion ``(q1, q2, q3, q0)``
+    (normalised here), in the order of :meth:`AttitudeSymbols.attitude_symbols`.
+
+    >>> e = attitude_entries("mrp", ca.DM([0, 0, 0, -1.0]))
+    >>> [float(x) for x in ca.vertcat(*e).full().ravel()]
+    [0.0, 0.0, 0.0]
+    """
+    qn = q / ca.norm_2(q)
+    v, q0 = qn[0:3], qn[3]
+    if rep == "quaternion":
+        return [qn[0], qn[1], qn[2], qn[3]]
+    if rep == "mrp":
+        s = ca.if_else(q0 >= 0, v / (1 + q0), -v / (1 - q0))
+        return [s[0], s[1], s[2]]
+    R = (q0 * q0 - ca.dot(v, v)) * ca.DM.eye(3) + 2 * ca.mtimes(v, v.T) + 2 * q0 * ca.skew(v)
+    return [R[i, j] for j in range(3) for i in range(3)]  # column-major
+
+
+def _switch(expr: Any, switch: str, phi: sp.Symbol) -> Any:
+    if switch == "sgn":
+        return expr.replace(sgn, sp.sign)
+    if switch == "sat":
+        return expr.replace(sgn, lambda a: sp.Max(-1, sp.Min(1, a / phi)))
+    if switch == "tanh":
+        return expr.replace(sgn, lambda a: sp.tanh(a / phi))
+    raise InputError(f"expected a switch in ['sgn', 'sat', 'tanh'], received {switch!r}")
+
+
+def _gain_symbols(design: AgentDesign) -> list[sp.Symbol]:
+    """The controller gains' scalar symbols in kernel order (a diagonal gain: 3)."""
+    out: list[sp.Symbol] = []
+    for g in design.decl.gains:
+        if g.role != GainRole.CONTROLLER:
+            continue
+        if g.kind == GainKind.DIAG:
+            out += list(sp.symbols(f"{g.name}_1:4", positive=True))
+        else:
+            out.append(g.symbol)
+    return out
+
+
+@dataclass
+class AgentLaw:
+    """The CasADi functions of one in-degree ``m`` (module docstring): ``law`` (``u``,
+    ``zdot``, ``monitors``), and for sampled designs ``event`` / ``next_interval``
+    (``(own, held, J, t, nbrs, a, b, ref, gains, phi) -> scalar``)."""
+
+    m: int
+    law: ca.Function
+    monitors: tuple[str, ...]
+    event: ca.Function | None = None
+    next_interval: ca.Function | None = None
+
+
+_LAWS: dict[tuple[str, int, str], AgentLaw] = {}
+
+
+def agent_law(design: AgentDesign, m: int, switch: str = "sgn") -> AgentLaw:
+    """The translated law of a spacecraft with ``m`` in-neighbours (cached by the design's key).
+
+    >>> from formsync_design.spec.agent import agent_design_from_functions
+    >>> d = agent_design_from_functions(lambda v: -v.k * v.w, gains={"k": {}})
+    >>> f = agent_law(d, 0).law
+    >>> f.name_in()[:3], float(f(own=[0, 0, 0, 1, 1, 2, 3], gains=[2])["u"][2])
+    (['own', 'J', 't'], -6.0)
+    """
+    ck = (design.key, m, switch)
+    hit = _LAWS.get(ck)
+    if hit is not None:
+        return hit
+    ex = agent_expressions(design, m)
+    v: AgentView = ex["view"]
+    rep = design.representation
+    na = ATTITUDE_SIZE[rep]
+    states = design.decl.states
+    nz = design.decl.state_size
+    phi_s = sp.Symbol("phi", positive=True)
+    own = ca.SX.sym("own", na + 3 + nz)
+    held = ca.SX.sym("held", na + 3)
+    J = ca.SX.sym("J", 3, 3)
+    t = ca.SX.sym("t")
+    nb = ca.SX.sym("nbrs", na + 3 + nz, max(m, 1))
+    a = ca.SX.sym("a", max(m, 1))
+    b = ca.SX.sym("b")
+    ref = ca.SX.sym("ref", na + 6)
+    gsyms = _gain_symbols(design)
+    gains = ca.SX.sym("gains", max(len(gsyms), 1))
+    phi = ca.SX.sym("phi")
+
+    bind: dict[Any, Any] = {v.t: t, phi_s: phi}
+    for k, s in enumerate(gsyms):
+        bind[s] = gains[k]
+    for i in range(3):
+        for j in range(3):
+            bind[v.J[i, j]] = J[i, j]
+
+    def bind_state(sym: Any, vec: Any, with_states: bool) -> None:
+        for k, s in enumerate(sym.attitude_symbols()):
+            bind[s] = vec[k]
+        for k in range(3):
+            bind[sym.w[k]] = vec[na + k]
+        if with_states:
+            off = na + 3
+            for name, size in states:
+                for k in range(size):
+                    bind[sym.z[name][k]] = vec[off + k]
+                off += size
+
+    bind_state(v.own, own, True)
+    bind_state(v.held, held, False)
+    for k, n in enumerate(v.nbrs):
+        bind_state(n, nb[:, k], True)
+        bind[n.a] = a[k]
+    if design.decl.leader:
+        bind[v.b] = b
+        for k, s in enumerate(v.ref.attitude_symbols()):
+            bind[s] = ref[k]
+        for k in range(3):
+            bind[v.ref.w[k]] = ref[na + k]
+            bind[v.ref.wdot[k]] = ref[na + 3 + k]
+
+    memo: dict = {}
+
+    def cas(e: Any) -> Any:
+        return sympy_to_casadi(_switch(sp.sympify(e), switch, phi_s), bind, memo)
+
+    u = cas(ex["u"])
+    zdot = ca.vertcat(*[cas(ex["states"][n]) for n, _ in states]) if states else ca.SX.zeros(0)
+    mons = ex.get("monitors", {})
+    mon = ca.vertcat(*[cas(e) for e in mons.values()]) if mons else ca.SX.zeros(0)
+    ins = [own, J, t, nb, a, b, ref, gains, phi]
+    names = ["own", "J", "t", "nbrs", "a", "b", "ref", "gains", "phi"]
+    law = ca.Function(f"agent_law_{m}", ins, [u, zdot, mon], names, ["u", "zdot", "monitors"])
+    out = AgentLaw(m, law, tuple(mons))
+    trig_ins = [own, held, J, t, nb, a, b, ref, gains, phi]
+    trig_names = ["own", "held", "J", "t", "nbrs", "a", "b", "ref", "gains", "phi"]
+    if "event" in ex:
+        out.event = ca.Function(f"agent_event_{m}", trig_ins, [cas(ex["event"])], trig_names, ["g"])
+    if "next_interval" in ex:
+        out.next_interval = ca.Function(f"agent_tau_{m}", trig_ins, [cas(ex["next_interval"])],
+                                        trig_names, ["tau"])
+    _LAWS[ck] = out
+    return out
+
+
+def reference_rate_function(rate: Sequence[Any]) -> ca.Function:
+    """``t -> (w_ref(t), w_ref'(t))`` from three SymPy expressions (or strings) in ``t``.
+
+    >>> f = reference_rate_function(["0.1*sin(t)", 0, "0.02"])
+    >>> [round(float(x), 6) for x in ca.vertcat(*f(0.0)).full().ravel()]
+    [0.0, 0.0, 0.02, 0.1, 0.0, 0.0]
+    """
+    ts = sp.Symbol("t", real=True)
+    try:
+        exprs = [sp.sympify(r, locals={"t": ts}) for r in rate]
+    except (sp.SympifyError, TypeError, SyntaxError) as e:
+        raise InputError(f"expected reference rates as expressions in t, received {list(rate)} "
+                         f"({type(e).__name__})") from None
+    if len(exprs) != 3 or any(e.free_symbols - {ts} for e in exprs):
+        raise InputError(f"expected three reference rate expressions in t only, received "
+                         f"{list(rate)}")
+    t = ca.SX.sym("t")
+    w = ca.vertcat(*[sympy_to_casadi(e, {ts: t}) for e in exprs])
+    wd = ca.vertcat(*[sympy_to_casadi(sp.diff(e, ts), {ts: t}) for e in exprs])
+    return ca.Function("ref_rate", [t], [w, wd], ["t"], ["w", "wdot"])
+
+
+def agent_param_layout(n: int, ngains: int, narcs: int) -> dict[str, slice]:
+    """Slices of the flat kernel parameter vector."""
+    sizes = [("gains", max(ngains, 1)), ("phi", 1), ("umax", 3 * n), ("J", 9 * n),
+             ("Jinv", 9 * n), ("a", max(narcs, 1)), ("b", n), ("freq", 6), ("harm", 18 * n),
+             ("gg", 1), ("orbit", 4)]
+    out, k = {}, 0
+    for name, s in sizes:
+        out[name] = slice(k, k + s)
+        k += s
+    out["_size"] = slice(0, k)
+    return out
+
+
+@dataclass
+class AgentKernel:
+    """The CasADi functions of one agent formation structure (internal to :mod:`sim.agents`).
+
+    ``rhs(x, t, p) -> xdot``; ``observe(x, t, p) -> (u, monitors)`` (the limited torques of
+    every spacecraft, ``3N``, and the monitors, ``nmon x N`` flattened spacecraft-major);
+    ``plant(x, u, t, p) -> xdot`` (a given torque; the sampled path); ``chunk(x0, t0, h, p)
+    -> X`` (``K`` output intervals of ``M`` RK4 sub-steps with the quaternions normalised
+    after every sub-step, states at the interval ends).
+    """
+
+    n: int
+    nx: int
+    M: int
+    K: int
+    switch: str
+    neighbours: tuple[tuple[int, ...], ...]
+    monitors: tuple[str, ...]
+    rhs: ca.Function
+    observe: ca.Function
+    plant: ca.Function
+    chunk: ca.Function
+    layout: dict[str, slice]
+    compiled: bool = False
+    compile_seconds: float = 0.0
+    laws: dict[int, AgentLaw] = field(default_factory=dict)
+
+
+def _normalise(x: Any, n: int, leader_at: int | None) -> Any:
+    parts = []
+    for i in range(n):
+        qi = x[4 * i: 4 * i + 4]
+        parts.append(qi / ca.norm_2(qi))
+    rest = x[4 * n:] if leader_at is None else x[4 * n: leader_at]
+    out = [*parts, rest]
+    if leader_at is not None:
+        qr = x[leader_at: leader_at + 4]
+        out.append(qr / ca.norm_2(qr))
+    return ca.vertcat(*out)
+
+
+def _build(design: AgentDesign, neighbours: tuple[tuple[int, ...], ...], switch: str, M: int,
+           K: int, ref_rate: tuple[str, str, str]) -> AgentKernel:
+    n = len(neighbours)
+    rep = design.representation
+    na = ATTITUDE_SIZE[rep]
+    nz = design.decl.state_size
+    leader = design.decl.leader
+    narcs = sum(len(nb) for nb in neighbours)
+    ngains = len(_gain_symbols(design))
+    lay = agent_param_layout(n, ngains, narcs)
+    nx = 7 * n + nz * n + (4 if leader else 0)
+    x = ca.SX.sym("x", nx)
+    uin = ca.SX.sym("u", 3 * n)
+    t = ca.SX.sym("t")
+    p = ca.SX.sym("p", lay["_size"].stop)
+    q = [x[4 * i: 4 * i + 4] for i in range(n)]
+    w = [x[4 * n + 3 * i: 4 * n + 3 * i + 3] for i in range(n)]
+    z = [x[7 * n + nz * i: 7 * n + nz * i + nz] for i in range(n)]
+    J = [ca.reshape(p[lay["J"]][9 * i: 9 * i + 9], 3, 3) for i in range(n)]
+    Jinv = [ca.reshape(p[lay["Jinv"]][9 * i: 9 * i + 9], 3, 3) for i in range(n)]
+    att = [ca.vertcat(*attitude_entries(rep, q[i])) for i in range(n)]
+    full = [ca.vertcat(att[i], w[i], z[i]) for i in range(n)]
+    laws: dict[int, AgentLaw] = {}
+    if leader:
+        lead_at = 7 * n + nz * n
+        qr = x[lead_at: lead_at + 4]
+        rr = reference_rate_function(ref_rate)
+        wr, wdr = rr(t)
+        ref = ca.vertcat(*attitude_entries(rep, qr), wr, wdr)
+    else:
+        lead_at = None
+        ref = ca.SX.zeros(na + 6)
+        wr = ca.SX.zeros(3)
+    us, zds, mons = [], [], []
+    arc = 0
+    for i, nb in enumerate(neighbours):
+        m = len(nb)
+        law = laws.get(m) or agent_law(design, m, switch)
+        laws[m] = law
+        nbm = ca.horzcat(*[full[j] for j in nb]) if m else ca.SX.zeros(na + 3 + nz, 1)
+        am = p[lay["a"]][arc: arc + m] if m else ca.SX.zeros(1)
+        arc += m
+        out = law.law(full[i], J[i], t, nbm, am, p[lay["b"]][i], ref, p[lay["gains"]],
+                      p[lay["phi"]])
+        lim = p[lay["umax"]][3 * i: 3 * i + 3]
+        us.append(ca.fmin(lim, ca.fmax(-lim, out[0])))
+        zds.append(out[1])
+        mons.append(out[2])
+    u = ca.vertcat(*us)
+    trig = disturbance_trig(t, p[lay["freq"]], p[lay["orbit"]])
+
+    def plant_expr(uv: Any) -> Any:
+        dq, dw = [], []
+        for i in range(n):
+            v3, q0 = q[i][0:3], q[i][3]
+            ud = disturbance_torque(trig, v3, q0, J[i], p[lay["harm"]][18 * i: 18 * i + 18],
+                                    p[lay["gg"]])
+            dq.append(ca.vertcat(0.5 * (q0 * w[i] + ca.cross(v3, w[i])), -0.5 * ca.dot(v3, w[i])))
+            Jw = ca.mtimes(J[i], w[i])
+            dw.append(ca.mtimes(Jinv[i], -ca.cross(w[i], Jw) + uv[3 * i: 3 * i + 3] + ud))
+        parts = [*dq, *dw, *zds]
+        if leader:
+            v3, q0 = qr[0:3], qr[3]
+            parts.append(ca.vertcat(0.5 * (q0 * wr + ca.cross(v3, wr)), -0.5 * ca.dot(v3, wr)))
+        return ca.vertcat(*parts)
+
+    rhs = ca.Function("agent_rhs", [x, t, p], [plant_expr(u)], ["x", "t", "p"], ["xdot"])
+    plant = ca.Function("agent_plant", [x, uin, t, p], [plant_expr(uin)], ["x", "u", "t", "p"],
+                        ["xdot"])
+    mon_all = ca.vertcat(*mons) if mons else ca.SX.zeros(0)
+    observe = ca.Function("agent_observe", [x, t, p], [u, mon_all], ["x", "t", "p"],
+                          ["u", "monitors"])
+    # RK4 sub-step on MX (the SX right-hand side called once per stage), then the output
+    # interval of M sub-steps and K intervals by mapaccum
+    xs, ts, hs, ps = ca.MX.sym("x", nx), ca.MX.sym("t"), ca.MX.sym("h"), ca.MX.sym("p", p.shape[0])
+    k1 = rhs(xs, ts, ps)
+    k2 = rhs(xs + hs / 2 * k1, ts + hs / 2, ps)
+    k3 = rhs(xs + hs / 2 * k2, ts + hs / 2, ps)
+    k4 = rhs(xs + hs * k3, ts + hs, ps)
+    xn = _normalise(xs + hs / 6 * (k1 + 2 * k2 + 2 * k3 + k4), n, lead_at)
+    step = ca.Function("agent_step", [ca.vertcat(xs, ts), hs, ps], [ca.vertcat(xn, ts + hs)])
+    xa, h2, p2 = ca.MX.sym("xa", nx + 1), ca.MX.sym("h"), ca.MX.sym("p", p.shape[0])
+    xk = xa
+    if M <= 10:
+        for _ in range(M):
+            xk = step(xk, h2, p2)
+    else:
+        xk = step.mapaccum("agent_steps", M)(xa, h2, p2)[:, -1]
+    interval = ca.Function("agent_interval", [xa, h2, p2], [xk])
+    chunk = interval.mapaccum("agent_chunk", K)
+    return AgentKernel(n=n, nx=nx, M=M, K=K, switch=switch, neighbours=neighbours,
+                       monitors=next(iter(laws.values())).monitors if laws else (),
+                       rhs=rhs, observe=observe, plant=plant, chunk=chunk, layout=lay,
+                       laws=laws)
+
+
+_KERNELS: dict[tuple[Any, ...], AgentKernel] = {}
+
+
+def get_agent_kernel(design: AgentDesign, neighbours: tuple[tuple[int, ...], ...], switch: str,
+                     M: int, K: int, ref_rate: tuple[str, str, str] = ("0", "0", "0"),
+                     compile: bool = True) -> AgentKernel:
+    """The (compiled, cached) kernel of a design on a graph structure (in-neighbour lists).
+
+    Cached in memory by the design's key, the structure and the options, and on disk by the
+    generated C source (:func:`formsync_design.sim.kernels.compile_function`).
+    """
+    from formsync_design.sim.kernels import compile_enabled, compile_function
+
+    compile = bool(compile) and compile_enabled()
+    key = (design.key, neighbours, switch, M, K, tuple(str(r) for r in ref_rate), compile)
+    hit = _KERNELS.get(key)
+    if hit is not None:
+        return hit
+    t0 = time.perf_counter()
+    k = _build(design, neighbours, switch, M, K, tuple(str(r) for r in ref_rate))  # type: ignore[arg-type]
+    if compile:
+        k.chunk, ok = compile_function(k.chunk, design.key)
+        k.compiled = ok
+    k.compile_seconds = time.perf_counter() - t0
+    _KERNELS[key] = k
+    return k
+
+
+def gain_vector(design: AgentDesign, gains: Any) -> np.ndarray:
+    """The controller gains of ``gains`` (a :class:`~formsync_design.sim.formation.Gains`) in
+    kernel order; a gain the design does not declare, or a missing one, is an InputError."""
+    decls = [g for g in design.decl.gains if g.role == GainRole.CONTROLLER]
+    names = tuple(g.name for g in decls)
+    given = gains.as_dict()
+    if set(given) != set(names):
+        raise InputError(f"expected the gains {', '.join(names)} of design {design.name}, "
+                         f"received {', '.join(given) or 'none'}")
+    out: list[float] = []
+    for g in decls:
+        val = given[g.name]
+        if g.kind == GainKind.DIAG:
+            out.extend(val if isinstance(val, tuple) else (val, val, val))
+        elif isinstance(val, tuple):
+            raise InputError(f"expected a scalar gain {g.name} (declared scalar), received "
+                             f"three values")
+        else:
+            out.append(val)
+    return np.asarray(out, dtype=float)

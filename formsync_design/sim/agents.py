@@ -1,0 +1,501 @@
+"""Simulation of agent designs (:mod:`formsync_design.spec.agent`) on directed weighted graphs.
+
+:func:`simulate_agents` runs a formation whose spacecraft each apply the design's law with
+their in-neighbours' information (weights ``a_ij``), an optional leader (pinning gains
+``b_i``, reference attitude and rate), controller states and the paper's (or any)
+disturbance:
+
+* continuous designs: a compiled fixed-step RK4 kernel (:mod:`~formsync_design.sim.agent_kernel`;
+  the unit quaternions are normalised after every sub-step) or adaptive CVODES;
+* sampled designs (``SAMPLING`` ``periodic``, ``event``, ``self-triggered``): the exact hybrid
+  integrator :func:`~formsync_design.sim.hybrid.simulate_hybrid` (DOP853; trigger instants
+  located by root finding, never rounded to a grid).  At an update of spacecraft ``i`` it
+  broadcasts its state, recomputes its torque from its own state and its in-neighbours' last
+  broadcasts and holds the torque until its next update.
+
+Outputs (:class:`AgentResult`): the trajectory, torques, the attitude disagreement (largest
+principal angle between two spacecraft, degrees) and the error to the reference, the rate
+disagreement, the convergence time to the options' tolerances, peak torques, control effort,
+the design's monitors and, for sampled designs, the transmissions and inter-event times.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from formsync_design.errors import InputError, SimulationError
+from formsync_design.gains import json_number
+from formsync_design.graphs.digraph import Digraph
+from formsync_design.models.disturbances import DisturbanceModel, kernel_parameters, no_disturbance
+from formsync_design.models.inertia import check_inertias
+from formsync_design.sim.agent_kernel import (
+    agent_state_names,
+    gain_vector,
+    get_agent_kernel,
+    reference_rate_function,
+)
+from formsync_design.sim.formation import Gains
+from formsync_design.spec.agent import AgentDesign
+
+__all__ = [
+    "Reference",
+    "AgentFormation",
+    "AgentOptions",
+    "AgentStatus",
+    "AgentResult",
+    "simulate_agents",
+    "attitude_disagreement",
+    "principal_angles",
+    "agent_parameters",
+    "assemble_result",
+]
+
+
+@dataclass(frozen=True)
+class Reference:
+    """A leader's (reference) motion: initial attitude ``(q1, q2, q3, q0)`` and body rate
+    ``w_ref(t)`` as three expressions in ``t`` (constants are expressions too).
+
+    >>> Reference((0, 0, 0, 1), ("0.01", "0", "0")).constant_rate
+    True
+    """
+
+    attitude: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
+    rate: tuple[str, str, str] = ("0", "0", "0")
+
+    def __post_init__(self) -> None:
+        q = np.asarray(self.attitude, dtype=float)
+        if q.shape != (4,) or abs(float(np.linalg.norm(q)) - 1) > 1e-9:
+            raise InputError(f"expected a unit reference quaternion (q1, q2, q3, q0), received "
+                             f"{list(self.attitude)}")
+        reference_rate_function(self.rate)  # validates the expressions
+        object.__setattr__(self, "attitude", tuple(float(v) for v in q))
+        object.__setattr__(self, "rate", tuple(str(r) for r in self.rate))
+
+    @property
+    def constant_rate(self) -> bool:
+        import sympy as sp
+
+        return all(not sp.sympify(r).free_symbols for r in self.rate)
+
+
+@dataclass(frozen=True)
+class AgentFormation:
+    """Everything physical about an agent-design run.
+
+    Attributes
+    ----------
+    graph : Digraph (or an undirected Graph, taken as a digraph with unit weights)
+        Who receives from whom (``a_ij``), pinning gains ``b_i`` to the leader.
+    inertias : (N, 3, 3); attitudes : (N, 4) ``(q1, q2, q3, q0)`` unit; rates : (N, 3)
+    gains : Gains
+        The design's controller gains by name (a diagonal gain: one value or three).
+    disturbance : DisturbanceModel
+    reference : Reference or None
+        Required exactly when the design declares ``LEADER``.
+    states : mapping name -> (N, size), optional
+        Initial controller states (default zero).
+    """
+
+    graph: Digraph
+    inertias: np.ndarray
+    attitudes: np.ndarray
+    rates: np.ndarray
+    gains: Gains
+    disturbance: DisturbanceModel | None = None
+    reference: Reference | None = None
+    states: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        from formsync_design.graphs.theorem import as_digraph
+
+        object.__setattr__(self, "graph", as_digraph(self.graph))
+        n = self.graph.n
+        J = check_inertias(self.inertias, n)
+        Q = np.asarray(self.attitudes, dtype=float)
+        W = np.asarray(self.rates, dtype=float)
+        if Q.shape != (n, 4):
+            raise InputError(f"expected {n} quaternions (q1, q2, q3, q0), received shape {Q.shape}")
+        for i, qb in enumerate(Q):
+            if abs(float(np.linalg.norm(qb)) - 1) > 1e-9:
+                raise InputError(f"expected a unit quaternion for spacecraft {i + 1}, received "
+                                 f"norm {float(np.linalg.norm(qb)):.12g}")
+        if W.shape != (n, 3) or not np.all(np.isfinite(W)):
+            raise InputError(f"expected {n} finite rates (N, 3), received shape {W.shape}")
+        if not isinstance(self.gains, Gains):
+            object.__setattr__(self, "gains", Gains(dict(self.gains)))
+        object.__setattr__(self, "inertias", J)
+        object.__setattr__(self, "attitudes", Q)
+        object.__setattr__(self, "rates", W)
+        if self.disturbance is None:
+            object.__setattr__(self, "disturbance", no_disturbance(n))
+
+    @property
+    def n(self) -> int:
+        return self.graph.n
+
+    def neighbours(self) -> tuple[tuple[int, ...], ...]:
+        """In-neighbour lists (0-based, increasing), the kernel's structure."""
+        return tuple(self.graph.receives_from(i) for i in range(self.n))
+
+    def weights(self) -> np.ndarray:
+        """``a_ij`` in the order of :meth:`neighbours` (flattened)."""
+        A = self.graph.adjacency
+        return np.array([A[i, j] for i, nb in enumerate(self.neighbours()) for j in nb], float)
+
+
+class AgentStatus(enum.StrEnum):
+    """How an agent-design run ended: ``converged`` (attitude and rate disagreement, and the
+    errors to the reference, within the tolerances from ``convergence_time`` to the end),
+    ``not-converged``, or ``stopped`` (the hybrid integrator stopped: Zeno protection or too
+    many triggers, ``message`` says which)."""
+
+    CONVERGED = "converged"
+    NOT_CONVERGED = "not-converged"
+    STOPPED = "stopped"
+
+
+@dataclass(frozen=True)
+class AgentOptions:
+    """Simulation options.
+
+    ``tf`` horizon (s); ``output_step`` (s); ``step`` RK4 step (s, a divisor of
+    ``output_step``); ``integrator`` ``rk4`` or ``cvodes`` (continuous designs; sampled designs
+    always use the exact hybrid integrator with ``rtol``/``atol``); ``switch`` ``sgn``/``sat``/
+    ``tanh`` with boundary layer ``phi``; ``torque_limit`` per axis (N m, ``None``: none);
+    ``angle_tol`` (deg) and ``rate_tol`` (rad/s) for convergence; ``period`` of periodic
+    sampling (s).
+    """
+
+    tf: float = 100.0
+    output_step: float = 0.1
+    step: float = 0.01
+    integrator: str = "rk4"
+    switch: str = "sgn"
+    phi: float = 0.01
+    torque_limit: float | None = None
+    angle_tol: float = 1.0
+    rate_tol: float = 1e-3
+    rtol: float = 1e-9
+    atol: float = 1e-11
+    period: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("tf", "output_step", "step", "phi", "angle_tol", "rate_tol", "rtol", "atol"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise InputError(f"expected a positive finite {name}, received {v!r}")
+        ratio = self.output_step / self.step
+        if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            raise InputError(f"expected step to divide output_step, received step {self.step:g} "
+                             f"and output_step {self.output_step:g}")
+        if self.integrator not in ("rk4", "cvodes"):
+            raise InputError(f"expected integrator rk4 or cvodes, received {self.integrator!r}")
+        if self.switch not in ("sgn", "sat", "tanh"):
+            raise InputError(f"expected switch sgn, sat or tanh, received {self.switch!r}")
+        if self.torque_limit is not None and not self.torque_limit > 0:
+            raise InputError(f"expected a positive torque limit, received {self.torque_limit!r}")
+        if self.period is not None and not self.period > 0:
+            raise InputError(f"expected a positive sampling period, received {self.period!r}")
+
+
+def principal_angles(qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
+    """Principal angle (rad) between attitudes (``..., 4`` quaternions), double cover removed.
+
+    >>> round(float(principal_angles(np.array([0, 0, 0, 1.0]),
+    ...                              np.array([0, 0, math.sin(0.5), math.cos(0.5)]))), 12)
+    1.0
+    """
+    qa = qa / np.linalg.norm(qa, axis=-1, keepdims=True)
+    qb = qb / np.linalg.norm(qb, axis=-1, keepdims=True)
+    c = np.clip(np.abs(np.sum(qa * qb, axis=-1)), 0.0, 1.0)
+    return 2.0 * np.arccos(c)
+
+
+def attitude_disagreement(Q: np.ndarray) -> np.ndarray:
+    """Largest principal angle (deg) between two spacecraft, per sample (``Q``: (T, N, 4)).
+
+    >>> Q = np.array([[[0, 0, 0, 1.0], [0, 0, math.sin(0.25), math.cos(0.25)]]])
+    >>> round(float(attitude_disagreement(Q)[0]), 10) == round(math.degrees(0.5), 10)
+    True
+    """
+    T, N, _ = Q.shape
+    out = np.zeros(T)
+    for i in range(N - 1):
+        out = np.maximum(out, principal_angles(Q[:, i:i + 1, :], Q[:, i + 1:, :]).max(axis=1))
+    return np.degrees(out)
+
+
+@dataclass(frozen=True)
+class AgentResult:
+    """A finished agent-design run (frozen; arrays are per output time).
+
+    Attributes
+    ----------
+    status : AgentStatus; message : str
+    design, graph : str
+    t : (T,); quaternions : (T, N, 4); rates : (T, N, 3); states : (T, N, nz);
+    torques : (T, N, 3) (limited); reference : (T, 4) or None
+    attitude_error : (T,) largest pairwise principal angle (deg)
+    reference_error : (T,) or None, largest angle to the reference (deg)
+    rate_error : (T,) largest pairwise body-rate difference (rad/s; to the reference rate
+        with a leader)
+    convergence_time : float or None
+    peak_torque : (N, 3); effort : (N,) ``int |u_i|^2 dt`` (trapezoid on the output grid,
+        exact for held torques of sampled designs)
+    monitors : dict name -> (T, N)
+    transmissions : (N,) or None; min_interevent, mean_interevent : (N,) or None;
+    trigger_times : per spacecraft or None
+    state_names : list of str (the kernel's state order)
+    integrator : str
+    """
+
+    status: AgentStatus
+    message: str
+    design: str
+    graph: str
+    t: np.ndarray
+    quaternions: np.ndarray
+    rates: np.ndarray
+    states: np.ndarray
+    torques: np.ndarray
+    reference: np.ndarray | None
+    attitude_error: np.ndarray
+    reference_error: np.ndarray | None
+    rate_error: np.ndarray
+    convergence_time: float | None
+    peak_torque: np.ndarray
+    effort: np.ndarray
+    monitors: dict[str, np.ndarray]
+    transmissions: np.ndarray | None = None
+    min_interevent: np.ndarray | None = None
+    mean_interevent: np.ndarray | None = None
+    trigger_times: tuple[np.ndarray, ...] | None = None
+    state_names: tuple[str, ...] = ()
+    integrator: str = "rk4"
+
+    def time_to(self, angle_deg: float) -> float | None:
+        """First output time from which the attitude disagreement stays <= ``angle_deg``."""
+        return _settle(self.t, self.attitude_error <= angle_deg)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Summary (no trajectories), numbers through :func:`json_number`."""
+        def arr(a: Any) -> Any:
+            return None if a is None else [json_number(float(x)) for x in np.ravel(a)]
+
+        return {
+            "status": str(self.status), "message": self.message, "design": self.design,
+            "graph": self.graph, "integrator": self.integrator,
+            "tf": json_number(float(self.t[-1])) if self.t.size else None,
+            "convergence_time": None if self.convergence_time is None
+            else json_number(self.convergence_time),
+            "final_attitude_error_deg": json_number(float(self.attitude_error[-1])),
+            "final_reference_error_deg": None if self.reference_error is None
+            else json_number(float(self.reference_error[-1])),
+            "final_rate_error": json_number(float(self.rate_error[-1])),
+            "peak_torque": [[json_number(float(x)) for x in row] for row in self.peak_torque],
+            "effort": arr(self.effort),
+            "monitors": {k: {"min": json_number(float(np.nanmin(v))),
+                             "max": json_number(float(np.nanmax(v)))}
+                         for k, v in self.monitors.items()},
+            "transmissions": None if self.transmissions is None
+            else [int(k) for k in self.transmissions],
+            "min_interevent": arr(self.min_interevent),
+            "mean_interevent": arr(self.mean_interevent),
+        }
+
+
+def _settle(t: np.ndarray, ok: np.ndarray) -> float | None:
+    if not ok.size or not ok[-1]:
+        return None
+    bad = np.nonzero(~ok)[0]
+    return float(t[0]) if bad.size == 0 else float(t[bad[-1] + 1])
+
+
+def agent_parameters(design: AgentDesign, f: AgentFormation, opt: AgentOptions,
+                     layout: dict) -> np.ndarray:
+    """The flat kernel parameter vector of ``f`` (layout :func:`agent_param_layout`)."""
+    p = np.zeros(layout["_size"].stop)
+    g = gain_vector(design, f.gains)
+    p[layout["gains"]][: g.size] = g
+    p[layout["phi"]] = opt.phi
+    p[layout["umax"]] = np.inf if opt.torque_limit is None else opt.torque_limit
+    J = np.asarray(f.inertias, dtype=float)
+    p[layout["J"]] = J.transpose(0, 2, 1).ravel()
+    p[layout["Jinv"]] = np.linalg.inv(J).transpose(0, 2, 1).ravel()
+    w = f.weights()
+    p[layout["a"]][: w.size] = w
+    p[layout["b"]] = f.graph.pinning_matrix.diagonal() if f.graph.has_leader else 0.0
+    assert f.disturbance is not None
+    freq, harm = kernel_parameters(f.disturbance)
+    p[layout["freq"]] = freq
+    p[layout["harm"]] = harm.ravel()
+    p[layout["gg"]] = 1.0 if f.disturbance.gravity_gradient else 0.0
+    o = f.disturbance.orbit
+    p[layout["orbit"]] = (o.mu, o.radius, o.mean_motion, o.phase)
+    return p
+
+
+def _check(design: AgentDesign, f: AgentFormation) -> None:
+    if getattr(design, "form", None) != "agent":
+        raise InputError(f"expected an agent design (FORM = 'agent'), received "
+                         f"{getattr(design, 'name', design)!r}")
+    if design.decl.leader and f.reference is None:
+        raise InputError(f"expected a reference (leader) for design {design.name} (it declares "
+                         "LEADER), received none")
+    if not design.decl.leader and f.reference is not None:
+        raise InputError(f"expected no reference for design {design.name} (it declares no "
+                         "LEADER), received one")
+    if design.decl.leader and not f.graph.has_leader:
+        raise InputError(f"expected pinning gains b_i to the leader for design {design.name}, "
+                         f"received graph {f.graph.name!r} without a leader")
+    for name in f.states:
+        if name not in dict(design.decl.states):
+            raise InputError(f"expected initial states among {[s for s, _ in design.decl.states]}, "
+                             f"received {name!r}")
+
+
+def _x0(design: AgentDesign, f: AgentFormation) -> np.ndarray:
+    parts = [f.attitudes.ravel(), f.rates.ravel()]
+    zs = []
+    for i in range(f.n):
+        for name, k in design.decl.states:
+            z = np.zeros((f.n, k)) if name not in f.states else np.asarray(f.states[name], float)
+            if z.shape != (f.n, k):
+                raise InputError(f"expected initial states {name} of shape ({f.n}, {k}), "
+                                 f"received {z.shape}")
+            zs.append(z[i])
+    if zs:
+        parts.append(np.concatenate(zs))
+    if design.decl.leader:
+        assert f.reference is not None
+        parts.append(np.asarray(f.reference.attitude, float))
+    return np.concatenate(parts)
+
+
+def simulate_agents(design: AgentDesign, formation: AgentFormation,
+                    options: AgentOptions | None = None) -> AgentResult:
+    """Simulate ``formation`` under ``design`` (module docstring).
+
+    Examples
+    --------
+    Rate damping ``u = -k w`` on a free rigid body decays every rate:
+
+    >>> from formsync_design.graphs import load_graph
+    >>> from formsync_design.spec.agent import agent_design_from_functions
+    >>> d = agent_design_from_functions(lambda v: -v.k * v.J * v.w, gains={"k": {}})
+    >>> f = AgentFormation(load_graph("path:2"), np.array([np.eye(3)] * 2),
+    ...                    np.array([[0, 0, 0, 1.0]] * 2), np.full((2, 3), 0.1), Gains(k=1.0))
+    >>> r = simulate_agents(d, f, AgentOptions(tf=5, output_step=0.5, step=0.05))
+    >>> round(float(r.rates[-1, 0, 0]), 6) == round(0.1 * math.exp(-5), 6)
+    True
+    """
+    opt = options or AgentOptions()
+    _check(design, formation)
+    if design.decl.sampling != "continuous":
+        from formsync_design.sim.agent_sampled import simulate_agents_sampled
+
+        return simulate_agents_sampled(design, formation, opt)
+    f = formation
+    M = int(round(opt.output_step / opt.step))
+    T = int(math.floor(opt.tf / opt.output_step + 1e-9))
+    if T < 1:
+        raise InputError(f"expected tf >= output_step, received tf {opt.tf:g} and output_step "
+                         f"{opt.output_step:g}")
+    K = min(T, 200)
+    ref_rate = f.reference.rate if f.reference is not None else ("0", "0", "0")
+    kern = get_agent_kernel(design, f.neighbours(), opt.switch, M, K, ref_rate)
+    p = agent_parameters(design, f, opt, kern.layout)
+    x0 = _x0(design, f)
+    t = np.arange(T + 1) * opt.output_step
+    if opt.integrator == "rk4":
+        X = np.empty((T + 1, kern.nx))
+        X[0] = x0
+        xa = np.concatenate([x0, [0.0]])
+        k = 0
+        while k < T:
+            out = np.asarray(kern.chunk(xa, opt.step, p))  # (nx + 1, K)
+            take = min(K, T - k)
+            X[k + 1: k + 1 + take] = out[:-1, :take].T
+            xa = out[:, take - 1]
+            k += take
+            if not np.all(np.isfinite(xa)):
+                raise SimulationError(f"the simulation of {design.name} diverged (non-finite "
+                                      f"state at t = {float(xa[-1]):g} s); try a smaller step "
+                                      "or a boundary layer")
+    else:
+        import casadi as ca
+
+        xs, ts = ca.SX.sym("x", kern.nx), ca.SX.sym("t")
+        ps = ca.SX.sym("p", p.size)
+        ode = {"x": xs, "t": ts, "p": ps, "ode": kern.rhs(xs, ts, ps)}
+        integ = ca.integrator("agents", "cvodes", ode, 0.0, t[1:].tolist(),
+                              {"reltol": opt.rtol, "abstol": opt.atol, "max_num_steps": 10**7})
+        try:
+            sol = integ(x0=x0, p=p)
+        except RuntimeError as e:
+            raise SimulationError(f"CVODES failed on {design.name} ({' '.join(str(e).split())[:160]});"
+                                  " try --integrator rk4 or a boundary layer") from None
+        X = np.vstack([x0, np.asarray(sol["xf"]).T])
+    return assemble_result(design, f, opt, kern, p, t, X, opt.integrator)
+
+
+def assemble_result(design: AgentDesign, f: AgentFormation, opt: AgentOptions, kern: Any, p: np.ndarray,
+            t: np.ndarray, X: np.ndarray, integrator: str, *, torques: np.ndarray | None = None,
+            sampled: Any = None) -> AgentResult:
+    """The :class:`AgentResult` of a trajectory ``X`` (kernel state order) on the grid ``t``
+    (shared by the continuous and the sampled paths)."""
+    n = f.n
+    nz = design.decl.state_size
+    Q = X[:, : 4 * n].reshape(X.shape[0], n, 4)
+    W = X[:, 4 * n: 7 * n].reshape(X.shape[0], n, 3)
+    Z = X[:, 7 * n: 7 * n + nz * n].reshape(X.shape[0], n, nz)
+    R = X[:, 7 * n + nz * n: 7 * n + nz * n + 4] if design.decl.leader else None
+    obs_u, obs_m = [], []
+    for k in range(X.shape[0]):
+        xk = X[k] if X.shape[1] == kern.nx else np.concatenate([X[k], R[k] if R is not None else []])
+        u, m = kern.observe(xk, t[k], p)
+        obs_u.append(np.asarray(u).ravel())
+        obs_m.append(np.asarray(m).ravel())
+    U = np.asarray(obs_u).reshape(-1, n, 3) if torques is None else torques
+    mons: dict[str, np.ndarray] = {}
+    Mv = np.asarray(obs_m)
+    names = kern.monitors
+    for j, name in enumerate(names):
+        mons[name] = Mv[:, j::len(names)] if names else Mv
+    att = attitude_disagreement(Q)
+    if R is not None:
+        ref_err = np.degrees(principal_angles(Q, R[:, None, :])).max(axis=1)
+        rr = reference_rate_function(f.reference.rate if f.reference else ("0", "0", "0"))
+        wref = np.array([np.asarray(rr(tk)[0]).ravel() for tk in t])
+        rate_err = np.linalg.norm(W - wref[:, None, :], axis=2).max(axis=1)
+        ok = (ref_err <= opt.angle_tol) & (rate_err <= opt.rate_tol) & (att <= opt.angle_tol)
+    else:
+        ref_err = None
+        dif = W[:, :, None, :] - W[:, None, :, :]
+        rate_err = np.linalg.norm(dif, axis=3).max(axis=(1, 2))
+        ok = (att <= opt.angle_tol) & (rate_err <= opt.rate_tol)
+    conv = _settle(t, ok)
+    status = AgentStatus.CONVERGED if conv is not None else AgentStatus.NOT_CONVERGED
+    message = ""
+    if sampled is not None and str(sampled.status) != "completed":
+        status, message = AgentStatus.STOPPED, sampled.message
+    sq = np.sum(U * U, axis=2)
+    effort = np.trapezoid(sq, t, axis=0) if sampled is None else sampled.control_effort
+    return AgentResult(
+        status=status, message=message, design=design.name, graph=f.graph.name, t=t,
+        quaternions=Q, rates=W, states=Z, torques=U, reference=R, attitude_error=att,
+        reference_error=ref_err, rate_error=rate_err, convergence_time=conv,
+        peak_torque=np.abs(U).max(axis=0), effort=np.asarray(effort, float), monitors=mons,
+        transmissions=None if sampled is None else sampled.transmissions,
+        min_interevent=None if sampled is None else sampled.min_interevent,
+        mean_interevent=None if sampled is None else sampled.mean_interevent,
+        trigger_times=None if sampled is None else tuple(sampled.trigger_times),
+        state_names=tuple(agent_state_names(n, design)), integrator=integrator,
+    )

@@ -1,0 +1,676 @@
+"""Agent designs: a controller written per spacecraft, in any attitude representation.
+
+The *Lagrangian* designs of :mod:`formsync_design.spec.loader` (liang2016, pd_consensus)
+write the torque in the opaque model matrices ``A, B, Q`` of the quaternion-vector
+Lagrangian form.  An **agent design** (module attribute ``FORM = "agent"``) writes the
+torque of spacecraft ``i`` as explicit SymPy expressions in the quantities of its
+representation, its in-neighbours' information on a (directed, weighted) graph, a
+leader's reference, controller states (filters) and the declared gains.  This is the form
+of the SO(3), MRP and output-feedback designs of the source papers.
+
+What a design file declares (besides ``NAME``, ``TITLE``)
+---------------------------------------------------------
+``FORM = "agent"``
+``REPRESENTATION``
+    ``"quaternion"`` (``v.q`` 3x1 vector part, ``v.q0``), ``"mrp"`` (``v.sigma``, the
+    short set ``|sigma| <= 1``: the shadow switch happens where ``q0`` changes sign) or
+    ``"so3"`` (``v.R``, 3x3, body to inertial).  Every spacecraft's body rate is ``v.w``
+    and its inertia ``v.J`` (symmetric 3x3 symbols; the numbers of the formation are bound
+    at simulation).
+``GAINS``, ``GRAPHS``, ``SAMPLING``
+    As for every design (:mod:`formsync_design.spec.declarations`); roles ``controller``
+    and ``multiplier`` (an agent design has no separate ``switching`` role: a switching
+    gain is a controller gain).  A diagonal gain is ``diag(g_1, g_2, g_3)`` in the view.
+``STATES = {"x": 3, ...}`` (optional)
+    Controller states per spacecraft (e.g. a lead filter); ``states(v)`` returns their
+    derivatives; ``v.z["x"]`` (3x1) in every function, ``v.nbrs[k].z["x"]`` the
+    neighbours' (for designs that exchange them).  Initial values: zero unless a case sets them.
+``LEADER = True`` (optional, default False)
+    The design uses a reference (virtual leader): ``v.b`` (pinning gain ``b_i >= 0``),
+    ``v.ref`` with the reference attitude in the same representation, ``v.ref.w`` and
+    ``v.ref.wdot`` (the reference body rate and its derivative).
+``MEASURED`` (optional)
+    The quantities the law may use, among :data:`QUANTITIES` (default: all).  The loader
+    checks the controller's (and the states' and trigger's) free symbols against it, so
+    e.g. an output-feedback design declaring ``("attitude", "neighbour-attitude")`` is
+    proven not to use any angular velocity.
+
+Functions (``v`` is an :class:`AgentView` of spacecraft ``i`` with ``m`` in-neighbours)
+--------------------------------------------------------------------------------------
+``controller(v)`` (required)
+    The body torque ``u_i``, an explicit 3x1 SymPy ``Matrix``.
+``states(v)`` (required when ``STATES`` is declared)
+    ``{name: derivative}`` (each of the declared size).
+``event(v)`` (``SAMPLING = "event"``)
+    A scalar ``g``; spacecraft ``i`` broadcasts when ``g >= 0``, monitored continuously.
+    ``v.held`` is the spacecraft's own last broadcast (attitude and rate), ``v.nbrs[k]`` the
+    neighbours' last broadcasts; ``v`` itself is the current state.
+``next_interval(v)`` (``SAMPLING = "self-triggered"``)
+    ``tau > 0``: the next broadcast is ``tau`` after this one, computed from the state at
+    this broadcast (nothing is monitored in between).
+``monitors(v)`` (optional)
+    ``{name: scalar}`` quantities recorded along a simulation (e.g. a determinant that
+    vanishes where the law is undefined): the result reports each one's extremes.
+Under a sampled rule the torque is held between the spacecraft's own updates, and the
+neighbours' quantities are their last broadcasts (see :mod:`formsync_design.sim.agents`).
+
+Helpers for the expressions: :func:`hat`, :func:`vee`, :func:`sgn` (the switching function:
+``sign`` in a derivation, ``sgn``/``sat``/``tanh`` with a boundary layer at simulation time),
+:func:`sig` (``|x|^p sgn(x)`` componentwise), :func:`mrp_G`, :func:`quat_E`.
+
+>>> d = agent_design_from_functions(lambda v: -v.k * v.w, name="damper", gains={"k": {}})
+>>> d.name, d.decl.representation, d.decl.controller_gains
+('damper', 'quaternion', ('k',))
+>>> v = AgentView(d.decl, 1)
+>>> d.controller(v).T
+Matrix([[-k*w_1, -k*w_2, -k*w_3]])
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType, ModuleType
+from typing import Any
+
+import sympy as sp
+
+from formsync_design.errors import DerivationError
+from formsync_design.spec.declarations import Declarations, GainKind, GainRole, parse_declarations
+
+__all__ = [
+    "AGENT_REPRESENTATIONS",
+    "QUANTITIES",
+    "AgentDeclarations",
+    "AttitudeSymbols",
+    "AgentView",
+    "AgentDesign",
+    "sgn",
+    "sgn_of",
+    "sig",
+    "hat",
+    "vee",
+    "mrp_G",
+    "quat_E",
+    "quat_to_R",
+    "agent_design_from_module",
+    "agent_design_from_functions",
+    "agent_expressions",
+]
+
+#: Representations an agent design may be written in.
+AGENT_REPRESENTATIONS: tuple[str, ...] = ("quaternion", "mrp", "so3")
+
+#: Quantity classes for ``MEASURED``.
+QUANTITIES: tuple[str, ...] = (
+    "attitude", "rate", "neighbour-attitude", "neighbour-rate", "neighbour-states",
+    "reference", "time",
+)
+
+_FUNCTIONS = ("controller", "states", "event", "next_interval", "monitors")
+
+
+class sgn(sp.Function):  # noqa: N801 - reads like the papers' sgn
+    """The switching function: ``sign(x)`` (componentwise through :func:`sig`), replaced at
+    simulation time by ``sign``, ``sat(x/phi)`` or ``tanh(x/phi)``.
+
+    >>> sgn(sp.Integer(-3)), sgn(sp.Symbol("x")).diff(sp.Symbol("x"))
+    (-1, 0)
+    """
+
+    nargs = 1
+
+    @classmethod
+    def eval(cls, x: Any) -> Any:
+        if x.is_Number:
+            return sp.sign(x)
+        return None
+
+    def fdiff(self, argindex: int = 1) -> Any:
+        return sp.Integer(0)
+
+
+def sgn_of(x: Any) -> Any:
+    """:class:`sgn` of a scalar, or componentwise of a matrix (``v.sgn`` in a view).
+
+    >>> sgn_of(sp.Matrix(sp.symbols("a b"))).T
+    Matrix([[sgn(a), sgn(b)]])
+    """
+    if isinstance(x, sp.MatrixBase):
+        return x.applyfunc(sgn)
+    return sgn(x)
+
+
+def _vec(x: Any) -> sp.Matrix:
+    m = sp.Matrix(x)
+    return m.reshape(len(m), 1) if m.shape[1] != 1 else m
+
+
+def sig(x: Any, p: Any) -> sp.Matrix:
+    """``|x_k|^p sgn(x_k)`` componentwise (the finite-time power of sliding-mode designs).
+
+    >>> sig(sp.Matrix([sp.Symbol("a")]), sp.Rational(1, 2))
+    Matrix([[sqrt(Abs(a))*sgn(a)]])
+    """
+    return _vec(x).applyfunc(lambda e: sp.Abs(e) ** sp.sympify(p) * sgn(e))
+
+
+def hat(w: Any) -> sp.Matrix:
+    """The cross-product matrix ``w^`` (``hat(a) b = a x b``).
+
+    >>> hat([1, 2, 3]) * sp.Matrix([4, 5, 6]) == sp.Matrix([1, 2, 3]).cross(sp.Matrix([4, 5, 6]))
+    True
+    """
+    a = _vec(w)
+    return sp.Matrix([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+
+
+def vee(M: Any) -> sp.Matrix:
+    """The inverse of :func:`hat` on skew matrices (``(M[2,1], M[0,2], M[1,0])``).
+
+    >>> vee(hat([1, 2, 3])).T
+    Matrix([[1, 2, 3]])
+    """
+    A = sp.Matrix(M)
+    return sp.Matrix([A[2, 1], A[0, 2], A[1, 0]])
+
+
+def mrp_G(sigma: Any) -> sp.Matrix:
+    """``G(sigma)`` of ``sigma' = G(sigma) w`` (:func:`formsync_design.models.mrp.mrp_kinematics_matrix`)."""
+    from formsync_design.models.mrp import mrp_kinematics_matrix
+
+    return mrp_kinematics_matrix(_vec(sigma))
+
+
+def quat_E(q: Any, q0: Any) -> sp.Matrix:
+    """``E(q) = (q0 I + q^)/2`` of ``q' = E w`` (the toolbox's quaternion kinematics).
+
+    >>> quat_E([0, 0, 0], 1)
+    Matrix([
+    [1/2,   0,   0],
+    [  0, 1/2,   0],
+    [  0,   0, 1/2]])
+    """
+    return (q0 * sp.eye(3) + hat(q)) / 2
+
+
+def quat_to_R(q: Any, q0: Any) -> sp.Matrix:
+    """``R(q)`` (body to inertial) of a unit quaternion, ``(q0^2 - |q|^2) I + 2 q q^T + 2 q0 q^``."""
+    v = _vec(q)
+    return (q0**2 - (v.T * v)[0, 0]) * sp.eye(3) + 2 * v * v.T + 2 * q0 * hat(v)
+
+
+@dataclass(frozen=True)
+class AgentDeclarations(Declarations):
+    """An agent design's declarations: :class:`Declarations` plus controller states, the
+    leader flag and the measured quantities.
+
+    >>> AgentDeclarations(representation="so3").states, AgentDeclarations().measured[:2]
+    ((), ('attitude', 'rate'))
+    """
+
+    states: tuple[tuple[str, int], ...] = ()
+    leader: bool = False
+    measured: tuple[str, ...] = QUANTITIES
+
+    @property
+    def state_size(self) -> int:
+        """Controller-state entries per spacecraft."""
+        return sum(k for _, k in self.states)
+
+    def to_dict(self) -> dict[str, Any]:
+        out = super().to_dict()
+        out.update(form="agent", states={n: k for n, k in self.states}, leader=self.leader,
+                   measured=list(self.measured))
+        return out
+
+
+def _gain_values(decl: Declarations, roles: tuple[GainRole, ...]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for g in decl.gains:
+        if g.role not in roles:
+            continue
+        if g.kind == GainKind.DIAG:
+            out[g.name] = sp.diag(*sp.symbols(f"{g.name}_1:4", positive=True))
+        else:
+            out[g.name] = g.symbol
+    return out
+
+
+class AttitudeSymbols:
+    """One spacecraft's (or the reference's) symbolic state in a representation.
+
+    Attributes: ``q`` (3x1), ``q0`` (quaternion); ``sigma`` (MRP); ``R`` (SO(3)); ``w``
+    (body rate); ``z`` (controller states, a dict); ``wdot`` (reference only).
+
+    >>> a = AttitudeSymbols("so3", "n1")
+    >>> a.R[0, 1], a.w[2]
+    (R_n1_12, w_n1_3)
+    """
+
+    def __init__(self, representation: str, tag: str = "", states: tuple[tuple[str, int], ...] = (),
+                 reference: bool = False) -> None:
+        sfx = f"_{tag}" if tag else ""
+        self.representation = representation
+        self.tag = tag
+        if representation == "quaternion":
+            self.q = sp.Matrix(sp.symbols(f"q{sfx}_1:4", real=True))
+            self.q0 = sp.Symbol(f"q0{sfx}", real=True)
+        elif representation == "mrp":
+            self.sigma = sp.Matrix(sp.symbols(f"sigma{sfx}_1:4", real=True))
+        elif representation == "so3":
+            self.R = sp.Matrix(3, 3, lambda i, j: sp.Symbol(f"R{sfx}_{i + 1}{j + 1}", real=True))
+        else:
+            raise DerivationError(f"expected a representation in {list(AGENT_REPRESENTATIONS)}, "
+                                  f"received {representation!r}")
+        self.w = sp.Matrix(sp.symbols(f"w{sfx}_1:4", real=True))
+        self.z = {n: sp.Matrix(sp.symbols(f"{n}{sfx}_1:{k + 1}", real=True)) for n, k in states}
+        if reference:
+            self.wdot = sp.Matrix(sp.symbols(f"wdot{sfx}_1:4", real=True))
+
+    def attitude_symbols(self) -> list[sp.Symbol]:
+        """The attitude's symbols in a fixed order (the kernel binds them in this order)."""
+        if self.representation == "quaternion":
+            return [*self.q, self.q0]
+        if self.representation == "mrp":
+            return list(self.sigma)
+        return list(self.R.T)  # column-major, like CasADi
+
+    def symbols(self) -> dict[str, set[Any]]:
+        """Symbols by quantity class: ``attitude``, ``rate``, ``states``, ``wdot``."""
+        out = {"attitude": set(self.attitude_symbols()), "rate": set(self.w),
+               "states": {s for m in self.z.values() for s in m}}
+        if hasattr(self, "wdot"):
+            out["wdot"] = set(self.wdot)
+        return out
+
+
+class NeighbourView(AttitudeSymbols):
+    """An in-neighbour ``j`` of spacecraft ``i``: its state and the weight ``a`` (``a_ij``)."""
+
+    def __init__(self, representation: str, k: int, states: tuple[tuple[str, int], ...]) -> None:
+        super().__init__(representation, f"n{k}", states)
+        self.a = sp.Symbol(f"a_{k}", positive=True)
+
+
+class AgentView:
+    """What an agent design's functions see for spacecraft ``i`` with ``m`` in-neighbours.
+
+    Own state: the representation's attitude (``q``/``q0``, ``sigma`` or ``R``), ``w``,
+    ``J``, ``z``; ``nbrs`` (``m`` :class:`NeighbourView`, each with ``a`` and its state);
+    with ``LEADER``: ``b`` and ``ref``; ``held`` (own last broadcast, for ``event``);
+    ``t``; one attribute per declared gain; the helpers ``sgn``, ``sig``, ``hat``, ``vee``,
+    ``G`` (MRP), ``E`` (quaternion).
+
+    >>> v = AgentView(AgentDeclarations(representation="mrp", leader=True), 2)
+    >>> len(v.nbrs), v.sigma[0], v.ref.sigma[0], v.b
+    (2, sigma_1, sigma_ref_1, b)
+    """
+
+    def __init__(self, decl: AgentDeclarations, m: int, *, multipliers: bool = False) -> None:
+        rep = decl.representation
+        self.decl = decl
+        self.m = m
+        self.representation = rep
+        self.own = AttitudeSymbols(rep, "", decl.states)
+        for name in ("q", "q0", "sigma", "R"):
+            if hasattr(self.own, name):
+                setattr(self, name, getattr(self.own, name))
+        self.w = self.own.w
+        self.z = self.own.z
+        self.J = sp.Matrix(3, 3, lambda i, j: sp.Symbol(f"J_{min(i, j) + 1}{max(i, j) + 1}",
+                                                         real=True))
+        self.t = sp.Symbol("t", real=True)
+        self.nbrs = [NeighbourView(rep, k, decl.states) for k in range(1, m + 1)]
+        self.held = AttitudeSymbols(rep, "held")
+        if decl.leader:
+            self.b = sp.Symbol("b", nonnegative=True)
+            self.ref = AttitudeSymbols(rep, "ref", reference=True)
+        roles = (GainRole.CONTROLLER, GainRole.MULTIPLIER) if multipliers else (GainRole.CONTROLLER,)
+        self.gains = _gain_values(decl, roles)
+        for k, val in self.gains.items():
+            setattr(self, k, val)
+
+    # helpers (also importable from this module)
+    sgn = staticmethod(sgn_of)
+    sig = staticmethod(sig)
+    hat = staticmethod(hat)
+    vee = staticmethod(vee)
+    G = staticmethod(mrp_G)
+    E = staticmethod(quat_E)
+
+    def attributes(self) -> str:
+        """The names this view provides, for messages."""
+        own = {"quaternion": ["q", "q0"], "mrp": ["sigma"], "so3": ["R"]}[self.representation]
+        extra = ["b", "ref"] if self.decl.leader else []
+        return ", ".join([*own, "w", "J", "z", "t", "nbrs", "held", *extra, *self.gains,
+                          "sgn", "sig", "hat", "vee", "G", "E"])
+
+    def symbols_by_class(self) -> dict[str, set[Any]]:
+        """Every symbol the view provides, by :data:`QUANTITIES` class (plus ``gains``,
+        ``inertia``, ``weights``, ``held``, ``states``)."""
+        own = self.own.symbols()
+        out: dict[str, set[Any]] = {
+            "attitude": own["attitude"], "rate": own["rate"], "states": own["states"],
+            "neighbour-attitude": set(), "neighbour-rate": set(), "neighbour-states": set(),
+            "reference": set(), "time": {self.t}, "inertia": set(self.J),
+            "weights": {n.a for n in self.nbrs},
+            "gains": {s for val in self.gains.values() for s in sp.Matrix([val]).free_symbols},
+        }
+        for n in self.nbrs:
+            s = n.symbols()
+            out["neighbour-attitude"] |= s["attitude"]
+            out["neighbour-rate"] |= s["rate"]
+            out["neighbour-states"] |= s["states"]
+        h = self.held.symbols()
+        out["held"] = h["attitude"] | h["rate"]
+        if self.decl.leader:
+            r = self.ref.symbols()
+            out["reference"] = r["attitude"] | r["rate"] | r["wdot"] | {self.b}
+        return out
+
+
+@dataclass(frozen=True)
+class AgentDesign:
+    """An agent design (a value, keyed by its content like :class:`~formsync_design.spec.loader.Spec`).
+
+    Attributes
+    ----------
+    name, title, path, source, key : str
+    decl : AgentDeclarations
+    functions : mapping
+        ``controller`` and the optional ``states``, ``event``, ``next_interval``, ``monitors``.
+    module : dict
+        The design file's namespace (other functions a design-specific stage uses, e.g. its
+        derivation), not part of the value's identity.
+
+    Examples
+    --------
+    >>> d = agent_design_from_functions(lambda v: -v.k * v.w, gains={"k": {}}, name="damper")
+    >>> isinstance(d, AgentDesign), d.form, d.has("states")
+    (True, 'agent', False)
+    """
+
+    name: str
+    title: str
+    path: str
+    key: str
+    source: str
+    decl: AgentDeclarations
+    functions: Mapping[str, Callable[[AgentView], Any]]
+    module: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    form = "agent"
+
+    @property
+    def controller(self) -> Callable[[AgentView], Any]:
+        return self.functions["controller"]
+
+    @property
+    def representation(self) -> str:
+        return self.decl.representation
+
+    @property
+    def gains(self) -> tuple[str, ...]:
+        """The box dimensions (controller gains, then multipliers)."""
+        return self.decl.family_gains
+
+    def has(self, function: str) -> bool:
+        return function in self.functions
+
+
+def _parse_agent_declarations(attrs: Mapping[str, Any], where: str) -> AgentDeclarations:
+    base = parse_declarations(attrs, where)
+    if base.representation not in AGENT_REPRESENTATIONS:
+        raise DerivationError(f"{where}: REPRESENTATION: expected one of "
+                              f"{list(AGENT_REPRESENTATIONS)} for an agent design, received "
+                              f"{base.representation!r}")
+    if base.switching is not None:
+        raise DerivationError(f"{where}: GAINS[{base.switching!r}].role: expected 'controller' or "
+                              "'multiplier' in an agent design (a switching gain is a controller "
+                              "gain there), received 'switching'")
+    raw = attrs.get("STATES", {})
+    if not isinstance(raw, Mapping):
+        raise DerivationError(f"{where}: STATES: expected a dict name -> size, received "
+                              f"{type(raw).__name__}")
+    states: list[tuple[str, int]] = []
+    taken = {g.name for g in base.gains} | {"q", "q0", "sigma", "R", "w", "J", "t", "b", "z"}
+    for n, k in raw.items():
+        if not isinstance(n, str) or not n.isidentifier() or n in taken or n.startswith("_"):
+            raise DerivationError(f"{where}: STATES: expected state names that are identifiers "
+                                  f"unlike the gains and the view's quantities, received {n!r}")
+        if not isinstance(k, int) or isinstance(k, bool) or not 1 <= k <= 12:
+            raise DerivationError(f"{where}: STATES[{n!r}]: expected a size 1..12, received {k!r}")
+        states.append((n, k))
+    leader = attrs.get("LEADER", False)
+    if not isinstance(leader, bool):
+        raise DerivationError(f"{where}: LEADER: expected True or False, received {leader!r}")
+    measured = attrs.get("MEASURED", QUANTITIES)
+    if isinstance(measured, str) or not all(m in QUANTITIES for m in measured):
+        raise DerivationError(f"{where}: MEASURED: expected quantities among {list(QUANTITIES)}, "
+                              f"received {measured!r}")
+    return AgentDeclarations(representation=base.representation, gains=base.gains,
+                             graphs=base.graphs, sampling=base.sampling, states=tuple(states),
+                             leader=leader, measured=tuple(measured))
+
+
+def _call(fn: str, f: Callable[[AgentView], Any], v: AgentView, where: str) -> Any:
+    try:
+        return f(v)
+    except DerivationError as e:
+        raise DerivationError(f"{where}: {fn}(view): {e}") from None
+    except AttributeError as e:
+        if getattr(e, "obj", None) is v and getattr(e, "name", None):
+            raise DerivationError(f"{where}: {fn}(view): expected an attribute of the view "
+                                  f"({v.attributes()}), received view.{e.name}") from None
+        raise DerivationError(f"{where}: {fn}(view): the function raised "
+                              f"{type(e).__name__}: {e}") from None
+    except Exception as e:  # a user's function: report, don't crash
+        msg = " ".join(str(e).split())
+        raise DerivationError(f"{where}: {fn}(view): the function raised "
+                              f"{type(e).__name__}: {msg}") from None
+
+
+def _check_symbols(fn: str, expr: Any, v: AgentView, where: str, allowed_extra: set[Any]) -> None:
+    cls = v.symbols_by_class()
+    always = cls["gains"] | cls["inertia"] | cls["weights"] | cls["states"] | allowed_extra
+    measured = set(v.decl.measured)
+    allowed = set(always)
+    for q in QUANTITIES:
+        if q in measured:
+            allowed |= cls[q]
+    free = set(sp.Matrix([expr]).free_symbols) if not isinstance(expr, sp.MatrixBase) \
+        else set(expr.free_symbols)
+    bad = free - allowed
+    if not bad:
+        return
+    provided = set().union(*cls.values())
+    unknown = sorted(str(s) for s in bad - provided)
+    if unknown:
+        raise DerivationError(f"{where}: {fn}(view): expected only the view's symbols "
+                              f"({v.attributes()}), received unknown symbols {unknown}")
+    used = sorted({q for q in QUANTITIES if cls[q] & bad})
+    raise DerivationError(f"{where}: {fn}(view): expected only the MEASURED quantities "
+                          f"{list(v.decl.measured)}, received a law that uses {used} "
+                          f"({', '.join(sorted(str(s) for s in bad)[:4])})")
+
+
+def _vector(fn: str, out: Any, size: int, where: str) -> sp.Matrix:
+    try:
+        M = sp.Matrix(out)
+    except Exception:  # noqa: BLE001 - report the type received
+        raise DerivationError(f"{where}: {fn}(view): expected an explicit {size}x1 SymPy Matrix, "
+                              f"received a {type(out).__name__}") from None
+    if M.shape != (size, 1) or any(isinstance(e, sp.MatrixExpr) for e in M):
+        raise DerivationError(f"{where}: {fn}(view): expected an explicit {size}x1 SymPy Matrix, "
+                              f"received shape {tuple(M.shape)}")
+    return M
+
+
+def _scalar(fn: str, out: Any, where: str) -> sp.Expr:
+    try:
+        e = sp.sympify(out)
+    except (sp.SympifyError, TypeError, ValueError):
+        raise DerivationError(f"{where}: {fn}(view): expected a scalar expression, received a "
+                              f"{type(out).__name__}") from None
+    if isinstance(e, sp.MatrixBase) and e.shape == (1, 1):
+        e = e[0, 0]
+    if not isinstance(e, sp.Expr):
+        raise DerivationError(f"{where}: {fn}(view): expected a scalar expression, received a "
+                              f"{type(out).__name__}")
+    return e
+
+
+def agent_expressions(design: AgentDesign, m: int, where: str | None = None) -> dict[str, Any]:
+    """Call every function of ``design`` on the view of a spacecraft with ``m`` in-neighbours.
+
+    Returns ``{"view": v, "u": 3x1, "states": {name: kx1}, "event": g, "next_interval": tau,
+    "monitors": {name: expr}}`` (absent keys: the design has no such function); validated
+    like at load (one-line :class:`DerivationError` naming the file and the function).
+
+    >>> d = agent_design_from_functions(lambda v: -v.k * v.w, name="damper", gains={"k": {}})
+    >>> agent_expressions(d, 0)["u"].T
+    Matrix([[-k*w_1, -k*w_2, -k*w_3]])
+    """
+    where = where or design.path
+    decl = design.decl
+    v = AgentView(decl, m)
+    out: dict[str, Any] = {"view": v}
+    out["u"] = _vector("controller", _call("controller", design.controller, v, where), 3, where)
+    _check_symbols("controller", out["u"], v, where, set())
+    if decl.states:
+        raw = _call("states", design.functions["states"], v, where)
+        if not isinstance(raw, Mapping) or set(raw) != {n for n, _ in decl.states}:
+            got = sorted(raw) if isinstance(raw, Mapping) else type(raw).__name__
+            raise DerivationError(f"{where}: states(view): expected a dict with the keys "
+                                  f"{[n for n, _ in decl.states]}, received {got}")
+        out["states"] = {n: _vector(f"states()[{n!r}]", raw[n], k, where) for n, k in decl.states}
+        for n, e in out["states"].items():
+            _check_symbols(f"states()[{n!r}]", e, v, where, set())
+    held = v.symbols_by_class()["held"]
+    if "event" in design.functions:
+        out["event"] = _scalar("event", _call("event", design.functions["event"], v, where), where)
+        _check_symbols("event", out["event"], v, where, held)
+    if "next_interval" in design.functions:
+        out["next_interval"] = _scalar(
+            "next_interval", _call("next_interval", design.functions["next_interval"], v, where),
+            where)
+        _check_symbols("next_interval", out["next_interval"], v, where, set())
+    if "monitors" in design.functions:
+        raw = _call("monitors", design.functions["monitors"], v, where)
+        if not isinstance(raw, Mapping) or not all(isinstance(k, str) for k in raw):
+            raise DerivationError(f"{where}: monitors(view): expected a dict name -> scalar, "
+                                  f"received {type(raw).__name__}")
+        out["monitors"] = {k: _scalar(f"monitors()[{k!r}]", e, where) for k, e in raw.items()}
+        for k, e in out["monitors"].items():
+            # a monitor observes the run: it may read any quantity of the view
+            cls = v.symbols_by_class()
+            allowed = set().union(*cls.values())
+            bad = sorted(str(s) for s in e.free_symbols - allowed)
+            if bad:
+                raise DerivationError(f"{where}: monitors()[{k!r}]: expected only the view's "
+                                      f"symbols, received unknown symbols {bad}")
+    return out
+
+
+def _check_functions(attrs: Mapping[str, Any], decl: AgentDeclarations, where: str) -> dict:
+    fns: dict[str, Callable[[AgentView], Any]] = {}
+    for fn in _FUNCTIONS:
+        f = attrs.get(fn)
+        if f is None:
+            continue
+        if not callable(f):
+            raise DerivationError(f"{where}: expected {fn} to be a function {fn}(view), "
+                                  f"received a {type(f).__name__}")
+        fns[fn] = f
+    if "controller" not in fns:
+        raise DerivationError(f"{where}: expected a function controller(view), received none")
+    if decl.states and "states" not in fns:
+        raise DerivationError(f"{where}: expected a function states(view) for STATES "
+                              f"{[n for n, _ in decl.states]}, received none")
+    if not decl.states and "states" in fns:
+        raise DerivationError(f"{where}: expected STATES declared for the function states(view), "
+                              "received none")
+    need = {"event": "event", "self-triggered": "next_interval"}.get(decl.sampling)
+    if need is not None and need not in fns:
+        raise DerivationError(f"{where}: expected a function {need}(view) for SAMPLING "
+                              f"{decl.sampling!r}, received none")
+    for fn, rule in (("event", "event"), ("next_interval", "self-triggered")):
+        if fn in fns and decl.sampling != rule:
+            raise DerivationError(f"{where}: expected SAMPLING = {rule!r} with a function "
+                                  f"{fn}(view), received SAMPLING = {decl.sampling!r}")
+    if decl.states and decl.sampling != "continuous":
+        raise DerivationError(f"{where}: expected SAMPLING 'continuous' for a design with "
+                              f"controller STATES, received {decl.sampling!r}")
+    return fns
+
+
+def _validate(design: AgentDesign, where: str) -> str:
+    parts = []
+    for m in (0, 1, 2):
+        ex = agent_expressions(design, m, where)
+        parts.append(sp.srepr(ex["u"]))
+        for k in ("states", "event", "next_interval", "monitors"):
+            if k in ex:
+                parts.append(sp.srepr(ex[k]))
+    return "\n".join(parts)
+
+
+def agent_design_from_module(mod: ModuleType, where: str, key: str, stem: str) -> AgentDesign:
+    """The :class:`AgentDesign` of an executed design module (validated; see module docstring)."""
+    attrs = mod.__dict__
+    decl = _parse_agent_declarations(attrs, where)
+    fns = _check_functions(attrs, decl, where)
+    d = AgentDesign(name=str(attrs.get("NAME", stem)), title=str(attrs.get("TITLE", stem)),
+                    path=where, key=key, source=where, decl=decl,
+                    functions=MappingProxyType(fns), module=MappingProxyType(dict(attrs)))
+    _validate(d, where)
+    return d
+
+
+def agent_design_from_functions(controller: Callable[[AgentView], Any], *, name: str = "custom",
+                                title: str | None = None, **declarations: Any) -> AgentDesign:
+    """An agent design from Python callables (declarations by keyword: ``representation``,
+    ``gains``, ``graphs``, ``sampling``, ``states``, ``leader``, ``measured`` and the
+    functions ``states_fn``, ``event``, ``next_interval``, ``monitors``, ``conditions``).
+
+    The key digests the declarations and the SymPy expressions the functions return.
+
+    >>> d = agent_design_from_functions(lambda v: -v.k * v.w, gains={"k": {}}, name="a")
+    >>> d.key == agent_design_from_functions(lambda v: -v.k * v.w, gains={"k": {}}, name="a").key
+    True
+    """
+    where = "<python>"
+    attrs: dict[str, Any] = {"controller": controller}
+    for k in ("representation", "gains", "graphs", "sampling", "states", "leader", "measured"):
+        if k in declarations:
+            attrs[k.upper()] = declarations.pop(k)
+    if "states_fn" in declarations:
+        attrs["states"] = declarations.pop("states_fn")
+    for fn in ("event", "next_interval", "monitors", "conditions"):
+        if fn in declarations:
+            attrs[fn] = declarations.pop(fn)
+    if declarations:
+        raise DerivationError(f"{where}: expected declarations among representation, gains, "
+                              "graphs, sampling, states, leader, measured, states_fn, event, "
+                              f"next_interval, monitors, conditions; received "
+                              f"{sorted(declarations)}")
+    decl = _parse_agent_declarations(attrs, where)
+    fns = _check_functions(attrs, decl, where)
+    extra = MappingProxyType({k: v for k, v in attrs.items() if k == "conditions"})
+    d = AgentDesign(name=name, title=title or name, path=where, key="", source=where, decl=decl,
+                    functions=MappingProxyType(fns), module=extra)
+    text = _validate(d, where)
+    tokens = [text]
+    if "conditions" in extra:
+        import inspect
+
+        try:
+            tokens.append(inspect.getsource(extra["conditions"]))
+        except (OSError, TypeError):
+            tokens.append(f"conditions@{id(extra['conditions'])}")
+    body = "\n".join(tokens)
+    h = hashlib.sha256(f"agent:{name}\n{decl.to_dict()!r}\n{body}".encode()).hexdigest()
+    return AgentDesign(name=d.name, title=d.title, path=where, key=h, source=where, decl=decl,
+                       functions=d.functions, module=extra)

@@ -1,0 +1,335 @@
+"""Case files of agent designs (TOML, read with :func:`formsync_design.tomlio.load_toml`).
+
+One case layout for every agent design (:mod:`formsync_design.spec.agent`); a paper's case
+kind (``[case] kind``, :mod:`formsync_design.verify.kinds`) reads it with
+:func:`load_agent_case` and adds its own ``[claims]``::
+
+    [case]          name, title, source, kind, design = "NAME" | "file.py" (required),
+                    assumptions = ["...", ...],
+                    graph = "ring:5" | "edges.txt" (relative to the case file) (or [graph])
+    [graph]         arcs = [[i, j, a_ij], ...] (1-based: i receives from j; j = 0 pins i to
+                    the leader with gain a_ij), n (optional), pinning = [b_1, ..., b_N]
+    [gains]         the design's controller gains (a diagonal gain: one number or [x, y, z])
+    [reference]     attitude = [q1, q2, q3, q0] (or euler_deg), rate = ["expr in t", ...]
+                    (rad/s, body frame); required exactly when the design declares LEADER
+    [orbit]         altitude_km, mu, earth_radius_km   (for the disturbance models)
+    [disturbance]   as in formation cases (model = "paper" | "none" | "constant" | ...)
+    [simulation]    tf, output_step, step, integrator, switch, boundary_layer, torque_limit
+                    (N m or "unlimited"), angle_tol (deg), rate_tol (rad/s), rtol, atol,
+                    period (s, periodic sampling)
+    [[spacecraft]]  inertia = 3x3, rate = [3], and one of q = [q1, q2, q3] (q0 > 0),
+                    quaternion = [q1, q2, q3, q0] (unit, any sign), euler_deg = [phi, theta,
+                    psi] (3-2-1: R = Rz(psi) Ry(theta) Rx(phi), body to inertial);
+                    optional states = {name = [...]} (initial controller states)
+    [claims]        free-form (kept for the case kind's verifier)
+
+Bad input is a one-line :class:`~formsync_design.errors.InputError` naming the table and key.
+
+>>> import tempfile, pathlib
+>>> p = pathlib.Path(tempfile.mkdtemp()) / "c.toml"
+>>> _ = p.write_text('''
+... [case]
+... design = "damper.py"
+... graph = "path:2"
+... [gains]
+... k = 1.0
+... [[spacecraft]]
+... inertia = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
+... rate = [0.1, 0, 0]
+... euler_deg = [0, 0, 90]
+... [[spacecraft]]
+... inertia = [[2, 0, 0], [0, 2, 0], [0, 0, 2]]
+... rate = [0, 0, 0]
+... q = [0, 0, 0]
+... ''')
+>>> _ = (p.parent / "damper.py").write_text(
+...     'FORM = "agent"\\nGAINS = {"k": {}}\\ndef controller(v):\\n    return -v.k * v.w\\n')
+>>> c = load_agent_case(p)
+>>> c.n, c.graph().name, [round(float(x), 6) for x in c.attitudes[0]]
+(2, 'path:2', [0.0, 0.0, 0.707107, 0.707107])
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from formsync_design.errors import InputError
+from formsync_design.models.disturbances import Orbit
+from formsync_design.sim.agents import AgentFormation, AgentOptions, Reference
+from formsync_design.sim.formation import Gains
+from formsync_design.tomlio import load_toml
+from formsync_design.verify.case import (
+    case_matrix,
+    case_number,
+    case_numbers,
+    case_orbit,
+    make_disturbance,
+)
+
+__all__ = ["AgentCase", "load_agent_case", "parse_agent_case", "euler321_to_quat"]
+
+_TABLES: dict[str, set[str] | None] = {
+    "case": {"name", "title", "source", "kind", "design", "assumptions", "graph"},
+    "graph": {"arcs", "n", "pinning"},
+    "gains": None,
+    "reference": {"attitude", "euler_deg", "rate"},
+    "orbit": {"altitude_km", "mu", "earth_radius_km"},
+    "disturbance": {"model", "signs", "vector", "amplitude", "frequency", "offset"},
+    "simulation": {"tf", "output_step", "step", "integrator", "switch", "boundary_layer",
+                   "torque_limit", "angle_tol", "rate_tol", "rtol", "atol", "period"},
+    "spacecraft": {"inertia", "rate", "q", "quaternion", "euler_deg", "states", "name"},
+    "claims": None,
+}
+
+
+def euler321_to_quat(phi_deg: float, theta_deg: float, psi_deg: float) -> np.ndarray:
+    """``(q1, q2, q3, q0)`` of ``R = Rz(psi) Ry(theta) Rx(phi)`` (body to inertial; 3-2-1).
+
+    >>> [round(float(x), 6) for x in euler321_to_quat(0, 0, 90)]
+    [0.0, 0.0, 0.707107, 0.707107]
+    """
+    h = [math.radians(a) / 2 for a in (phi_deg, theta_deg, psi_deg)]
+    cr, sr = math.cos(h[0]), math.sin(h[0])
+    cp, sp_ = math.cos(h[1]), math.sin(h[1])
+    cy, sy = math.cos(h[2]), math.sin(h[2])
+    q0 = cr * cp * cy + sr * sp_ * sy
+    q1 = sr * cp * cy - cr * sp_ * sy
+    q2 = cr * sp_ * cy + sr * cp * sy
+    q3 = cr * cp * sy - sr * sp_ * cy
+    return np.array([q1, q2, q3, q0])
+
+
+@dataclass(frozen=True)
+class AgentCase:
+    """A validated agent case (see module docstring).
+
+    Attributes
+    ----------
+    name, title, source, path, kind : str
+    design : the loaded :class:`~formsync_design.spec.agent.AgentDesign`
+    design_ref : str - what ``[case] design`` named
+    graph_input : the graph specification (a string, or the ``[graph]`` table)
+    inertias (N, 3, 3); attitudes (N, 4); rates (N, 3); states : dict name -> (N, k)
+    gains : Gains; reference : Reference or None; orbit : Orbit; disturbance : dict
+    options : AgentOptions; assumptions : tuple of str; claims : dict
+    digest : sha256 of the file's bytes
+    """
+
+    name: str
+    title: str
+    source: str
+    path: str
+    kind: str
+    design: Any
+    design_ref: str
+    graph_input: Any
+    inertias: np.ndarray
+    attitudes: np.ndarray
+    rates: np.ndarray
+    states: dict[str, np.ndarray]
+    gains: Gains
+    reference: Reference | None
+    orbit: Orbit
+    disturbance: dict
+    options: AgentOptions
+    assumptions: tuple[str, ...] = ()
+    claims: dict = field(default_factory=dict)
+    digest: str = ""
+
+    @property
+    def n(self) -> int:
+        return int(self.inertias.shape[0])
+
+    def graph(self, spec: Any = None) -> Any:
+        """The case's digraph (or ``spec``: a graph spec, file, Graph or Digraph; size checked)."""
+        from formsync_design.graphs.digraph_io import digraph_from_edges, make_digraph
+
+        src = self.graph_input if spec is None else spec
+        if isinstance(src, dict):
+            arcs = src.get("arcs", [])
+            if not isinstance(arcs, list):
+                raise InputError(f"expected graph.arcs = [[i, j, a_ij], ...] in {self.path}, "
+                                 f"received {arcs!r}")
+            g = digraph_from_edges([tuple(a) for a in arcs], n=src.get("n", self.n),
+                                   pinning=src.get("pinning"), name=f"{self.name}-graph")
+        else:
+            g = make_digraph(src)
+        if g.n != self.n:
+            raise InputError(f"expected a graph of {self.n} spacecraft (the case has {self.n}), "
+                             f"received {g.name!r} with {g.n}")
+        return g
+
+    def formation(self, graph: Any = None, gains: Gains | None = None,
+                  disturbance: str | None = None) -> AgentFormation:
+        """The :class:`AgentFormation` (optionally another graph, gains or disturbance model)."""
+        d = dict(self.disturbance) if disturbance is None else {"model": disturbance}
+        return AgentFormation(self.graph(graph), self.inertias, self.attitudes, self.rates,
+                              gains if gains is not None else self.gains,
+                              make_disturbance(d, self.inertias, self.orbit), self.reference,
+                              dict(self.states))
+
+
+def load_agent_case(path: str | Path, design: Any = None) -> AgentCase:
+    """Load and validate an agent case file (``design``: overrides ``[case] design``)."""
+    p = Path(path)
+    data = load_toml(p, "case TOML file")
+    case = parse_agent_case(data, str(p), design=design)
+    return replace(case, digest=hashlib.sha256(p.read_bytes()).hexdigest())
+
+
+def _resolve_design(ref: str, path: str) -> Any:
+    from formsync_design.resources import design_names
+    from formsync_design.spec.loader import load_design
+
+    if ref.isidentifier() and ref in design_names():
+        d = load_design(ref)
+    else:
+        f = Path(ref) if Path(ref).is_absolute() else Path(path).parent / ref
+        d = load_design(f)
+    if getattr(d, "form", None) != "agent":
+        raise InputError(f"expected an agent design (FORM = 'agent') in [case] design of {path}, "
+                         f"received the Lagrangian design {d.name!r}")
+    return d
+
+
+def parse_agent_case(data: dict, path: str = "<memory>", design: Any = None) -> AgentCase:
+    """Validate a parsed agent case document (module docstring)."""
+    for k, v in data.items():
+        if k not in _TABLES:
+            raise InputError(f"expected tables {sorted(_TABLES)} in {path}, received unknown [{k}]")
+        allowed = _TABLES[k]
+        if allowed is None:
+            continue
+        rows = v if k == "spacecraft" else [v]
+        if k == "spacecraft" and not isinstance(v, list):
+            raise InputError(f"expected [[spacecraft]] tables in {path}, received {type(v).__name__}")
+        for row in rows:
+            if not isinstance(row, dict):
+                raise InputError(f"expected a table [{k}] in {path}, received {row!r}")
+            extra = set(row) - allowed
+            if extra:
+                raise InputError(f"expected keys {sorted(allowed)} in [{k}], received unknown "
+                                 f"{sorted(extra)}")
+    meta = data.get("case", {})
+    if design is None:
+        ref = meta.get("design")
+        if not isinstance(ref, str) or not ref:
+            raise InputError(f"expected [case] design = \"NAME\" or a design file in {path}, "
+                             f"received {ref!r}")
+        d = _resolve_design(ref, path)
+    else:
+        from formsync_design.spec.loader import load_design
+
+        d = load_design(design)
+        ref = getattr(d, "path", str(design))
+        if getattr(d, "form", None) != "agent":
+            raise InputError(f"expected an agent design, received the Lagrangian design {d.name!r}")
+    sc = data.get("spacecraft")
+    if not sc or len(sc) < 2:
+        raise InputError(f"expected at least two [[spacecraft]] tables in {path}, received "
+                         f"{len(sc) if sc else 0}")
+    J, A, W = [], [], []
+    state_rows: dict[str, list[Any]] = {name: [] for name, _ in d.decl.states}
+    for i, s in enumerate(sc, start=1):
+        for key in ("inertia", "rate"):
+            if key not in s:
+                raise InputError(f"expected spacecraft {i} to have '{key}', received keys {sorted(s)}")
+        J.append(case_matrix(s["inertia"], f"spacecraft {i} inertia"))
+        W.append(case_numbers(s["rate"], f"spacecraft {i} rate", 3))
+        A.append(_attitude(s, f"spacecraft {i}"))
+        st = s.get("states", {})
+        if not isinstance(st, dict) or set(st) - set(state_rows):
+            raise InputError(f"expected spacecraft {i} states among {sorted(state_rows)}, "
+                             f"received {st!r}")
+        for name, k in d.decl.states:
+            state_rows[name].append(case_numbers(st[name], f"spacecraft {i} states.{name}", k)
+                                    if name in st else [0.0] * k)
+    g = data.get("gains", {})
+    ctrl = d.decl.controller_gains
+    if not isinstance(g, dict) or set(g) != set(ctrl):
+        got = sorted(g) if isinstance(g, dict) else repr(g)
+        raise InputError(f"expected [gains] with exactly {list(ctrl)} (the gains of design "
+                         f"{d.name}) in {path}, received {got}")
+    gvals: dict[str, Any] = {}
+    for k in ctrl:
+        diag = str(d.decl.gain(k).kind) == "diag"
+        gvals[k] = (tuple(case_numbers(g[k], f"gains.{k}", 3)) if diag and isinstance(g[k], list)
+                    else case_number(g[k], f"gains.{k}"))
+    ref_t = data.get("reference")
+    if d.decl.leader and ref_t is None:
+        raise InputError(f"expected a [reference] table for design {d.name} (it declares a "
+                         f"leader) in {path}, received none")
+    if ref_t is not None and not d.decl.leader:
+        raise InputError(f"expected no [reference] for design {d.name} (no leader) in {path}, "
+                         "received one")
+    reference = None
+    if ref_t is not None:
+        att = _attitude(ref_t, "reference", default=[0.0, 0.0, 0.0, 1.0])
+        rate = ref_t.get("rate", ["0", "0", "0"])
+        if not (isinstance(rate, list) and len(rate) == 3
+                and all(isinstance(r, (str, int, float)) and not isinstance(r, bool) for r in rate)):
+            raise InputError(f"expected reference.rate = three expressions in t, received {rate!r}")
+        reference = Reference(tuple(att), tuple(str(r) for r in rate))  # type: ignore[arg-type]
+    sim = dict(data.get("simulation", {}))
+    kw: dict[str, Any] = {}
+    for k, v in sim.items():
+        name = "phi" if k == "boundary_layer" else k
+        if k in ("switch", "integrator"):
+            if not isinstance(v, str):
+                raise InputError(f"expected a string for simulation.{k}, received {v!r}")
+            kw[name] = v
+        elif k == "torque_limit" and v in ("none", "unlimited"):
+            kw[name] = None
+        else:
+            kw[name] = case_number(v, f"simulation.{k}")
+    options = AgentOptions(**kw)
+    assumptions = meta.get("assumptions", [])
+    if not (isinstance(assumptions, list) and all(isinstance(a, str) for a in assumptions)):
+        raise InputError("expected case.assumptions to be a list of strings")
+    if "graph" in data and "graph" in meta:
+        raise InputError(f"expected one of [case] graph or a [graph] table in {path}, received both")
+    graph_input: Any = data.get("graph", meta.get("graph", f"ring:{len(sc)}"))
+    if isinstance(graph_input, str) and (Path(path).parent / graph_input).is_file():
+        graph_input = str(Path(path).parent / graph_input)
+    case = AgentCase(
+        name=str(meta.get("name", Path(path).stem)), title=str(meta.get("title", "")),
+        source=str(meta.get("source", "")), path=path, kind=str(meta.get("kind", "agents")),
+        design=d, design_ref=str(ref), graph_input=graph_input, inertias=np.array(J),
+        attitudes=np.array(A), rates=np.array(W),
+        states={k: np.array(v) for k, v in state_rows.items()}, gains=Gains(gvals),
+        reference=reference, orbit=case_orbit(data.get("orbit", {})),
+        disturbance=dict(data.get("disturbance", {"model": "none"})), options=options,
+        assumptions=tuple(assumptions), claims=dict(data.get("claims", {})),
+    )
+    case.formation()  # full validation (graph size, inertias, reference vs design, gains)
+    return case
+
+
+def _attitude(s: dict, what: str, default: list[float] | None = None) -> list[float]:
+    keys = [k for k in ("q", "quaternion", "euler_deg", "attitude") if k in s]
+    if not keys and default is not None:
+        return default
+    if len(keys) != 1:
+        raise InputError(f"expected exactly one of q, quaternion, euler_deg for {what}, "
+                         f"received {sorted(s)}")
+    k = keys[0]
+    if k == "q":
+        q = np.array(case_numbers(s["q"], f"{what} q", 3))
+        r = 1 - float(q @ q)
+        if r <= 0:
+            raise InputError(f"expected |q| < 1 for {what} (q0 = +sqrt(1 - |q|^2)), received "
+                             f"|q| = {math.sqrt(float(q @ q)):.6g}")
+        return [*q.tolist(), math.sqrt(r)]
+    if k == "euler_deg":
+        return euler321_to_quat(*case_numbers(s[k], f"{what} euler_deg", 3)).tolist()
+    qb = np.array(case_numbers(s[k], f"{what} {k}", 4))
+    if abs(float(np.linalg.norm(qb)) - 1) > 1e-9:
+        raise InputError(f"expected a unit quaternion for {what}, received norm "
+                         f"{np.linalg.norm(qb):.12g}")
+    return qb.tolist()
