@@ -411,8 +411,12 @@ def certify_design(conds: Any, box: GainBox, spec: Any, *, margin: Any = 0, kv: 
 
 
 def run(args: argparse.Namespace) -> int:
+    from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_certify
     from formsync_design.spec.loader import load_spec
 
+    agent = agent_design_or_none(args.spec)
+    if agent is not None:
+        return run_agent_certify(args, agent)
     spec = load_spec(args.spec)
     box = gain_box_from_args(args, spec)
     margin = parse_margin(args.margin)

@@ -92,11 +92,15 @@ def numeric_conditions(conds: Any, point: tuple[float, ...]) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
+    from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_derive
     from formsync_design.cli.options import design_graph
     from formsync_design.derive.conditions import derive_conditions
     from formsync_design.derive.report import DEFAULT_GRAPH, write_derivation_report
     from formsync_design.spec.loader import load_spec
 
+    agent = agent_design_or_none(args.spec)
+    if agent is not None:
+        return run_agent_derive(args, agent)
     spec = load_spec(args.spec)
     graph, theorem = design_graph(args.graph or DEFAULT_GRAPH, spec, args.allow_outside_theorem)
     if not theorem.inside:

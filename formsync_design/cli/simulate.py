@@ -37,6 +37,8 @@ examples:
   formsync simulate --design my_design.py             # another controller (own cached kernel)
   formsync simulate --design pd_consensus --gain k_p=0.5 --gain k_d=1.5   # the PD baseline
   formsync simulate --case pd_consensus --trigger event:0.05:1e-5   # event-triggered broadcasts
+  formsync simulate --design my_agent_design.py --case my_agent_case.toml   # an agent design
+                                   # (FORM = "agent": SO(3)/MRP/quaternion laws on digraphs)
 
 outputs (with --out DIR): summary.json, trajectory.npz (t, x, u, omega_m, q_m, names)
 and/or trajectory.csv, and figures omega_m, q_m, torques_1-4, torques_5-8 (.png or .svg).
@@ -94,6 +96,10 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--atol", default=None, help="cvodes absolute tolerance (default 1e-10)")
     p.add_argument("--q-tol", default=None, help="convergence threshold on Q_m (default 1e-4)")
     p.add_argument("--omega-tol", default=None, help="convergence threshold on Omega_m in rad/s (default 1e-5)")
+    p.add_argument("--angle-tol", default=None, metavar="DEG",
+                   help="agent designs: convergence threshold on the attitude disagreement (deg)")
+    p.add_argument("--rate-tol", default=None, metavar="RAD_S",
+                   help="agent designs: convergence threshold on the rate error (rad/s)")
     p.add_argument("--out", metavar="DIR", default=None, help="write summary, trajectories and figures here")
     p.add_argument("--export", choices=("npz", "csv", "both", "none"), default="npz",
                    help="trajectory file format under --out (default npz)")
@@ -344,6 +350,11 @@ def _run_sampled(args: argparse.Namespace, case: Any, graph: Any, f: Any, opt: A
 
 
 def run(args: argparse.Namespace) -> int:
+    from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_simulate
+
+    agent = agent_design_or_none(args.spec, args.case)
+    if agent is not None:
+        return run_agent_simulate(args, agent)
     out_dir = check_out_dir(args.out)
     case = load_case(args.case)
     spec = resolve_cli_spec(args, case)

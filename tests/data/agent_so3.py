@@ -24,3 +24,10 @@ def monitors(v):
     if not v.nbrs:
         return {"trace": sp.Integer(3)}
     return {"trace": (v.nbrs[0].R.T * v.R).trace()}
+
+
+def conditions(c):
+    """A plumbing test (not a derivation): both gains positive, and k_w^2 > k_R / 2."""
+    k_R, k_w = c.gains["k_R"], c.gains["k_w"]
+    return [("gains", sp.diag(k_R, k_w), ("e_R", "w")),
+            ("damping", sp.Matrix([[k_w, k_R / 2], [k_R / 2, k_w]]), ("e_R", "w"))]

@@ -1,0 +1,367 @@
+"""The agent-design paths of ``formsync simulate``, ``certify`` and ``derive``.
+
+Each of those subcommands hands an agent design (``FORM = "agent"``,
+:mod:`formsync_design.spec.agent`) to the function here, after its own parser ran: the
+options keep their meaning (``--graph``, ``--gain NAME=X|LO:HI``, ``--tf``, ``--switch``,
+``--out``, ``--format json``, ``--allow-outside-theorem``, ...), and those that only make
+sense for the Lagrangian designs (``--ko/--kq/--beta``, ``--trigger``, ``--certificate``,
+``--conditions``, the ``K_v`` check) are refused with one line.
+
+The case of a run: ``--case FILE`` (an agent case, :mod:`formsync_design.verify.agentcase`),
+else the shipped case whose ``[case] design`` names the design, else the spacecraft,
+disturbance and graph of the paper's case (``verification/liang2016.toml``) with the gains
+from ``--gain`` (nothing is guessed: every controller gain needs a value).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from formsync_design.cli.options import EXIT_NEGATIVE, EXIT_OK, emit_json, parse_gain_assignments
+from formsync_design.errors import InputError
+
+__all__ = [
+    "agent_design_or_none",
+    "agent_case_for",
+    "run_agent_simulate",
+    "run_agent_certify",
+    "run_agent_derive",
+]
+
+
+def agent_design_or_none(design_arg: Any, case_arg: Any = None) -> Any:
+    """The agent design a command is asked for (``--design``, else the ``--case`` file's
+    ``[case] design``), or ``None`` for a Lagrangian design (the command's own path)."""
+    from formsync_design.spec.loader import load_design
+
+    if design_arg is not None:
+        d = load_design(design_arg)
+        return d if getattr(d, "form", None) == "agent" else None
+    if case_arg is None:
+        return None
+    ref = _case_design_ref(case_arg)
+    if ref is None:
+        return None
+    path = _case_path(case_arg)
+    from formsync_design.resources import design_names
+
+    target = ref if ref.isidentifier() and ref in design_names() else (
+        ref if Path(ref).is_absolute() else str(path.parent / ref))
+    try:
+        d = load_design(target)
+    except InputError:
+        return None  # the command's own case loader reports a bad reference
+    return d if getattr(d, "form", None) == "agent" else None
+
+
+def _case_path(case_arg: Any) -> Path:
+    p = Path(str(case_arg))
+    if p.suffix != ".toml" and not p.exists():
+        from formsync_design.resources import case_file, case_names
+
+        if str(case_arg) in case_names():
+            return case_file(str(case_arg))
+    return p
+
+
+def _case_design_ref(case_arg: Any) -> str | None:
+    from formsync_design.tomlio import load_toml
+
+    path = _case_path(case_arg)
+    if not path.is_file():
+        return None
+    meta = load_toml(path, "case TOML file").get("case", {})
+    ref = meta.get("design", meta.get("spec")) if isinstance(meta, dict) else None
+    return ref if isinstance(ref, str) else None
+
+
+def agent_case_for(design: Any, case_arg: Any, gains: Any) -> Any:
+    """The :class:`~formsync_design.verify.agentcase.AgentCase` of a run (module docstring),
+    with ``--gain`` values over the case's."""
+    from dataclasses import replace
+
+    from formsync_design.gains import parse_gain_range
+    from formsync_design.sim.formation import Gains
+    from formsync_design.verify.agentcase import load_agent_case, parse_agent_case
+
+    if case_arg is not None:
+        case = load_agent_case(_case_path(case_arg), design=design)
+    else:
+        shipped = _shipped_case(design)
+        if shipped is not None:
+            case = load_agent_case(shipped, design=design)
+        else:
+            case = _paper_spacecraft_case(design, gains, parse_agent_case)
+    named = parse_gain_assignments(gains)
+    ctrl = design.decl.controller_gains
+    unknown = [n for n in named if n not in ctrl]
+    if unknown:
+        raise InputError(f"expected --gain for the controller gains of design {design.name} "
+                         f"({', '.join(ctrl)}), received {unknown}")
+    if named:
+        vals = case.gains.as_dict()
+        for n, text in named.items():
+            r = parse_gain_range(text, n)
+            if not r.is_point:
+                raise InputError(f"expected a single value for --gain {n}= in a simulation, "
+                                 f"received the range {text!r}")
+            vals[n] = float(r.lo)
+        case = replace(case, gains=Gains(vals))
+    return case
+
+
+def _shipped_case(design: Any) -> Path | None:
+    from formsync_design.resources import case_file, case_names
+
+    for name in case_names():
+        ref = _case_design_ref(case_file(name))
+        if ref == design.name or (ref is not None and Path(ref).stem == design.name):
+            return case_file(name)
+    return None
+
+
+def _paper_spacecraft_case(design: Any, gains: Any, parse: Any) -> Any:
+    from formsync_design.gains import parse_number
+    from formsync_design.verify.case import load_case
+
+    if design.decl.leader:
+        raise InputError(f"expected --case FILE with a [reference] for design {design.name} (it "
+                         "declares a leader; no shipped case names it), received none")
+    named = parse_gain_assignments(gains)
+    missing = [n for n in design.decl.controller_gains if n not in named]
+    if missing:
+        raise InputError(f"expected --gain for every controller gain of design {design.name} "
+                         f"without a case (missing {missing}), or --case FILE")
+    paper = load_case()
+    doc = {
+        "case": {"name": f"{design.name}-on-{paper.name}", "graph": paper.graph_spec,
+                 "assumptions": [f"spacecraft, disturbance and graph of the {paper.name} case"]},
+        "gains": {n: float(parse_number(str(named[n]), n)) for n in design.decl.controller_gains},
+        "disturbance": dict(paper.disturbance),
+        "orbit": {"altitude_km": paper.orbit.altitude / 1e3},
+        "spacecraft": [{"inertia": paper.inertias[i].tolist(), "rate": paper.rates[i].tolist(),
+                        "quaternion": paper.attitudes[i].tolist()} for i in range(paper.n)],
+    }
+    return parse(doc, paper.path, design=design)
+
+
+def _refuse(args: argparse.Namespace, names: tuple[str, ...], design: Any) -> None:
+    for name in names:
+        v = getattr(args, name, None)
+        if v not in (None, False, [], "paper", "derived", "npz", "png"):
+            flag = "--" + name.replace("_", "-")
+            raise InputError(f"expected no {flag} for the agent design {design.name} (it applies "
+                             f"to the Lagrangian designs), received {flag} {v}")
+
+
+def _options(args: argparse.Namespace, base: Any) -> Any:
+    from dataclasses import replace
+
+    from formsync_design.gains import parse_number
+
+    kw: dict[str, Any] = {}
+    for attr, name in (("tf", "tf"), ("boundary_layer", "phi"), ("step", "step"),
+                       ("output_step", "output_step"), ("rtol", "rtol"), ("atol", "atol"),
+                       ("angle_tol", "angle_tol"), ("rate_tol", "rate_tol")):
+        v = getattr(args, attr, None)
+        if v is not None:
+            x = float(parse_number(v, "--" + attr.replace("_", "-")))
+            kw[name] = x
+    tl = getattr(args, "torque_limit", None)
+    if tl is not None:
+        kw["torque_limit"] = None if str(tl).lower() == "none" else float(parse_number(tl, "--torque-limit"))
+    sp_ = getattr(args, "sample_period", None)
+    if sp_ is not None:
+        kw["period"] = None if str(sp_).lower() == "none" else float(parse_number(sp_, "--sample-period"))
+    if getattr(args, "switch", None) is not None:
+        kw["switch"] = args.switch
+    if getattr(args, "integrator", None) is not None:
+        kw["integrator"] = args.integrator
+    return replace(base, **kw)
+
+
+def run_agent_simulate(args: argparse.Namespace, design: Any) -> int:
+    """``formsync simulate`` of an agent design (module docstring)."""
+    from formsync_design.cli.simulate import check_out_dir
+    from formsync_design.graphs.theorem import check_theorem_graph
+    from formsync_design.sim.agents import simulate_agents
+
+    _refuse(args, ("trigger", "q_tol", "omega_tol"), design)
+    out_dir = check_out_dir(args.out)
+    case = agent_case_for(design, args.case, args.gain)
+    graph = case.graph(args.graph) if args.graph is not None else case.graph()
+    theorem = check_theorem_graph(graph, design.decl.graphs,
+                                  allow_outside=getattr(args, "allow_outside_theorem", False),
+                                  design=design.name)
+    opt = _options(args, case.options)
+    if design.decl.sampling == "periodic" and opt.period is None:
+        raise InputError(f"expected --sample-period T for the periodic design {design.name} (or "
+                         "simulation.period in the case), received none")
+    f = case.formation(graph, disturbance=args.disturbance)
+    if getattr(args, "no_compile", False):
+        import os
+
+        os.environ["FORMSYNC_NO_COMPILE"] = "1"
+    r = simulate_agents(design, f, opt)
+    doc = {**({"outside_theorem": theorem.to_dict()} if not theorem.inside else {}),
+           "case": case.name, "case_file": case.path, "design": design.name,
+           "design_source": design.source, "graph": graph.name,
+           "gains": {k: (list(v) if isinstance(v, tuple) else v)
+                     for k, v in f.gains.as_dict().items()},
+           "disturbance": f.disturbance.kind if f.disturbance else "none",
+           "assumptions": list(case.assumptions), **r.to_dict()}
+    written: list[str] = []
+    if out_dir is not None:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        p = out_dir / "summary.json"
+        p.write_text(json.dumps(doc, indent=2, allow_nan=False) + "\n")
+        written.append(str(p))
+        if args.export in ("npz", "both"):
+            npz = out_dir / "trajectory.npz"
+            np.savez_compressed(npz, t=r.t, quaternions=r.quaternions, rates=r.rates,
+                                states=r.states, torques=r.torques,
+                                reference=r.reference if r.reference is not None else np.zeros(0),
+                                names=np.array(r.state_names))
+            written.append(str(npz))
+        if args.export in ("csv", "both"):
+            csv = out_dir / "trajectory.csv"
+            cols = [r.t[:, None], r.quaternions.reshape(len(r.t), -1), r.rates.reshape(len(r.t), -1),
+                    r.torques.reshape(len(r.t), -1)]
+            head = ["t", *[n for n in r.state_names[: 7 * f.n]],
+                    *[f"u{c}_{i}" for i in range(1, f.n + 1) for c in (1, 2, 3)]]
+            np.savetxt(csv, np.hstack(cols), delimiter=",", header=",".join(head), comments="")
+            written.append(str(csv))
+        if args.figures != "none":
+            from formsync_design.sim.agent_figures import agent_figures
+            from formsync_design.sim.figures import save_figure
+
+            for name, fig in agent_figures(r, opt.angle_tol).items():
+                written.append(str(save_figure(fig, out_dir / f"{name}.{args.figures}")))
+    if args.format == "json":
+        emit_json({**doc, "written": written})
+    else:
+        print(("" if theorem.inside else theorem.note() + "\n") + _text(case, graph, f, opt, r,
+                                                                         design, written))
+    return EXIT_OK if str(r.status) == "converged" else EXIT_NEGATIVE
+
+
+def _text(case: Any, graph: Any, f: Any, opt: Any, r: Any, design: Any, written: list[str]) -> str:
+    sw = opt.switch if opt.switch == "sgn" else f"{opt.switch} (phi = {opt.phi:g})"
+    lim = "unlimited torque" if opt.torque_limit is None else f"|u_k| <= {opt.torque_limit:g} N m"
+    rule = design.decl.sampling + (f" (T = {opt.period:g} s)" if design.decl.sampling == "periodic"
+                                   else "")
+    kind = "directed" if not graph.is_undirected else "undirected"
+    lines = [
+        f"design {design.name} ({design.representation}): {design.title}",
+        f"case {case.name}: {f.n} spacecraft, {kind} graph {graph.name}, tf = {opt.tf:g} s",
+        f"  switch {sw}, {lim}, sampling {rule}, disturbance "
+        f"{f.disturbance.kind if f.disturbance else 'none'}, integrator {r.integrator}",
+    ]
+    ct = r.convergence_time
+    tol = f"attitude disagreement <= {opt.angle_tol:g} deg and rate error <= {opt.rate_tol:g} rad/s"
+    lines.append(f"status: {r.status} - " + (f"{tol} from t = {ct:.2f} s" if ct is not None
+                                             else f"{tol} not reached to the end"))
+    if r.message:
+        lines.append(f"  {r.message}")
+    lines.append(f"final attitude disagreement {r.attitude_error[-1]:.3e} deg, rate error "
+                 f"{r.rate_error[-1]:.3e} rad/s"
+                 + (f", error to the reference {r.reference_error[-1]:.3e} deg"
+                    if r.reference_error is not None else ""))
+    lines.append("peak torque |u| per spacecraft (N m):     u1        u2        u3     effort")
+    for i, row in enumerate(r.peak_torque):
+        lines.append(f"  S/C{i + 1:<3d}{'':29s}{row[0]:9.4f} {row[1]:9.4f} {row[2]:9.4f}  "
+                     f"{r.effort[i]:9.4g}")
+    for name, vals in r.monitors.items():
+        lines.append(f"monitor {name}: min {np.nanmin(vals):.6g}, max {np.nanmax(vals):.6g}")
+    if r.transmissions is not None:
+        lines.append("transmissions per spacecraft: " + ", ".join(str(int(k)) for k in r.transmissions))
+        assert r.min_interevent is not None
+        lines.append("shortest inter-event time per spacecraft (s): "
+                     + ", ".join(f"{v:.3g}" for v in r.min_interevent))
+    if case.assumptions:
+        lines.append("case assumptions:")
+        lines += [f"  - {a}" for a in case.assumptions]
+    if written:
+        lines.append("written: " + ", ".join(written))
+    return "\n".join(lines)
+
+
+def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
+    """``formsync certify`` of an agent design: its ``conditions(c)`` families on ``--graph``,
+    decided over the ``--gain`` box (multipliers searched over their declared ranges)."""
+    from formsync_design.certify.engine import certify_box
+    from formsync_design.certify.multipliers import certify_with_multipliers
+    from formsync_design.cli.certify import format_result
+    from formsync_design.cli.options import design_box
+    from formsync_design.derive.agent import agent_conditions
+    from formsync_design.graphs.theorem import check_theorem_graph, load_graph
+
+    _refuse(args, ("ko", "kq", "beta", "ud", "kv", "inertia", "case", "delay", "decay", "settle",
+                   "torque_limit", "graphs_set"), design)
+    if getattr(args, "certificate", "paper") != "paper" or getattr(args, "conditions",
+                                                                  "derived") != "derived":
+        raise InputError(f"expected no --certificate/--conditions for the agent design "
+                         f"{design.name} (its certificate is its conditions(c) hook), received one")
+    graph = load_graph(args.graph)
+    theorem = check_theorem_graph(graph, design.decl.graphs,
+                                  allow_outside=getattr(args, "allow_outside_theorem", False),
+                                  design=design.name)
+    box = design_box(design, args.gain)
+    margin = getattr(args, "margin", None) or 0
+    conds = agent_conditions(design, graph)
+    mult = {n: design.decl.gain(n).range for n in design.decl.multipliers if n not in box}
+    if mult:
+        res = certify_with_multipliers(conds, box, mult, margin=margin)
+    else:
+        res = certify_box(conds, box, margin=margin)
+    if args.format == "json":
+        emit_json({**({"outside_theorem": theorem.to_dict()} if not theorem.inside else {}),
+                   "design": design.name, **res.to_dict()})
+    else:
+        print(("" if theorem.inside else theorem.note() + "\n") + format_result(res))
+    return EXIT_OK if res.certified else EXIT_NEGATIVE
+
+
+def run_agent_derive(args: argparse.Namespace, design: Any) -> int:
+    """``formsync derive`` of an agent design: the derivation report (Markdown) of the design
+    on ``--graph`` (default: its shipped case's graph, else ring:8), or its JSON summary."""
+    from formsync_design.derive.agent_report import agent_derivation, write_agent_derivation_report
+    from formsync_design.graphs.theorem import check_theorem_graph, load_graph
+
+    _refuse(args, ("ko", "kq", "beta"), design)
+    if getattr(args, "gain", None):
+        raise InputError(f"expected no --gain for the derivation of the agent design {design.name} "
+                         "(its conditions are symbolic in the gains; certify a box with formsync "
+                         "certify), received --gain")
+    if args.graph is not None:
+        graph = load_graph(args.graph)
+    else:
+        shipped = _shipped_case(design)
+        if shipped is not None:
+            from formsync_design.verify.agentcase import load_agent_case
+
+            graph = load_agent_case(shipped, design=design).graph()
+        else:
+            graph = load_graph("ring:8")
+    theorem = check_theorem_graph(graph, design.decl.graphs,
+                                  allow_outside=getattr(args, "allow_outside_theorem", False),
+                                  design=design.name)
+    if not theorem.inside:
+        sys.stderr.write(theorem.note() + "\n")
+    deriv = agent_derivation(design, graph)
+    if args.format == "json":
+        emit_json(deriv.to_dict())
+        return EXIT_OK
+    out = args.out or "reports"
+    cmd = f"formsync derive --design {design.name}" + (f" --graph {args.graph}" if args.graph else "")
+    if args.out:
+        cmd += f" --out {args.out}"
+    md = write_agent_derivation_report(deriv, out, command=cmd)
+    print(f"wrote {md}")
+    return EXIT_OK

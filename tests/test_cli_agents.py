@@ -1,0 +1,94 @@
+"""The agent-design paths of formsync simulate, certify and derive (exit codes, outputs)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from formsync_design.cli.main import main
+
+DATA = Path(__file__).parent / "data"
+SO3 = str(DATA / "agent_so3.py")
+CASE = str(DATA / "agent_so3_case.toml")
+
+
+@pytest.fixture(autouse=True)
+def _vm(monkeypatch):
+    monkeypatch.setenv("FORMSYNC_NO_COMPILE", "1")
+
+
+def test_simulate_an_agent_case_text_json_and_outputs(tmp_path, capsys):
+    rc = main(["simulate", "--case", CASE, "--tf", "4", "--out", str(tmp_path / "o")])
+    out = capsys.readouterr().out
+    assert rc == 1  # 4 s is not enough to converge: a negative finding, not an error
+    assert "design agent_so3 (so3)" in out and "directed graph" in out and "monitor trace" in out
+    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == [
+        "attitude.png", "rates.png", "summary.json", "torques.png", "trajectory.npz"]
+    rc = main(["simulate", "--case", CASE, "--tf", "60", "--format", "json", "--figures", "none"])
+    doc = json.loads(capsys.readouterr().out)
+    assert rc == 0 and doc["status"] == "converged" and doc["design"] == "agent_so3"
+    assert doc["convergence_time"] is not None and doc["monitors"]["trace"]["max"] <= 3
+
+
+def test_simulate_agent_design_with_gain_override_and_refused_flags(capsys):
+    rc = main(["simulate", "--case", CASE, "--tf", "2", "--gain", "k_R=2", "--format", "json"])
+    doc = json.loads(capsys.readouterr().out)
+    assert rc == 1 and doc["gains"] == {"k_R": 2.0, "k_w": 1.5}
+    rc = main(["simulate", "--case", CASE, "--trigger", "periodic:0.1"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "--trigger" in err and len(err.strip().splitlines()) == 1
+    rc = main(["simulate", "--case", CASE, "--gain", "k=1"])
+    assert rc == 2 and "expected --gain for the controller gains" in capsys.readouterr().err
+
+
+def test_simulate_agent_design_without_a_case_needs_every_gain(capsys):
+    rc = main(["simulate", "--design", SO3])
+    err = capsys.readouterr().err
+    assert rc == 2 and "expected --gain for every controller gain" in err
+    rc = main(["simulate", "--design", SO3, "--gain", "k_R=1", "--gain", "k_w=1", "--tf", "1",
+               "--format", "json"])
+    doc = json.loads(capsys.readouterr().out)
+    assert rc == 1 and doc["case"].startswith("agent_so3-on-liang2016") and doc["graph"] == "ring:8"
+
+
+def test_certify_agent_design_certified_refuted_and_bad_flags(capsys):
+    assert main(["certify", "--design", SO3, "--graph", "ring:4", "--gain", "k_R=0.5:1",
+                 "--gain", "k_w=1:2"]) == 0
+    assert "CERTIFIED" in capsys.readouterr().out
+    rc = main(["certify", "--design", SO3, "--graph", "ring:4", "--gain", "k_R=3", "--gain",
+               "k_w=1", "--format", "json"])
+    doc = json.loads(capsys.readouterr().out)
+    assert rc == 1 and doc["status"] == "refuted" and doc["witness"]["family"] == "damping"
+    rc = main(["certify", "--design", SO3, "--graph", "ring:4", "--ko", "1"])
+    assert rc == 2 and "--ko" in capsys.readouterr().err
+
+
+def test_certify_refuses_a_graph_outside_the_theorem(capsys):
+    # two disconnected pairs: no directed spanning tree
+    rc = main(["certify", "--design", SO3, "--graph", str(DATA / "two_pairs.txt"), "--gain",
+               "k_R=1", "--gain", "k_w=1"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "spanning" in err and len(err.strip().splitlines()) == 1
+
+
+def test_derive_agent_design_report_and_json(tmp_path, capsys):
+    assert main(["derive", "--design", SO3, "--graph", "ring:4", "--out", str(tmp_path)]) == 0
+    md = (tmp_path / "agent_so3-derivation-ring-4.md").read_text()
+    assert "controller`: attitude, rate, neighbour-attitude" in md and "damping" in md
+    capsys.readouterr()
+    assert main(["derive", "--design", str(DATA / "agent_filter.py"), "--graph", "path:3",
+                 "--format", "json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["quantities_used"]["controller"] == ["attitude", "neighbour-attitude"]
+    assert doc["conditions"] is None
+
+
+@pytest.mark.parametrize("cmd", [["region", "--graph", "ring:4", "--out", "unused-out"],
+                                 ["design", "--graph", "ring:4"],
+                                 ["montecarlo", "--runs", "2"]])
+def test_lagrangian_only_commands_refuse_agent_designs_in_one_line(cmd, capsys):
+    rc = main([*cmd, "--design", SO3])
+    err = capsys.readouterr().err
+    assert rc == 2 and "agent design 'agent_so3'" in err and len(err.strip().splitlines()) == 1
