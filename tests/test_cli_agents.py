@@ -86,9 +86,28 @@ def test_derive_agent_design_report_and_json(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("cmd", [["region", "--graph", "ring:4", "--out", "unused-out"],
-                                 ["design", "--graph", "ring:4"],
-                                 ["montecarlo", "--runs", "2"]])
+                                 ["design", "--graph", "ring:4"]])
 def test_lagrangian_only_commands_refuse_agent_designs_in_one_line(cmd, capsys):
     rc = main([*cmd, "--design", SO3])
     err = capsys.readouterr().err
     assert rc == 2 and "agent design 'agent_so3'" in err and len(err.strip().splitlines()) == 1
+
+
+def test_montecarlo_of_an_agent_design_is_seeded_and_replays(tmp_path, capsys):
+    argv = ["montecarlo", "--case", CASE, "--gain", "k_R=0.5:1", "--runs", "3", "--tf", "20",
+            "--step", "0.05", "--max-rate", "0.01", "--format", "json"]
+    rc = main([*argv, "--out", str(tmp_path / "mc")])
+    doc = json.loads(capsys.readouterr().out)
+    assert rc in (0, 1) and doc["runs"] == 3 and doc["certificate"] == "certified"
+    assert main(argv) == rc
+    again = json.loads(capsys.readouterr().out)
+    assert {k: v for k, v in again.items() if k != "written"} == \
+        {k: v for k, v in doc.items() if k != "written"}
+    import csv
+
+    rows = list(csv.DictReader(open(tmp_path / "mc" / "runs.csv")))
+    seed = rows[1]["seed"]
+    assert main([*argv, "--replay", seed]) == (0 if rows[1]["status"] == "converged" else 1)
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["status"] == rows[1]["status"]
+    assert abs(rep["final_attitude_error_deg"] - float(rows[1]["final_attitude_error_deg"])) < 1e-12

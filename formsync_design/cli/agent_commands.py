@@ -1,4 +1,4 @@
-"""The agent-design paths of ``formsync simulate``, ``certify`` and ``derive``.
+"""The agent-design paths of ``formsync simulate``, ``certify``, ``derive`` and ``montecarlo``.
 
 Each of those subcommands hands an agent design (``FORM = "agent"``,
 :mod:`formsync_design.spec.agent`) to the function here, after its own parser ran: the
@@ -32,6 +32,7 @@ __all__ = [
     "run_agent_simulate",
     "run_agent_certify",
     "run_agent_derive",
+    "run_agent_montecarlo_cli",
 ]
 
 
@@ -365,3 +366,101 @@ def run_agent_derive(args: argparse.Namespace, design: Any) -> int:
     md = write_agent_derivation_report(deriv, out, command=cmd)
     print(f"wrote {md}")
     return EXIT_OK
+
+
+def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
+    """``formsync montecarlo`` of an agent design: gains sampled from the ``--gain`` box (a
+    gain not given: the case's value), random initial attitudes and rates from per-run seeds,
+    ``--replay SEED`` re-simulates one run in full."""
+    from dataclasses import replace
+
+    from formsync_design.cli.options import Progress, design_box
+    from formsync_design.cli.simulate import check_out_dir
+    from formsync_design.gains import GainBox, GainRange, parse_number
+    from formsync_design.graphs.theorem import check_theorem_graph
+    from formsync_design.sim.agent_montecarlo import (
+        AgentMonteCarloSettings,
+        agent_run_formation,
+        run_agent_montecarlo,
+    )
+    from formsync_design.sim.agents import simulate_agents
+
+    _refuse(args, ("ko", "kq", "beta", "kv", "q_tol", "omega_tol", "no_phases", "threads"), design)
+    out_dir = check_out_dir(args.out)
+    case = agent_case_for(design, args.case, None)
+    graph = case.graph(args.graph) if args.graph is not None else case.graph()
+    theorem = check_theorem_graph(graph, design.decl.graphs,
+                                  allow_outside=getattr(args, "allow_outside_theorem", False),
+                                  design=design.name)
+    named = parse_gain_assignments(args.gain)
+    have = case.gains.as_dict()
+    for n in design.decl.controller_gains:
+        if n not in named:
+            v = have[n]
+            lo, hi = (min(v), max(v)) if isinstance(v, tuple) else (v, v)
+            named[n] = f"{lo!r}:{hi!r}" if lo != hi else repr(lo)
+    box = design_box(design, named)
+    box = GainBox(tuple(r for r in box.ranges if r.name in design.decl.controller_gains))
+    assert all(isinstance(r, GainRange) for r in box.ranges)
+    settings = AgentMonteCarloSettings(
+        runs=int(args.runs), seed=int(args.seed),
+        max_angle_deg=float(parse_number(args.max_angle, "--max-angle")),
+        max_rate=float(parse_number(args.max_rate, "--max-rate")))
+    opt = _options(args, case.options)
+    base = case.formation(graph, disturbance=args.disturbance)
+    if getattr(args, "no_compile", False):
+        import os
+
+        os.environ["FORMSYNC_NO_COMPILE"] = "1"
+    flag = {} if theorem.inside else {"outside_theorem": theorem.to_dict()}
+    if args.replay is not None:
+        seed = int(args.replay)
+        f = agent_run_formation(design, base, box, settings, seed)
+        r = simulate_agents(design, f, opt)
+        doc = {**flag, "seed": seed, "gains": {k: (list(v) if isinstance(v, tuple) else v)
+                                              for k, v in f.gains.as_dict().items()},
+               **r.to_dict()}
+        if args.format == "json":
+            emit_json(doc)
+        else:
+            print(f"replay of run seed {seed}: status {r.status}, final attitude disagreement "
+                  f"{r.attitude_error[-1]:.3e} deg")
+        return EXIT_OK if str(r.status) == "converged" else EXIT_NEGATIVE
+    prog = Progress(settings.runs, "montecarlo", enabled=args.format == "text")
+    res = run_agent_montecarlo(design, replace(base), box, settings, opt,
+                               certify=not args.no_certify and theorem.inside,
+                               progress=prog.update)
+    doc = {**flag, "case": case.name, **res.to_dict()}
+    written: list[str] = []
+    if out_dir is not None:
+        import csv
+
+        out_dir.mkdir(parents=True, exist_ok=True)
+        (out_dir / "summary.json").write_text(json.dumps(doc, indent=2, allow_nan=False) + "\n")
+        with open(out_dir / "runs.csv", "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(res.runs[0].to_dict()))
+            w.writeheader()
+            for run_ in res.runs:
+                w.writerow(run_.to_dict())
+        written = [str(out_dir / "summary.json"), str(out_dir / "runs.csv")]
+    if args.format == "json":
+        emit_json({**doc, "written": written})
+    else:
+        lines = [f"design {design.name}: {settings.runs} runs on {graph.name}, box {box}, "
+                 f"angles <= {settings.max_angle_deg:g} deg, rates <= {settings.max_rate:g} rad/s",
+                 f"converged: {doc['converged']}/{settings.runs}"
+                 + (f", longest convergence time {doc['convergence_time_max']:.4g} s"
+                    if doc["convergence_time_max"] is not None else "")]
+        if res.certificate is not None:
+            lines.append(f"box certificate: {res.certificate}"
+                         + (f" ({res.certificate_reason})" if res.certificate_reason else ""))
+        if res.failures:
+            lines.append("failed runs (replay with --replay SEED): "
+                         + ", ".join(str(r.seed) for r in res.failures[:20])
+                         + (" ..." if len(res.failures) > 20 else ""))
+        if written:
+            lines.append("written: " + ", ".join(written))
+        if not theorem.inside:
+            lines.insert(0, theorem.note())
+        print("\n".join(lines))
+    return EXIT_OK if res.all_converged else EXIT_NEGATIVE

@@ -224,6 +224,11 @@ def _resolve_spec(args: argparse.Namespace, case: Any) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
+    from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_montecarlo_cli
+
+    agent = agent_design_or_none(args.spec, args.case)
+    if agent is not None:
+        return run_agent_montecarlo_cli(args, agent)
     out_dir = check_out_dir(args.out)
     case = load_case(args.case)
     spec = _resolve_spec(args, case)
