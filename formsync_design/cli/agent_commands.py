@@ -23,7 +23,13 @@ from typing import Any
 
 import numpy as np
 
-from formsync_design.cli.options import EXIT_NEGATIVE, EXIT_OK, emit_json, parse_gain_assignments
+from formsync_design.cli.options import (
+    EXIT_NEGATIVE,
+    EXIT_OK,
+    emit_json,
+    parse_gain_assignments,
+    write_summary_and_runs,
+)
 from formsync_design.errors import InputError
 
 __all__ = [
@@ -87,8 +93,6 @@ def agent_case_for(design: Any, case_arg: Any, gains: Any) -> Any:
     with ``--gain`` values over the case's."""
     from dataclasses import replace
 
-    from formsync_design.gains import parse_gain_range
-    from formsync_design.sim.formation import Gains
     from formsync_design.verify.agentcase import load_agent_case, parse_agent_case
 
     if case_arg is not None:
@@ -99,21 +103,10 @@ def agent_case_for(design: Any, case_arg: Any, gains: Any) -> Any:
             case = load_agent_case(shipped, design=design)
         else:
             case = _paper_spacecraft_case(design, gains, parse_agent_case)
-    named = parse_gain_assignments(gains)
-    ctrl = design.decl.controller_gains
-    unknown = [n for n in named if n not in ctrl]
-    if unknown:
-        raise InputError(f"expected --gain for the controller gains of design {design.name} "
-                         f"({', '.join(ctrl)}), received {unknown}")
-    if named:
-        vals = case.gains.as_dict()
-        for n, text in named.items():
-            r = parse_gain_range(text, n)
-            if not r.is_point:
-                raise InputError(f"expected a single value for --gain {n}= in a simulation, "
-                                 f"received the range {text!r}")
-            vals[n] = float(r.lo)
-        case = replace(case, gains=Gains(vals))
+    if gains:
+        from formsync_design.cli.simulate import design_gains
+
+        case = replace(case, gains=design_gains(design, case.gains, gains))
     return case
 
 
@@ -433,16 +426,7 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
     doc = {**flag, "case": case.name, **res.to_dict()}
     written: list[str] = []
     if out_dir is not None:
-        import csv
-
-        out_dir.mkdir(parents=True, exist_ok=True)
-        (out_dir / "summary.json").write_text(json.dumps(doc, indent=2, allow_nan=False) + "\n")
-        with open(out_dir / "runs.csv", "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(res.runs[0].to_dict()))
-            w.writeheader()
-            for run_ in res.runs:
-                w.writerow(run_.to_dict())
-        written = [str(out_dir / "summary.json"), str(out_dir / "runs.csv")]
+        written = write_summary_and_runs(out_dir, doc, [r.to_dict() for r in res.runs])
     if args.format == "json":
         emit_json({**doc, "written": written})
     else:

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import csv
-import json
 from dataclasses import replace
 from typing import Any
 
@@ -17,6 +15,7 @@ from formsync_design.cli.options import (
     add_theorem_option,
     emit_json,
     parse_gain_assignments,
+    write_summary_and_runs,
 )
 from formsync_design.cli.simulate import check_out_dir, options_from_args, simulation_graph
 from formsync_design.errors import InputError
@@ -270,15 +269,7 @@ def run(args: argparse.Namespace) -> int:
             "disturbance": base.disturbance.kind, **res.to_dict()}
     written = []
     if out_dir is not None:
-        d = out_dir
-        d.mkdir(parents=True, exist_ok=True)
-        (d / "summary.json").write_text(json.dumps(summ, indent=2, allow_nan=False) + "\n")
-        with open(d / "runs.csv", "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(res.runs[0].to_dict()))
-            w.writeheader()
-            for run_ in res.runs:
-                w.writerow(run_.to_dict())
-        written = [str(d / "summary.json"), str(d / "runs.csv")]
+        written = write_summary_and_runs(out_dir, summ, [r.to_dict() for r in res.runs])
     if args.format == "json":
         emit_json({**summ, "written": written})
     else:

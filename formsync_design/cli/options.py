@@ -39,6 +39,7 @@ __all__ = [
     "DESIGN_HELP",
     "add_theorem_option",
     "design_graph",
+    "write_summary_and_runs",
 ]
 
 DESIGN_HELP = (
@@ -258,3 +259,26 @@ class Progress:
         if self.done >= self.total:
             sys.stderr.write("\n")
         sys.stderr.flush()
+
+
+def write_summary_and_runs(out_dir: Any, summary: Mapping[str, Any], rows: list[Mapping[str, Any]]) -> list[str]:
+    """Write ``summary.json`` and ``runs.csv`` (one row per run, the first row's keys as the
+    header) under ``out_dir`` (created); return the paths written.
+
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp()) / "mc"
+    >>> [pathlib.Path(p).name for p in write_summary_and_runs(d, {"runs": 1}, [{"seed": 7}])]
+    ['summary.json', 'runs.csv']
+    """
+    import csv
+    from pathlib import Path
+
+    d = Path(out_dir)
+    d.mkdir(parents=True, exist_ok=True)
+    (d / "summary.json").write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    with open(d / "runs.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]) if rows else [])
+        w.writeheader()
+        for row in rows:
+            w.writerow(row)
+    return [str(d / "summary.json"), str(d / "runs.csv")]

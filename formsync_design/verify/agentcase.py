@@ -69,6 +69,7 @@ from formsync_design.verify.case import (
     case_number,
     case_numbers,
     case_orbit,
+    check_case_tables,
     make_disturbance,
 )
 
@@ -200,22 +201,7 @@ def _resolve_design(ref: str, path: str) -> Any:
 
 def parse_agent_case(data: dict, path: str = "<memory>", design: Any = None) -> AgentCase:
     """Validate a parsed agent case document (module docstring)."""
-    for k, v in data.items():
-        if k not in _TABLES:
-            raise InputError(f"expected tables {sorted(_TABLES)} in {path}, received unknown [{k}]")
-        allowed = _TABLES[k]
-        if allowed is None:
-            continue
-        rows = v if k == "spacecraft" else [v]
-        if k == "spacecraft" and not isinstance(v, list):
-            raise InputError(f"expected [[spacecraft]] tables in {path}, received {type(v).__name__}")
-        for row in rows:
-            if not isinstance(row, dict):
-                raise InputError(f"expected a table [{k}] in {path}, received {row!r}")
-            extra = set(row) - allowed
-            if extra:
-                raise InputError(f"expected keys {sorted(allowed)} in [{k}], received unknown "
-                                 f"{sorted(extra)}")
+    check_case_tables(data, _TABLES, path)
     meta = data.get("case", {})
     if design is None:
         ref = meta.get("design")

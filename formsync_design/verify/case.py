@@ -55,7 +55,7 @@ from formsync_design.spec.loader import load_spec
 from formsync_design.tomlio import load_toml
 
 __all__ = ["Case", "load_case", "default_case_path", "parse_case", "make_disturbance",
-           "case_number", "case_numbers", "case_matrix", "case_orbit"]
+           "case_number", "case_numbers", "case_matrix", "case_orbit", "check_case_tables"]
 
 _TABLES = {
     "case": {"name", "title", "source", "graph", "assumptions", "spec", "design", "kind"},
@@ -266,12 +266,19 @@ def _case_design(meta: dict, path: str) -> str | None:
     return str(sp)
 
 
-def parse_case(data: dict, path: str = "<memory>") -> Case:
-    """Validate a parsed TOML document (see module docstring)."""
+def check_case_tables(data: dict, tables: dict[str, set[str] | None], path: str) -> None:
+    """Every table of ``data`` is one of ``tables`` with only its keys (``None``: free-form);
+    ``[[spacecraft]]`` is an array of tables.  One-line :class:`InputError` otherwise.
+
+    >>> check_case_tables({"case": {"name": "x", "colour": 1}}, {"case": {"name"}}, "c.toml")
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected keys ['name'] in [case], received unknown ['colour']
+    """
     for k, v in data.items():
-        if k not in _TABLES:
-            raise InputError(f"expected tables {sorted(_TABLES)} in {path}, received unknown [{k}]")
-        allowed = _TABLES[k]
+        if k not in tables:
+            raise InputError(f"expected tables {sorted(tables)} in {path}, received unknown [{k}]")
+        allowed = tables[k]
         if allowed is None:
             continue
         rows = v if k == "spacecraft" else [v]
@@ -283,6 +290,11 @@ def parse_case(data: dict, path: str = "<memory>") -> Case:
             extra = set(row) - allowed
             if extra:
                 raise InputError(f"expected keys {sorted(allowed)} in [{k}], received unknown {sorted(extra)}")
+
+
+def parse_case(data: dict, path: str = "<memory>") -> Case:
+    """Validate a parsed TOML document (see module docstring)."""
+    check_case_tables(data, _TABLES, path)
     meta = data.get("case", {})
     if meta.get("kind", "formation") != "formation":
         raise InputError(f"expected a formation case ([case] kind = \"formation\") in {path}, "
