@@ -419,6 +419,15 @@ class AgentDesign:
     def has(self, function: str) -> bool:
         return function in self.functions
 
+    @staticmethod
+    def from_functions(controller: Callable[[AgentView], Any], **declarations: Any) -> AgentDesign:
+        """:func:`agent_design_from_functions` (the notebook way, like ``Spec.from_functions``).
+
+        >>> AgentDesign.from_functions(lambda v: -v.k * v.w, gains={"k": {}}).decl.gains[0].name
+        'k'
+        """
+        return agent_design_from_functions(controller, **declarations)
+
 
 def _parse_agent_declarations(attrs: Mapping[str, Any], where: str) -> AgentDeclarations:
     base = parse_declarations(attrs, where)
