@@ -38,7 +38,6 @@ def load_design(ref: Any = None, base: str | Path = ".") -> Any:
     >>> load_design("pd_consensus").name, load_design().name
     ('pd_consensus', 'liang2016')
     """
-    from formsync_design.resources import design_names
     from formsync_design.spec.loader import Spec, load_spec
 
     if isinstance(ref, Spec):
@@ -50,8 +49,8 @@ def load_design(ref: Any = None, base: str | Path = ".") -> Any:
     p = Path(ref)
     if not p.is_absolute():
         p = Path(base) / p
-    if isinstance(ref, str) and ref.isidentifier() and ref in design_names() and not p.exists():
-        return load_spec(ref)
+    if isinstance(ref, str) and ref.isidentifier() and not p.exists():
+        return load_spec(ref)  # a shipped design's name (or a one-line error listing them)
     return load_spec(p)
 
 
