@@ -608,3 +608,39 @@ def test_liang2016_keeps_its_flags_columns_and_campaign_hash():
     assert c.schema.columns == COLUMNS
     assert campaign_hash(load_campaign(ROOT / "verification" / "sweep_atlas6.toml",
                                        spec="liang2016"), gs) == man["sha256"]
+
+
+def test_compare_with_another_sweep_matches_graphs_up_to_relabelling(tmp_path, capsys):
+    """liang2016's reference gains are refuted on star:6 (exactly checked witness), the PD
+    baseline's are certified: the comparison finds star:6 in the other sweep even with its
+    centre relabelled, and its content is part of the campaign hash."""
+    base = tmp_path / "liang"
+    assert main(["sweep", "--graphs", "star:6", "--graphs", "ring:4", "--resolution", "1",
+                 "--design-betas", "1", "--workers", "0", "--no-progress", "--out", str(base)]) == 0
+    star = tmp_path / "star6.txt"
+    star.write_text("".join(f"6 {i}\n" for i in range(1, 6)))  # the centre is spacecraft 6
+    camp = tmp_path / "pd.toml"
+    camp.write_text('[campaign]\nname = "pd"\ndesign = "pd_consensus"\ngraphs = ["'
+                    + str(star) + '", "path:3"]\ncompare = "' + str(base)
+                    + '"\n[region]\nresolution = 1\n[design]\nbetas = 1\n')
+    assert main(["sweep", "--campaign", str(camp), "--workers", "0", "--no-progress",
+                 "--out", str(tmp_path / "pd")]) == 0
+    md = (tmp_path / "pd" / "summary.md").read_text()
+    assert "## Compared with `liang2016`" in md and "1 of 2 graphs of this campaign" in md
+    assert "| 6 | 1 | 1 | 0 | 0 | 1 | 0 | 0 |" in md
+    assert "Certified for `pd_consensus` only: `file:star6.txt` (= `star:6`, liang2016 refuted" in md
+    from formsync_design.sweep import campaign_hash, expand_graphs, load_campaign
+
+    c = load_campaign(camp)
+    gs, _ = expand_graphs(c.graphs)
+    h = campaign_hash(c, gs)
+    res = base / "results.csv"
+    res.write_text(res.read_text().replace(",refuted,", ",certified,"))
+    assert campaign_hash(c, gs) != h
+    capsys.readouterr()
+    camp.write_text(camp.read_text().replace(str(base), str(tmp_path / "nowhere")))
+    assert main(["sweep", "--campaign", str(camp), "--workers", "0", "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err
+    assert "finished sweep folder" in err
+    one_line_error(err)
+    assert not (tmp_path / "x").exists()

@@ -204,6 +204,7 @@ class Campaign:
     spec_dir: str = field(default=".", compare=False)
     schema: SweepSchema = CLASSIC_SCHEMA
     spec_value: Any = field(default=None, compare=False, repr=False)
+    compare: str = ""
 
     @property
     def spec_path(self) -> Path | None:
@@ -233,12 +234,13 @@ class Campaign:
             "design": {"betas": self.design_betas, "penalty": self.design_penalty},
             "montecarlo": None if self.montecarlo is None else self.montecarlo.to_dict(),
             **({"spec": self.spec} if self.spec else {}),
+            **({"compare": self.compare} if self.compare else {}),
         }
 
 
 _TOP = {"campaign", "reference", "box", "region", "design", "montecarlo"}
 _KEYS = {
-    "campaign": {"name", "title", "graphs", "conditions", "margin", "spec", "design"},
+    "campaign": {"name", "title", "graphs", "conditions", "margin", "spec", "design", "compare"},
     "region": {"resolution"},
     "design": {"betas", "penalty"},
     "montecarlo": {"runs", "seed", "gains", "case", "max_angle_deg", "max_rate", "phases",
@@ -408,6 +410,10 @@ def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Pa
         graphs = [graphs]
     if not isinstance(graphs, list) or not graphs or not all(isinstance(g, str) and g.strip() for g in graphs):
         raise InputError(f"expected campaign.graphs as a non-empty list of graph-set specs, received {graphs!r}")
+    compare = c.get("compare", "")
+    if not isinstance(compare, str):
+        raise InputError(f"expected campaign.compare as the path of a sweep results folder, received "
+                         f"{compare!r}")
     ref_text, spec_arg = _design_ref(c, spec)
     sp = load_design(spec_arg) if spec_arg is not None else load_design(ref_text, spec_dir)
     schema = check_sweepable(sp)
@@ -441,7 +447,7 @@ def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Pa
         reference=reference, conditions=cond, margin=margin, resolution=resolution,
         design_betas=betas, design_penalty=penalty, montecarlo=mc, base=str(base),
         spec=ref_text, spec_dir=str(spec_dir), schema=schema,
-        spec_value=sp if spec_arg is not None else None,
+        spec_value=sp if spec_arg is not None else None, compare=compare.strip(),
     )
 
 
@@ -456,7 +462,9 @@ def load_campaign(path: str | Path, spec: Any = None) -> Campaign:
         [campaign]   name, title, graphs = ["atlas:6", "ring:4..12", ...],
                      conditions = "derived" | "paper", margin = 0,
                      design = "pd_consensus" | "my_design.py"  (optional; default liang2016;
-                     old name: spec)
+                     old name: spec),
+                     compare = "reports/sweep-atlas6"  (optional: another sweep's results
+                     folder; the summary compares the reference statuses, .compare)
         [reference]  the design's controller gains: K_o, K_q, beta for liang2016 (default
                      the paper's 1.6, 0.4, 0.3); k_p, k_d for pd_consensus (default: its
                      shipped case's)
@@ -560,8 +568,9 @@ def case_text(mc: MonteCarloSpec) -> tuple[str, str]:
 
 def campaign_hash(campaign: Campaign, graphs: Sequence[GraphEntry], spec: Any = None) -> str:
     """sha256 of the canonical definition, the expanded graph list (ids and edges), the
-    columns, the content key of the design (``spec``, resolved by :func:`resolve_spec`)
-    and, with Monte-Carlo, the content of the case file.
+    columns, the content key of the design (``spec``, resolved by :func:`resolve_spec`),
+    with Monte-Carlo the content of the case file, and with ``compare`` the compared
+    sweep's results.
 
     The package version is deliberately *not* hashed: the committed reports must
     regenerate byte for byte across releases, and a folder stays resumable across
@@ -580,4 +589,8 @@ def campaign_hash(campaign: Campaign, graphs: Sequence[GraphEntry], spec: Any = 
                            "spec_sha256": spec_key(resolve_spec(campaign, spec))}
     if campaign.montecarlo is not None:
         doc["case_sha256"] = hashlib.sha256(case_text(campaign.montecarlo)[1].encode()).hexdigest()
+    if campaign.compare:
+        from formsync_design.sweep.compare import load_compared
+
+        doc["compare_sha256"] = load_compared(campaign.compare, campaign.base).sha256
     return _digest(doc)

@@ -243,7 +243,13 @@ def run_sweep(
     rows = sorted((done[t["task"]] for t in tasks), key=sort_key)
     atomic_write(outp / "results.csv", csv_bytes(rows, columns))
     files = [outp / "manifest.json", outp / "results.csv"]
-    files += write_summary(outp, rows, manifest, command=command, schema=campaign.schema)
+    compared = None
+    if campaign.compare:
+        from formsync_design.sweep.compare import load_compared
+
+        compared = load_compared(campaign.compare, campaign.base)
+    files += write_summary(outp, rows, manifest, command=command, schema=campaign.schema,
+                           compared=compared)
     jpath.unlink(missing_ok=True)
     return SweepOutcome(
         out=outp, sha256=sha, tasks=len(tasks), computed=len(pending),

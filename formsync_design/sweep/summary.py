@@ -114,10 +114,11 @@ def _span(vals: Sequence[str]) -> str:
 
 def write_summary(
     out: str | Path, rows: Sequence[dict[str, str]], manifest: dict[str, Any], *, command: str = "",
-    schema: SweepSchema = CLASSIC_SCHEMA,
+    schema: SweepSchema = CLASSIC_SCHEMA, compared: Any = None,
 ) -> list[Path]:
     """Write ``summary.md`` and the figures from the rows (columns of ``schema``, the
-    design's gain names); returns the paths."""
+    design's gain names) and, with ``compared`` (:class:`~.compare.Compared`), a
+    comparison with another sweep's reference statuses; returns the paths."""
     d = Path(out)
     camp = manifest["campaign"]
     paths = []
@@ -202,6 +203,10 @@ def write_summary(
     L += _table(["N", "graphs", "certified", "refuted", "undecided", "error", "refuted by",
                  *[f"{m} certifying" for m in schema.multipliers]], body)
     L.append("")
+    if compared is not None:
+        from formsync_design.sweep.compare import comparison_lines
+
+        L += comparison_lines(rows, manifest, compared)
     # certified fraction by box and max degree
     for bi, b in enumerate(camp["boxes"]):
         sub = [r for r in rows if r["box_index"] == str(bi)]
