@@ -61,7 +61,9 @@ table, one row per graph x box, schema in summary.md), summary.md and figures
 lambda_2 with Monte-Carlo).  Rows are appended to DIR/journal.jsonl with fsync
 as tasks finish: after a kill, the same command with --resume computes only the
 missing tasks.  A DIR written by a different campaign is refused (exit 2,
-nothing overwritten).
+nothing overwritten).  With `compare = "OTHER_DIR"` in the [campaign] table,
+summary.md compares the reference statuses with another sweep's results on the
+same graphs (matched up to relabelling; its results are part of the sha256).
 
 Execution: a local dask.distributed cluster of --workers processes (default 2,
 one thread each); --scheduler ADDRESS uses an existing cluster (its workers
@@ -320,14 +322,16 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_INTERRUPTED
     if args.format == "json":
         emit_json({
-            "out": str(res.out), "sha256": res.sha256, "graphs": res.graphs, "tasks": res.tasks,
+            "out": str(res.out), "sha256": res.sha256, "design": res.design, "graphs": res.graphs,
+            "tasks": res.tasks,
             "computed": res.computed, "reused": res.reused, "skipped": list(res.skipped),
             "executor": res.executor, "wall_seconds": res.wall_seconds,
             "files": [str(p) for p in res.files],
         })
     else:
         rate = res.computed / res.wall_seconds if res.wall_seconds > 0 else 0.0
-        print(f"sweep {camp.name}: {res.tasks} tasks ({res.graphs} graphs x {len(camp.boxes)} boxes); "
+        print(f"sweep {camp.name} (design {res.design}): {res.tasks} tasks ({res.graphs} graphs x "
+              f"{len(camp.boxes)} boxes); "
               f"computed {res.computed}, reused {res.reused}; {res.wall_seconds:.1f} s "
               f"({rate:.2f} tasks/s) on {res.executor}")
         if res.skipped:

@@ -206,20 +206,6 @@ class Campaign:
     spec_value: Any = field(default=None, compare=False, repr=False)
     compare: str = ""
 
-    @property
-    def spec_path(self) -> Path | None:
-        """The design file (``spec`` resolved against the campaign file's folder),
-        ``None`` for liang2016 or a shipped design named by ``spec``."""
-        if not self.spec:
-            return None
-        p = Path(self.spec)
-        p = p if p.is_absolute() else Path(self.spec_dir) / p
-        from formsync_design.resources import design_names
-
-        if self.spec.isidentifier() and self.spec in design_names() and not p.exists():
-            return None
-        return p
-
     def to_dict(self) -> dict[str, Any]:
         """Canonical, JSON-ready definition (hashed into the manifest)."""
         return {

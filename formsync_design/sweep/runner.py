@@ -92,6 +92,7 @@ class SweepOutcome:
     files: tuple[Path, ...]
     wall_seconds: float
     executor: str
+    design: str = "liang2016"
 
 
 def run_sweep(
@@ -255,5 +256,6 @@ def run_sweep(
         out=outp, sha256=sha, tasks=len(tasks), computed=len(pending),
         reused=len(tasks) - len(pending), graphs=len(graphs), skipped=tuple(skipped),
         files=tuple(files), wall_seconds=time.perf_counter() - t0, executor=executor,
+        design=sp.name,
     )
 
