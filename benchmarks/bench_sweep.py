@@ -1,9 +1,10 @@
 """Benchmark of ``formsync sweep`` executors (prints numbers and ratios; no assertions).
 
-    /work/venv/bin/python benchmarks/bench_sweep.py [--quick]
+    /work/venv/bin/python benchmarks/bench_sweep.py [--quick] [--design pd_consensus]
 
-The same campaign (connected atlas graphs, the standard box, region resolution
-8, 5 design betas) is run serially in this process and on a local Dask
+The same campaign (connected atlas graphs, the design's standard box, region
+resolution 8, 5 values of the swept gain; liang2016 by default, any design with
+--design) is run serially in this process and on a local Dask
 cluster of 1 and 2 worker processes (cluster start included); the rows are
 checked to be byte-identical and the wall-time ratios against the serial run
 are printed.  On a 2-core machine shared with other work the ratio mostly
@@ -25,11 +26,13 @@ from formsync_design.sweep import campaign_from_dict, run_sweep
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true", help="atlas:2..4 instead of atlas:2..5")
+    ap.add_argument("--design", default="liang2016", help="the design swept (default liang2016)")
     a = ap.parse_args()
     graphs = "atlas:2..4" if a.quick else "atlas:2..5"
-    camp = campaign_from_dict({"campaign": {"name": "bench", "graphs": [graphs]},
+    camp = campaign_from_dict({"campaign": {"name": "bench", "graphs": [graphs], "design": a.design},
                                "region": {"resolution": 8}, "design": {"betas": 5}})
-    print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs; campaign {graphs}")
+    print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs; campaign {graphs}, "
+          f"design {a.design}")
     with tempfile.TemporaryDirectory() as td:
         runs = [("serial", 0), ("dask, 1 worker", 1), ("dask, 2 workers", 2)]
         base = None

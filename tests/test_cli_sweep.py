@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from formsync_design.cli.main import main
-from formsync_design.errors import ClusterError, InputError
+from formsync_design.errors import ClusterError, FormsyncError, InputError
 from formsync_design.sweep import campaign_from_dict, run_sweep, run_task
 from formsync_design.sweep.store import read_results
 
@@ -375,3 +375,272 @@ def test_campaign_boxes_are_gain_boxes():
                            "beta": ["1/10", "3/10"]}
     with pytest.raises(InputError):
         small(["ring:3"], box=[{"name": "b", "K_o": [2, 1], "K_q": 0.4, "beta": 0.3}])
+
+
+# ---------------------------------------------------------------------------
+# any design: a sweep of the PD baseline (pd_consensus: gains k_p, k_d, multiplier eps)
+# ---------------------------------------------------------------------------
+# Independent truth: the same questions asked graph by graph through `formsync certify`,
+# `formsync region`, `formsync design` and `formsync montecarlo --design pd_consensus`
+# (the command-line paths, which build their own boxes, multiplier searches and formations),
+# and the multiplier value a certified row reports re-checked by `formsync certify` with that
+# value given (no search).
+PD_GRAPHS = ("ring:4", "star:5", "complete:4")
+PD_BOX = ("k_p=0.1:3", "k_d=0.0001:2")  # k_d near 0 needs eps below the grid: undecided cells
+PD_FLAGS = ["sweep", "--design", "pd_consensus", *sum((["--graphs", g] for g in PD_GRAPHS), []),
+            *sum((["--gain", b] for b in PD_BOX), []), "--resolution", "4", "--design-betas", "3",
+            "--workers", "0", "--no-progress"]
+
+
+@pytest.fixture(scope="module")
+def pd_sweep(tmp_path_factory):
+    out = tmp_path_factory.mktemp("pd") / "r"
+    assert main([*PD_FLAGS, "--out", str(out)]) == 0
+    return out
+
+
+def _json(capsys, argv: list[str]) -> tuple[int, dict]:
+    capsys.readouterr()
+    rc = main([*argv, "--format", "json"])
+    return rc, json.loads(capsys.readouterr().out)
+
+
+def _cell(x) -> str:
+    from formsync_design.sweep.schema import fmt_cell
+
+    return fmt_cell(Fraction(x) if isinstance(x, str) else x)
+
+
+def test_pd_sweep_rows_equal_certify_region_design_graph_by_graph(pd_sweep, capsys, tmp_path):
+    rows = read_results(pd_sweep / "results.csv")
+    header = (pd_sweep / "results.csv").read_text().splitlines()[0].split(",")
+    assert [c for c in header if "k_p" in c or "eps" in c] == [
+        "box_k_p_lo", "box_k_p_hi", "ref_k_p", "ref_cert_eps", "rec_k_p", "rec_cert_eps",
+        "cbox_k_p_lo", "cbox_k_p_hi"]
+    assert not [c for c in header if "K_o" in c or "beta" in c]
+    assert [r["graph"] for r in rows] == list(PD_GRAPHS)
+    gains = [f"--gain={g}" for g in PD_BOX]
+    for r in rows:
+        g = r["graph"]
+        # the reference point (the design's shipped case: k_p = 0.4, k_d = 1.6), eps searched
+        assert (r["ref_k_p"], r["ref_k_d"]) == ("0.4", "1.6")
+        rc, cert = _json(capsys, ["certify", "--design", "pd_consensus", "--graph", g,
+                                  "--gain", "k_p=0.4", "--gain", "k_d=1.6"])
+        assert r["ref_status"] == cert["status"] == "certified" and rc == 0
+        assert r["ref_margin"] == _cell(cert["certified_margin"])
+        assert r["ref_cert_eps"] == _cell(cert["box"]["eps"][0]) == _cell(cert["box"]["eps"][1])
+        # the evidence: that eps value, given (no search), certifies the reference point
+        rc, fixed = _json(capsys, ["certify", "--design", "pd_consensus", "--graph", g,
+                                   "--gain", "k_p=0.4", "--gain", "k_d=1.6",
+                                   "--gain", f"eps={r['ref_cert_eps']}"])
+        assert rc == 0 and fixed["status"] == "certified"
+        # the region of the box, eps searched per cell
+        rc, reg = _json(capsys, ["region", "--design", "pd_consensus", "--graph", g, *gains,
+                                 "--resolution", "4", "--out", str(tmp_path / g.replace(":", "_"))])
+        fr = reg["maps"][0]["fractions"]
+        for k in ("certified", "refuted", "undecided"):
+            assert r[f"frac_{k}"] == _cell(fr[k]), (g, k)
+        assert r["frac_refuted"] == "0" and 0 < float(r["frac_undecided"]) < 1
+        # the recommended gains: k_p, k_d optimized, eps swept (3 values) and held in the box
+        rc, des = _json(capsys, ["design", "--design", "pd_consensus", "--graph", g, *gains,
+                                 "--betas", "3"])
+        assert r["design_status"] == des["status"] == "designed"
+        for k in ("k_p", "k_d"):
+            assert r[f"rec_{k}"] == _cell(des["gains_exact"][k])
+            lo, hi = des["largest_certified_box"][k]
+            assert (r[f"cbox_{k}_lo"], r[f"cbox_{k}_hi"]) == (_cell(lo), _cell(hi))
+        assert r["rec_cert_eps"] == _cell(des["gains_exact"]["eps"])
+        assert des["largest_certified_box"]["eps"] == [float(Fraction(r["rec_cert_eps"]))] * 2
+        assert r["rec_margin"] == _cell(des["certified_margin"])
+        assert r["cbox_status"] == des["box_certificate"]["status"] == "certified"
+    md = (pd_sweep / "summary.md").read_text()
+    assert "- design: `pd_consensus`" in md and "reference gains: k_p = 0.4, k_d = 1.6" in md
+    assert "| ref_cert_eps |" in md and "3 eps values" in md
+    man = json.loads((pd_sweep / "manifest.json").read_text())
+    assert man["spec"]["name"] == "pd_consensus" and man["columns"] == header
+    assert man["campaign"]["boxes"][0] == {"name": "standard", "k_p": ["1/10", "3"],
+                                           "k_d": ["1/10000", "2"]}
+
+
+def test_pd_campaign_file_journal_and_resume_on_dask(pd_sweep, tmp_path):
+    """A PD campaign file (`[campaign] design`), killed after one task, resumed on a local
+    Dask cluster: the rows of the uninterrupted serial run from the command-line flags."""
+    camp = tmp_path / "pd.toml"
+    camp.write_text('[campaign]\nname = "pd"\ndesign = "pd_consensus"\ngraphs = '
+                    + json.dumps(list(PD_GRAPHS))
+                    + '\n[[box]]\nname = "standard"\nk_p = [0.1, 3]\nk_d = [0.0001, 2]\n'
+                    '[region]\nresolution = 4\n[design]\nbetas = 3\n')
+    from formsync_design.sweep import load_campaign
+
+    c = load_campaign(camp)
+    assert c.schema.box == ("k_p", "k_d") and c.schema.multipliers == ("eps",)
+    out = tmp_path / "r"
+
+    def dies_on_second(task, _n=[0]):  # noqa: B006 - a call counter
+        if _n[0] == 1:
+            raise RuntimeError("simulated kill")
+        _n[0] += 1
+        return run_task(task)
+
+    with pytest.raises(FormsyncError, match="simulated kill"):
+        run_sweep(c, out, n_workers=0, task_fn=dies_on_second)
+    lines = (out / "journal.jsonl").read_text().splitlines()
+    assert len(lines) == 1 and json.loads(lines[0])["task"] == "ring:4@standard"
+    assert not (out / "results.csv").exists()
+    res = run_sweep(c, out, n_workers=1, resume=True, timeout=60)
+    assert res.reused == 1 and res.computed == 2
+    assert (out / "results.csv").read_bytes() == (pd_sweep / "results.csv").read_bytes()
+    assert not (out / "journal.jsonl").exists()
+
+
+def test_pd_undecided_reference_is_never_refuted():
+    """k_d = 0.0005 needs eps below its declared grid: every value tried fails, which refutes
+    those candidates only, so the reference is undecided and no evidence is reported."""
+    c = campaign_from_dict({"campaign": {"name": "u", "graphs": ["ring:4"], "design": "pd_consensus"},
+                            "reference": {"k_p": 1, "k_d": 0.0005},
+                            "box": {"name": "b", "k_p": [0.5, 1], "k_d": [0.0005, 0.001]},
+                            "region": {"resolution": 1}, "design": {"betas": 1}})
+    from formsync_design.sweep import build_tasks, expand_graphs
+
+    gs, _ = expand_graphs(c.graphs)
+    r = run_task(build_tasks(c, gs)[0])
+    assert r["ref_status"] == "undecided"
+    assert r["ref_cert_eps"] == r["ref_margin"] == r["ref_refuted_by"] == ""
+    assert r["frac_refuted"] == "0" and r["frac_certified"] == "0"
+
+
+@pytest.mark.slow
+def test_pd_montecarlo_equals_formsync_montecarlo(tmp_path, capsys):
+    argv = ["sweep", "--design", "pd_consensus", "--graphs", "ring:4", "--resolution", "1",
+            "--design-betas", "1", "--mc-runs", "3", "--mc-tf", "100", "--mc-case", "pd_consensus",
+            "--workers", "0", "--no-progress", "--out", str(tmp_path / "r")]
+    assert main(argv) == 0
+    (r,) = read_results(tmp_path / "r" / "results.csv")
+    rc, mc = _json(capsys, ["montecarlo", "--case", "pd_consensus", "--gain", "k_p=0.4",
+                            "--gain", "k_d=1.6", "--runs", "3", "--seed", "0", "--tf", "100",
+                            "--step", "0.1", "--output-step", "0.5", "--no-certify",
+                            "--threads", "1"])
+    assert r["mc_status"] == "ran" and r["mc_runs"] == "3"
+    assert r["mc_converged"] == str(mc["counts"]["converged"]) == "3"
+    for k in ("median", "p95", "max"):
+        assert r[f"mc_conv_time_{k}"] == _cell(mc["convergence_time"][k])
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--gain", "K_o=1:2"], "design pd_consensus (k_p, k_d) in --gain, received unknown ['K_o']"),
+    (["--gain", "eps=0.1:1"], "received eps (a multiplier of the Lyapunov candidate"),
+    (["--ko", "1:2"], "in --ko, received unknown ['K_o']"),
+    (["--ref", "0.4"], "expected --ref k_p,k_d (2 numbers"),
+    (["--ref", "k_p=0.4"], "missing ['k_d']"),
+    (["--ref", "k_p=0.4,beta=1"], "in --ref, received unknown ['beta']"),
+    (["--conditions", "paper"], "conditions are liang2016's"),
+    (["--mc-runs", "2", "--mc-case", "nope"], "no such file"),
+])
+def test_pd_flags_bad_input_is_one_line_exit_2(tmp_path, capsys, argv, words):
+    out = tmp_path / "o"
+    rc = main(["sweep", "--design", "pd_consensus", "--graphs", "ring:4", *argv, "--workers", "0",
+               "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2 and words in err, err
+    one_line_error(err)
+    assert not out.exists()
+
+
+TWO_GAINS = '''"""PD without a cross term: two box dimensions, nothing for the design stage to sweep."""
+GAINS = {"k_p": {"range": "0.1:2"}, "k_d": {"range": "0.5:3"}}
+
+
+def controller(v):
+    return v.Q.I.T * ((v.B - v.k_d * v.A) * v.qd - v.k_p * v.A * v.s)
+
+
+def lyapunov(v):
+    return v.k_p / 4 * sum((e.dot(e) for e in v.edges), 0) + v.qd.dot(v.qd) / 2
+'''
+
+
+@pytest.mark.parametrize("toml, words", [
+    ('[[box]]\nname = "b"\nk_p = [0.1, 1]\n', "expected k_d = [lo, hi] in [[box]] 'b'"),
+    ('[[box]]\nname = "b"\nk_p = [0.1, 1]\nk_d = [1, 2]\nK_o = [1, 2]\n', "received unknown ['K_o']"),
+    ('[[box]]\nname = "b"\nk_p = [0.1, 1]\nk_d = [1, 2]\neps = [0.1, 0.2]\n', "received eps (a multiplier"),
+    ('[reference]\nK_o = 1.6\nK_q = 0.4\nbeta = 0.3\n', "in [reference], received unknown"),
+    ('[reference]\nk_p = 0.4\n', "expected k_d in [reference]"),
+    ('[montecarlo]\nruns = 2\nK_v = 0.01\n', "no montecarlo.K_v for design pd_consensus"),
+])
+def test_pd_campaign_file_bad_input_is_one_line_exit_2(tmp_path, capsys, toml, words):
+    f = tmp_path / "c.toml"
+    f.write_text('[campaign]\nname = "c"\ngraphs = ["ring:4"]\ndesign = "pd_consensus"\n' + toml)
+    rc = main(["sweep", "--campaign", str(f), "--workers", "0", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert rc == 2 and words in err, err
+    one_line_error(err)
+    assert not (tmp_path / "o").exists()
+
+
+def test_designs_a_sweep_cannot_run_and_unknown_designs_are_one_line(tmp_path, capsys):
+    two = tmp_path / "two.py"
+    two.write_text(TWO_GAINS)
+    for design, words in ((str(two), "three box dimensions"), ("nope", "expected a design name")):
+        rc = main(["sweep", "--design", design, "--graphs", "ring:4", "--workers", "0",
+                   "--out", str(tmp_path / "o")])
+        err = capsys.readouterr().err
+        assert rc == 2 and words in err, err
+        one_line_error(err)
+    f = tmp_path / "c.toml"
+    f.write_text('[campaign]\nname = "c"\ngraphs = ["ring:4"]\ndesign = "pd_consensus"\n')
+    rc = main(["sweep", "--campaign", str(f), "--design", "liang2016", "--workers", "0",
+               "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert rc == 2 and "expected one design" in err, err
+    one_line_error(err)
+    assert not (tmp_path / "o").exists()
+
+
+def test_liang2016_keeps_its_flags_columns_and_campaign_hash():
+    """The old flag names and campaign files: the committed atlas6 manifest's hash."""
+    from formsync_design.sweep import campaign_hash, expand_graphs, load_campaign
+    from formsync_design.sweep.schema import COLUMNS
+
+    man = json.loads((ROOT / "reports" / "sweep-atlas6" / "manifest.json").read_text())
+    c = load_campaign(ROOT / "verification" / "sweep_atlas6.toml")
+    gs, _ = expand_graphs(c.graphs)
+    assert campaign_hash(c, gs) == man["sha256"] and tuple(man["columns"]) == COLUMNS
+    assert c.schema.columns == COLUMNS
+    assert campaign_hash(load_campaign(ROOT / "verification" / "sweep_atlas6.toml",
+                                       spec="liang2016"), gs) == man["sha256"]
+
+
+def test_compare_with_another_sweep_matches_graphs_up_to_relabelling(tmp_path, capsys):
+    """liang2016's reference gains are refuted on star:6 (exactly checked witness), the PD
+    baseline's are certified: the comparison finds star:6 in the other sweep even with its
+    centre relabelled, and its content is part of the campaign hash."""
+    base = tmp_path / "liang"
+    assert main(["sweep", "--graphs", "star:6", "--graphs", "ring:4", "--resolution", "1",
+                 "--design-betas", "1", "--workers", "0", "--no-progress", "--out", str(base)]) == 0
+    star = tmp_path / "star6.txt"
+    star.write_text("".join(f"6 {i}\n" for i in range(1, 6)))  # the centre is spacecraft 6
+    camp = tmp_path / "pd.toml"
+    camp.write_text('[campaign]\nname = "pd"\ndesign = "pd_consensus"\ngraphs = ["'
+                    + str(star) + '", "path:3"]\ncompare = "' + str(base)
+                    + '"\n[region]\nresolution = 1\n[design]\nbetas = 1\n')
+    assert main(["sweep", "--campaign", str(camp), "--workers", "0", "--no-progress",
+                 "--out", str(tmp_path / "pd")]) == 0
+    md = (tmp_path / "pd" / "summary.md").read_text()
+    assert "## Compared with `liang2016`" in md and "1 of 2 graphs of this campaign" in md
+    assert "| 6 | 1 | 1 | 0 | 0 | 1 | 0 | 0 |" in md
+    assert "Certified for `pd_consensus` only: `file:star6.txt` (= `star:6`, liang2016 refuted" in md
+    from formsync_design.sweep import campaign_hash, expand_graphs, load_campaign
+
+    c = load_campaign(camp)
+    gs, _ = expand_graphs(c.graphs)
+    h = campaign_hash(c, gs)
+    res = base / "results.csv"
+    res.write_text(res.read_text().replace(",refuted,", ",certified,"))
+    assert campaign_hash(c, gs) != h
+    capsys.readouterr()
+    camp.write_text(camp.read_text().replace(str(base), str(tmp_path / "nowhere")))
+    assert main(["sweep", "--campaign", str(camp), "--workers", "0", "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err
+    assert "finished sweep folder" in err
+    one_line_error(err)
+    assert not (tmp_path / "x").exists()

@@ -457,9 +457,12 @@ def test_cli_simulate_trigger_reports_transmissions():
     assert r.returncode == 2 and "SIGMA > 0 or FLOOR > 0" in r.stderr
 
 
-def test_cli_sweep_refuses_a_design_its_campaigns_cannot_take(tmp_path):
-    r = _formsync("sweep", "--graphs", "ring:4..5", "--design", PD, "--out", str(tmp_path / "s"))
-    assert r.returncode == 2 and "sweep campaign" in r.stderr and not (tmp_path / "s").exists()
+def test_cli_sweep_takes_the_design_s_gains_only(tmp_path):
+    # the sweep of the PD design itself is tested in tests/test_cli_sweep.py
+    r = _formsync("sweep", "--graphs", "ring:4..5", "--design", PD, "--ko", "1:2",
+                  "--out", str(tmp_path / "s"))
+    assert r.returncode == 2 and "controller gains of design pd_consensus (k_p, k_d)" in r.stderr
+    assert not (tmp_path / "s").exists()
 
 
 def test_a_representation_the_engine_cannot_derive_is_refused(tmp_path):

@@ -315,6 +315,10 @@ def test_example_campaign_definition_loads():
     gs, skipped = expand_graphs(c.graphs)
     assert len(gs) == sum(CONNECTED.values()) and not skipped
     assert [float(v) for v in c.reference] == [1.6, 0.4, 0.3]
+    pd = load_campaign(ROOT / "verification" / "sweep_pd_atlas5.toml")
+    assert pd.schema.box == ("k_p", "k_d") and pd.schema.multipliers == ("eps",)
+    assert [float(v) for v in pd.reference] == [0.4, 1.6] and pd.compare == "reports/sweep-atlas6"
+    assert pd.montecarlo is not None and pd.montecarlo.switching is None
 
 
 # ---------------------------------------------------------------------------

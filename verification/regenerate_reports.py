@@ -16,7 +16,10 @@ documented commands produce:
   paper's, exact, searched and spectral certificates side by side;
 * ``formsync sweep --campaign verification/sweep_atlas6.toml --out reports/sweep-atlas6
   --overwrite`` -> reports/sweep-atlas6/ (all connected graphs with N <= 6); the folder is
-  removed first so that a changed campaign definition regenerates cleanly.
+  removed first so that a changed campaign definition regenerates cleanly;
+* ``formsync sweep --campaign verification/sweep_pd_atlas5.toml --out reports/sweep-pd-atlas5
+  --overwrite`` -> reports/sweep-pd-atlas5/ (the PD baseline on the same graphs, compared with
+  reports/sweep-atlas6, so it runs after it; also removed first).
 """
 
 from __future__ import annotations
@@ -34,12 +37,15 @@ def main() -> int:
     from formsync_design.cli.main import main as formsync
 
     os.chdir(ROOT)
-    shutil.rmtree(ROOT / "reports" / "sweep-atlas6", ignore_errors=True)
+    for folder in ("sweep-atlas6", "sweep-pd-atlas5"):
+        shutil.rmtree(ROOT / "reports" / folder, ignore_errors=True)
     jobs: list[list[str]] = [
         ["verify", "liang2016"],
         ["verify", "pd_consensus"],
         ["sweep", "--campaign", "verification/sweep_atlas6.toml", "--out", "reports/sweep-atlas6",
          "--overwrite"],
+        ["sweep", "--campaign", "verification/sweep_pd_atlas5.toml", "--out",
+         "reports/sweep-pd-atlas5", "--overwrite"],
     ]
     for argv in jobs:
         print("formsync " + " ".join(argv), flush=True)

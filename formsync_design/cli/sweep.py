@@ -15,20 +15,36 @@ from formsync_design.cli.options import (
     add_format_option,
     emit_json,
     parse_gain_range,
+    parse_number,
 )
 from formsync_design.errors import InputError
 
 __all__ = ["add_parser", "run"]
 
 _DESC = """\
-Run a campaign over many communication graphs x gain boxes and collect, per
-graph: spectral facts (degrees, lambda_2 and lambda_max of the Laplacian),
-the certification status of reference gains (default the paper's K_o = 1.6,
-K_q = 0.4, beta = 0.3), the certified-region summary of each box (volume
-fractions certified / refuted / undecided at resolution R), recommended gains
-with the largest certified box around them, and - with --mc-runs or a
-[montecarlo] table - Monte-Carlo convergence statistics on the nonlinear
-formation.
+Run a campaign of one design over many communication graphs x gain boxes and
+collect, per graph: spectral facts (degrees, lambda_2 and lambda_max of the
+Laplacian), the certification status of reference gains (liang2016, the
+default: the paper's K_o = 1.6, K_q = 0.4, beta = 0.3), the certified-region
+summary of each box (volume fractions certified / refuted / undecided at
+resolution R), recommended gains with the largest certified box around them,
+and - with --mc-runs or a [montecarlo] table - Monte-Carlo convergence
+statistics on the nonlinear formation.
+
+Design: --design NAME|FILE (or `design = "NAME|FILE"` in the [campaign] table,
+a file relative to the campaign file; --spec and `spec` are the old names).
+The box and the reference are over the design's controller gains, given by
+name: --gain NAME=LO:HI (repeat; liang2016 also --ko/--kq/--beta), --ref
+NAME=X,NAME=X (or the values in the design's gain order), [[box]] and
+[reference] tables keyed by the gains.  A gain not given takes its declared
+range (liang2016: the standard box 0.05:5 x 0.05:5 x 0.01:1); the reference
+defaults to the design's shipped case.  Multipliers of the Lyapunov candidate
+(pd_consensus's eps) are never given: every certificate searches them over
+their declared ranges, and the values that certify are reported as evidence
+(columns ref_cert_eps, rec_cert_eps).  The columns of results.csv are named
+after the design's gains (box_k_p_lo, ref_k_d, rec_k_p, ...).  The design's
+content is part of the campaign sha256, so a folder of another design is
+refused.
 
 Graph sets (repeat --graphs):
   ring:N | path:N | star:N | complete:N     N a number or a range A..B (ring:4..12)
@@ -45,16 +61,13 @@ table, one row per graph x box, schema in summary.md), summary.md and figures
 lambda_2 with Monte-Carlo).  Rows are appended to DIR/journal.jsonl with fsync
 as tasks finish: after a kill, the same command with --resume computes only the
 missing tasks.  A DIR written by a different campaign is refused (exit 2,
-nothing overwritten).
+nothing overwritten).  With `compare = "OTHER_DIR"` in the [campaign] table,
+summary.md compares the reference statuses with another sweep's results on the
+same graphs (matched up to relabelling; its results are part of the sha256).
 
 Execution: a local dask.distributed cluster of --workers processes (default 2,
 one thread each); --scheduler ADDRESS uses an existing cluster (its workers
 need formsync-design installed); --workers 0 runs serially in this process.
-
-Specification: --spec FILE (or `spec = "FILE"` in the [campaign] table,
-relative to the campaign file) derives the conditions and simulates the
-Monte-Carlo runs with that controller instead of the paper's; its content is
-part of the campaign sha256, so a folder of another specification is refused.
 
 Limits (refused up front, exit 2): at most 2000 spacecraft per graph, 100000
 tasks (graphs x boxes) and 10^7 Monte-Carlo simulations per campaign.
@@ -63,8 +76,9 @@ Ctrl-C stops the sweep within a second or two (exit 130); finished rows stay in
 DIR/journal.jsonl and --resume completes the campaign.
 
 Exit status: 0 campaign complete; 2 bad input (unknown family, empty set, a
-malformed --scheduler address, a campaign too large, a foreign results folder,
-a task that rejected its input); 3 a failure that is not your input (scheduler
+gain the design does not declare, a box missing a gain, a malformed
+--scheduler address, a campaign too large, a foreign results folder, a task
+that rejected its input); 3 a failure that is not your input (scheduler
 unreachable or without workers, a worker died, a task crashed: finished rows
 are kept, rerun with --resume); 130 interrupted.
 
@@ -75,9 +89,11 @@ examples:
   formsync sweep --graphs random:8:0.4:0..19 --mc-runs 200 --mc-gains recommended --out out/rnd
   formsync sweep --campaign verification/sweep_atlas6.toml --out reports/sweep-atlas6 --overwrite
   formsync sweep --campaign big.toml --out out/big --scheduler tcp://10.0.0.5:8786 --resume
+  formsync sweep --design pd_consensus --graphs atlas:2..5 --gain k_p=0.1:2 --gain k_d=0.5:3 \
+      --ref k_p=0.4,k_d=1.6 --out out/pd      # the PD baseline: its gains, eps searched
 """
 
-_DEF_FLAGS = ("graphs", "ko", "kq", "beta", "ref", "resolution", "design_betas", "conditions",
+_DEF_FLAGS = ("graphs", "gain", "ko", "kq", "beta", "ref", "resolution", "design_betas", "conditions",
               "margin", "mc_runs", "mc_seed", "mc_gains", "mc_tf", "mc_case", "name")
 
 
@@ -91,23 +107,30 @@ def add_parser(sub: Any) -> None:
     )
     d = p.add_argument_group("campaign definition (a --campaign FILE, or these flags)")
     d.add_argument("--campaign", metavar="FILE", default=None,
-                   help="campaign TOML ([campaign] graphs, [reference], [[box]], [region], "
-                   "[design], [montecarlo]; see formsync_design/sweep/campaign.py)")
+                   help="campaign TOML ([campaign] graphs and design, [reference], [[box]], "
+                   "[region], [design], [montecarlo]; see formsync_design/sweep/campaign.py)")
     d.add_argument("--graphs", action="append", metavar="SET", default=None,
                    help="graph set (repeatable), e.g. ring:4..12, atlas:6, random:8:0.4:0..9")
     d.add_argument("--name", default=None, help="campaign name (default 'sweep')")
     d.add_argument("--design", "--spec", dest="spec", default=None, metavar="NAME|FILE",
-                   help="controller + Lyapunov specification .py (default: the paper's design; "
-                   "with --campaign, instead of its [campaign] spec)")
-    d.add_argument("--ko", default=None, metavar="LO:HI", help="K_o range of the box (default 0.05:5)")
-    d.add_argument("--kq", default=None, metavar="LO:HI", help="K_q range of the box (default 0.05:5)")
-    d.add_argument("--beta", default=None, metavar="LO:HI", help="beta range of the box (default 0.01:1)")
-    d.add_argument("--ref", default=None, metavar="KO,KQ,BETA",
-                   help="reference gains certified for every graph (default 1.6,0.4,0.3, the paper's)")
+                   help="the design: a shipped design's name (liang2016, pd_consensus) or a design "
+                   ".py file (default liang2016; with --campaign, when the file names none)")
+    d.add_argument("--gain", action="append", default=None, metavar="NAME=LO:HI",
+                   help="range of a controller gain of the design in the box (repeat); default its "
+                   "declared range (liang2016: K_o 0.05:5, K_q 0.05:5, beta 0.01:1)")
+    d.add_argument("--ko", default=None, metavar="LO:HI", help="liang2016: K_o range (= --gain K_o=LO:HI)")
+    d.add_argument("--kq", default=None, metavar="LO:HI", help="liang2016: K_q range (= --gain K_q=LO:HI)")
+    d.add_argument("--beta", default=None, metavar="LO:HI",
+                   help="liang2016: beta range (= --gain beta=LO:HI)")
+    d.add_argument("--ref", default=None, metavar="NAME=X,...",
+                   help="reference gains certified for every graph: NAME=X pairs or the values in "
+                   "the design's gain order (default: liang2016 1.6,0.4,0.3; another design its "
+                   "shipped case's)")
     d.add_argument("--resolution", type=int, default=None, metavar="R",
                    help="region map: finest box = 1/R of each range (default 8)")
     d.add_argument("--design-betas", type=int, default=None, metavar="K",
-                   help="beta values swept by the gain design (default 5)")
+                   help="values of the third gain swept by the gain design (beta; pd_consensus: "
+                   "its multiplier eps), default 5")
     d.add_argument("--conditions", default=None, choices=("derived", "paper"),
                    help="Lyapunov conditions: derived (default) or the paper's printed ones")
     d.add_argument("--margin", default=None, metavar="EPS", help="require lambda_min > EPS (default 0)")
@@ -137,30 +160,86 @@ def add_parser(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def _campaign_from_flags(args: argparse.Namespace) -> Any:
-    from formsync_design.sweep.campaign import DEFAULT_BOX, DEFAULT_REFERENCE, campaign_from_dict
-    from formsync_design.sweep.schema import GAINS
+def _box_from_flags(args: argparse.Namespace, sp: Any, schema: Any) -> dict[str, Any]:
+    """The box of ``--gain`` (and liang2016's ``--ko/--kq/--beta``) over the design's
+    controller gains, a gain not given taking its default (:func:`~.sweep.designs.default_box`)."""
+    from formsync_design.cli.options import parse_gain_assignments
+    from formsync_design.sweep.designs import DEFAULT_BOX, gain_key_error
 
+    given = parse_gain_assignments(args.gain)
+    err = gain_key_error(sp, schema, "--gain", list(given))
+    if err is not None:
+        raise err
+    for flag, g in (("ko", "K_o"), ("kq", "K_q"), ("beta", "beta")):
+        v = getattr(args, flag)
+        if v is None:
+            continue
+        err = gain_key_error(sp, schema, f"--{flag}", [g])
+        if err is not None:
+            raise err
+        if g in given:
+            raise InputError(f"expected {g} once, received it as --gain and as --{flag}")
+        given[g] = v
+    box: dict[str, Any] = {"name": "standard"}
+    for g in schema.box:
+        if g in given:
+            r = parse_gain_range(given[g], g)
+            box[g] = [str(r.lo), str(r.hi)]
+        elif (rng := sp.decl.gain(g).range) is not None:
+            box[g] = [str(rng.lo), str(rng.hi)]
+        elif g in DEFAULT_BOX:
+            box[g] = DEFAULT_BOX[g]
+        else:
+            raise InputError(f"expected --gain {g}=LO:HI (design {sp.name} declares no range for "
+                             f"{g}), received none")
+    return box
+
+
+def _ref_from_flags(text: str, sp: Any, schema: Any) -> dict[str, str]:
+    """``--ref``: ``NAME=X`` pairs or the values in the design's controller-gain order."""
+    from formsync_design.sweep.designs import gain_key_error
+
+    parts = [t.strip() for t in text.split(",")]
+    named = ["=" in t for t in parts]
+    if any(named) and not all(named):
+        raise InputError(f"expected --ref NAME=X,NAME=X or the values {','.join(schema.box)}, "
+                         f"received {text!r}")
+    if all(named):
+        items = [(t.split("=", 1)[0].strip(), t.split("=", 1)[1].strip()) for t in parts]
+        names = [n for n, _ in items]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise InputError(f"expected each gain once in --ref, received {dup[0]} twice")
+        err = gain_key_error(sp, schema, "--ref", names)
+        if err is not None:
+            raise err
+        vals = dict(items)
+        missing = [g for g in schema.box if g not in vals]
+        if missing:
+            raise InputError(f"expected --ref with every controller gain of design {sp.name} "
+                             f"({', '.join(schema.box)}), missing {missing}")
+    else:
+        if len(parts) != len(schema.box):
+            raise InputError(f"expected --ref {','.join(schema.box)} ({len(schema.box)} numbers for "
+                             f"design {sp.name}), received {text!r}")
+        vals = dict(zip(schema.box, parts))
+    return {g: str(parse_number(vals[g], f"--ref {g}")) for g in schema.box}
+
+
+def _campaign_from_flags(args: argparse.Namespace) -> Any:
+    from formsync_design.sweep.campaign import campaign_from_dict
+    from formsync_design.sweep.designs import check_sweepable, load_design
+
+    sp = load_design(args.spec)
+    schema = check_sweepable(sp)
     doc: dict[str, Any] = {"campaign": {"name": args.name or "sweep", "graphs": args.graphs or []}}
     if args.conditions:
         doc["campaign"]["conditions"] = args.conditions
     if args.margin is not None:
         doc["campaign"]["margin"] = args.margin
-    box = dict(DEFAULT_BOX)
-    for flag, g in (("ko", "K_o"), ("kq", "K_q"), ("beta", "beta")):
-        v = getattr(args, flag)
-        if v is not None:
-            r = parse_gain_range(v, g)
-            box[g] = [str(r.lo), str(r.hi)]
-    doc["box"] = [box]
-    ref = dict(DEFAULT_REFERENCE)
+    doc["box"] = [_box_from_flags(args, sp, schema)]
     if args.ref is not None:
-        parts = args.ref.split(",")
-        if len(parts) != 3:
-            raise InputError(f"expected --ref KO,KQ,BETA (three numbers), received {args.ref!r}")
-        for g, t in zip(GAINS, parts):
-            ref[g] = str(parse_gain_range(t, g).lo)
-    doc["reference"] = ref
+        doc["reference"] = _ref_from_flags(args.ref, sp, schema)
     if args.resolution is not None:
         doc["region"] = {"resolution": args.resolution}
     if args.design_betas is not None:
@@ -181,7 +260,7 @@ def _campaign_from_flags(args: argparse.Namespace) -> Any:
         if args.mc_case is not None:
             mc["case"] = args.mc_case
         doc["montecarlo"] = mc
-    return campaign_from_dict(doc)
+    return campaign_from_dict(doc, spec=sp if args.spec else None)
 
 
 def _command(args: argparse.Namespace) -> str:
@@ -194,10 +273,12 @@ def _command(args: argparse.Namespace) -> str:
             parts += ["--graphs", g]
         for f in _DEF_FLAGS:
             v = getattr(args, f)
-            if f != "graphs" and v is not None:
+            if f not in ("graphs", "gain") and v is not None:
                 parts += ["--" + f.replace("_", "-"), str(v)]
+        for gv in args.gain or []:
+            parts += ["--gain", gv]
     if args.spec:
-        parts += ["--spec", args.spec]
+        parts += ["--design", args.spec]
     return shlex.join(["formsync", "sweep", *parts, "--out", args.out, "--overwrite"])
 
 
@@ -213,12 +294,7 @@ def run(args: argparse.Namespace) -> int:
                 "expected either --campaign FILE or campaign flags, received both (--campaign and "
                 + ", ".join("--" + f.replace("_", "-") for f in used) + ")"
             )
-        camp = load_campaign(args.campaign)
-        if args.spec and camp.spec:
-            raise InputError(
-                f"expected one specification, received --spec {args.spec!r} and spec = "
-                f"{camp.spec!r} in {args.campaign}"
-            )
+        camp = load_campaign(args.campaign, spec=args.spec)
     else:
         if not args.graphs:
             raise InputError("expected --campaign FILE or at least one --graphs SET, received neither")
@@ -231,16 +307,10 @@ def run(args: argparse.Namespace) -> int:
             prog = Progress(total, "sweep tasks", enabled=not args.no_progress)
         prog.update(done - prog.done)
 
-    from formsync_design.cli.certify import require_classic
-    from formsync_design.spec.loader import load_spec
-
-    design = load_spec(args.spec if args.spec else (camp.spec_path if camp.spec else None))
-    require_classic(design, "a sweep campaign (its boxes are over those gains)")
     try:
         res = run_sweep(
             camp, args.out, resume=args.resume, overwrite=args.overwrite, scheduler=args.scheduler,
             n_workers=args.workers, timeout=timeout, progress=progress, command=_command(args),
-            spec=load_spec(args.spec) if args.spec else None,
         )
     except KeyboardInterrupt:
         if prog is not None and prog.enabled:
@@ -252,14 +322,16 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_INTERRUPTED
     if args.format == "json":
         emit_json({
-            "out": str(res.out), "sha256": res.sha256, "graphs": res.graphs, "tasks": res.tasks,
+            "out": str(res.out), "sha256": res.sha256, "design": res.design, "graphs": res.graphs,
+            "tasks": res.tasks,
             "computed": res.computed, "reused": res.reused, "skipped": list(res.skipped),
             "executor": res.executor, "wall_seconds": res.wall_seconds,
             "files": [str(p) for p in res.files],
         })
     else:
         rate = res.computed / res.wall_seconds if res.wall_seconds > 0 else 0.0
-        print(f"sweep {camp.name}: {res.tasks} tasks ({res.graphs} graphs x {len(camp.boxes)} boxes); "
+        print(f"sweep {camp.name} (design {res.design}): {res.tasks} tasks ({res.graphs} graphs x "
+              f"{len(camp.boxes)} boxes); "
               f"computed {res.computed}, reused {res.reused}; {res.wall_seconds:.1f} s "
               f"({rate:.2f} tasks/s) on {res.executor}")
         if res.skipped:

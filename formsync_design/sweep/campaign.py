@@ -1,10 +1,11 @@
 """Topology sweeps and Monte-Carlo campaigns on Dask.
 
-A *campaign* is a set of communication graphs x a list of gain boxes, with a
-reference gain point (default: the paper's ``K_o = 1.6, K_q = 0.4,
-beta = 0.3``) and optional Monte-Carlo validation.  One *task* = one graph x
-one box; it computes, with the public APIs of :mod:`.derive`, :mod:`.certify`,
-:mod:`.region`, :mod:`.design` and :mod:`.montecarlo`:
+A *campaign* runs one design (``[campaign] design``, default liang2016) over a set
+of communication graphs x a list of boxes of the design's controller gains, with a
+reference gain point (default for liang2016: the paper's ``K_o = 1.6, K_q = 0.4,
+beta = 0.3``; see :mod:`.designs`) and optional Monte-Carlo validation.  One *task* =
+one graph x one box; it computes, with the public APIs of :mod:`.derive`,
+:mod:`.certify`, :mod:`.region`, :mod:`.design` and :mod:`.montecarlo`:
 
 * spectral facts of the graph (degrees, ``lambda_2`` and ``lambda_max`` of the
   Laplacian, floating point, for plotting only);
@@ -16,6 +17,14 @@ one box; it computes, with the public APIs of :mod:`.derive`, :mod:`.certify`,
 * recommended gains (:func:`design_gains`) and the largest certified box
   around them (:func:`largest_certified_box` through ``design_gains``);
 * Monte-Carlo statistics (:func:`run_montecarlo`) when asked.
+
+A design whose Lyapunov candidate has multipliers (pd_consensus's ``eps``) has them
+searched over their declared ranges, as ``formsync certify`` and ``formsync region`` do
+(:func:`~formsync_design.certify.multipliers.certify_with_multipliers`,
+:func:`~formsync_design.certify.multiregion.region_with_multipliers`; the gain design
+sweeps the multiplier as its third dimension and holds it in the certified box): the
+chosen values are reported as evidence (``ref_cert_eps``, ``rec_cert_eps``).  The
+columns are named after the design's gains (:class:`~.schema.SweepSchema`).
 
 Graph sets (:func:`expand_graph_set`)
 -------------------------------------
@@ -43,8 +52,9 @@ Results folder
     sweep runs.  A torn last line (killed mid-write) is discarded on
     ``--resume``; a task id seen twice must carry identical rows.
 ``results.csv``
-    the tidy table (:data:`COLUMNS`, schema in :data:`COLUMN_DOC`), one row per
-    task, sorted by ``(graph_index, box_index)``, floats with 10 significant
+    the tidy table (columns named after the design's gains,
+    :class:`~.schema.SweepSchema`; liang2016's are :data:`~.schema.COLUMNS`, meanings
+    in ``summary.md``), one row per task, sorted by ``(graph_index, box_index)``, floats with 10 significant
     digits, written atomically (temporary file + rename) once every task is
     done; the journal is then removed.
 ``summary.md``, ``fraction-vs-lambda-max.png``, ``fraction-vs-max-degree.png``,
@@ -74,8 +84,18 @@ from typing import Any
 
 from formsync_design.errors import InputError
 from formsync_design.gains import GainBox, parse_number
+from formsync_design.sweep.designs import (
+    DEFAULT_BOX,
+    DEFAULT_REFERENCE,
+    check_sweepable,
+    default_box,
+    default_reference,
+    gain_key_error,
+    is_default_design,
+    load_design,
+)
 from formsync_design.sweep.graphsets import GraphEntry
-from formsync_design.sweep.schema import COLUMNS, FORMAT, GAINS, rational_text
+from formsync_design.sweep.schema import CLASSIC_SCHEMA, FORMAT, SweepSchema, rational_text
 
 __all__ = [
     "GainBoxSpec",
@@ -96,7 +116,7 @@ __all__ = [
 @dataclass(frozen=True)
 class GainBoxSpec:
     """A named gain box of a campaign: a :class:`~formsync_design.gains.GainBox` over
-    :data:`GAINS` (exact bounds) with the name used in ``results.csv``.
+    the design's controller gains (exact bounds) with the name used in ``results.csv``.
 
     >>> b = GainBoxSpec("b", GainBox.parse({"K_o": "1:2", "K_q": 1, "beta": "0.1:0.3"}))
     >>> b.bounds[0], b.to_dict()["beta"]
@@ -107,26 +127,30 @@ class GainBoxSpec:
     box: GainBox
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "box", GainBox.parse(self.box, GAINS))
+        object.__setattr__(self, "box", GainBox.parse(self.box))
 
     @property
     def bounds(self) -> tuple[tuple[Fraction, Fraction], ...]:
-        """Exact ``((lo, hi), ...)`` in :data:`GAINS` order."""
+        """Exact ``((lo, hi), ...)`` in the box's gain order."""
         return self.box.bounds
 
     def to_dict(self) -> dict[str, Any]:
         """Canonical form (bounds as exact ``"p/q"`` text: hashed into the manifest)."""
         return {"name": self.name,
-                **{g: [rational_text(lo), rational_text(hi)] for g, (lo, hi) in zip(GAINS, self.bounds)}}
+                **{g: [rational_text(lo), rational_text(hi)]
+                   for g, (lo, hi) in zip(self.box.names, self.bounds)}}
 
 
 @dataclass(frozen=True)
 class MonteCarloSpec:
     """Monte-Carlo settings of a campaign (see :mod:`.montecarlo`).
 
-    ``gains``: ``"reference"`` or ``"recommended"``; ``case``: case TOML whose
-    inertias (cycled when the graph has more spacecraft than the case),
-    orbit, disturbance and ``K_v`` are used (default: the paper's case).
+    ``gains``: ``"reference"`` or ``"recommended"``; ``case``: case TOML (or a
+    shipped case's name) whose inertias (cycled when the graph has more spacecraft
+    than the case), orbit, disturbance and - for a design with a switching gain -
+    ``K_v`` are used (default: the paper's case).  ``switching``: the design's
+    switching gain (its key in ``[montecarlo]``, ``K_v`` for liang2016), ``None``
+    for a design without one.
     """
 
     runs: int = 20
@@ -141,11 +165,13 @@ class MonteCarloSpec:
     step: float = 0.1
     output_step: float = 0.5
     disturbance: str = ""
+    switching: str | None = "K_v"
 
     def to_dict(self) -> dict[str, Any]:
+        sw = ({} if self.switching is None else
+              {self.switching: None if self.K_v is None else rational_text(self.K_v)})
         return {
-            "runs": self.runs, "seed": self.seed, "gains": self.gains, "case": self.case,
-            "K_v": None if self.K_v is None else rational_text(self.K_v),
+            "runs": self.runs, "seed": self.seed, "gains": self.gains, "case": self.case, **sw,
             "max_angle_deg": self.max_angle_deg, "max_rate": self.max_rate, "phases": self.phases,
             "tf": self.tf, "step": self.step, "output_step": self.output_step,
             "disturbance": self.disturbance,
@@ -154,7 +180,13 @@ class MonteCarloSpec:
 
 @dataclass(frozen=True)
 class Campaign:
-    """A validated campaign definition (:func:`campaign_from_dict`)."""
+    """A validated campaign definition (:func:`campaign_from_dict`).
+
+    ``spec``: the design as written (``[campaign] design``: a shipped name or a file
+    relative to ``spec_dir``; ``""``: liang2016, or ``spec_value``); ``spec_value``: a
+    design given as a value (``campaign_from_dict(..., spec=...)``); ``schema``: the
+    design's gain names the tables and columns are keyed by.
+    """
 
     name: str
     title: str
@@ -170,15 +202,9 @@ class Campaign:
     spec: str = ""
     base: str = field(default=".", compare=False)
     spec_dir: str = field(default=".", compare=False)
-
-    @property
-    def spec_path(self) -> Path | None:
-        """The specification file (``spec`` resolved against the campaign file's folder),
-        ``None`` for the paper's design."""
-        if not self.spec:
-            return None
-        p = Path(self.spec)
-        return p if p.is_absolute() else Path(self.spec_dir) / p
+    schema: SweepSchema = CLASSIC_SCHEMA
+    spec_value: Any = field(default=None, compare=False, repr=False)
+    compare: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """Canonical, JSON-ready definition (hashed into the manifest)."""
@@ -188,35 +214,33 @@ class Campaign:
             "graphs": list(self.graphs),
             "conditions": self.conditions,
             "margin": rational_text(self.margin),
-            "reference": {g: rational_text(v) for g, v in zip(GAINS, self.reference)},
+            "reference": {g: rational_text(v) for g, v in zip(self.schema.box, self.reference)},
             "boxes": [b.to_dict() for b in self.boxes],
             "region": {"resolution": self.resolution},
             "design": {"betas": self.design_betas, "penalty": self.design_penalty},
             "montecarlo": None if self.montecarlo is None else self.montecarlo.to_dict(),
             **({"spec": self.spec} if self.spec else {}),
+            **({"compare": self.compare} if self.compare else {}),
         }
 
 
 _TOP = {"campaign", "reference", "box", "region", "design", "montecarlo"}
 _KEYS = {
-    "campaign": {"name", "title", "graphs", "conditions", "margin", "spec"},
-    "reference": set(GAINS),
-    "box": {"name", *GAINS},
+    "campaign": {"name", "title", "graphs", "conditions", "margin", "spec", "design", "compare"},
     "region": {"resolution"},
     "design": {"betas", "penalty"},
-    "montecarlo": {"runs", "seed", "gains", "case", "K_v", "max_angle_deg", "max_rate", "phases",
+    "montecarlo": {"runs", "seed", "gains", "case", "max_angle_deg", "max_rate", "phases",
                    "tf", "step", "output_step", "disturbance"},
 }
-DEFAULT_BOX = {"name": "standard", "K_o": ["0.05", "5"], "K_q": ["0.05", "5"], "beta": ["0.01", "1"]}
-DEFAULT_REFERENCE = {"K_o": "1.6", "K_q": "0.4", "beta": "0.3"}
 
 
-def _check_keys(table: Any, name: str) -> dict:
+def _check_keys(table: Any, name: str, keys: set[str] | None = None) -> dict:
     if not isinstance(table, dict):
         raise InputError(f"expected a table [{name}], received {table!r}")
-    extra = set(table) - _KEYS[name]
+    allowed = _KEYS[name] if keys is None else keys
+    extra = set(table) - allowed
     if extra:
-        raise InputError(f"expected keys {sorted(_KEYS[name])} in [{name}], received unknown {sorted(extra)}")
+        raise InputError(f"expected keys {sorted(allowed)} in [{name}], received unknown {sorted(extra)}")
     return table
 
 
@@ -235,12 +259,125 @@ def _pos_float(v: Any, what: str, *, allow_zero: bool = False) -> float:
     return float(v)
 
 
-def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Path = ".") -> Campaign:
+def _design_ref(c: dict, spec: Any) -> tuple[str, Any]:
+    """``([campaign] design as written, the design value given as an argument)``."""
+    if "spec" in c and "design" in c:
+        raise InputError("expected one of campaign.design or campaign.spec (its old name), received both")
+    key = "design" if "design" in c else "spec"
+    ref = c.get(key, "")
+    if not isinstance(ref, str):
+        raise InputError(f"expected campaign.{key} as a design name or a .py path string, received {ref!r}")
+    if spec is not None and ref.strip():
+        raise InputError(f"expected one design, received both a design argument and campaign.{key} = "
+                         f"{ref!r}")
+    return ref.strip(), spec
+
+
+def _gain_values(table: dict, where: str, sp: Any, schema: SweepSchema) -> dict[str, Any]:
+    """The gain entries of a ``[reference]`` or ``[[box]]`` table, checked against the design."""
+    gains = {k: v for k, v in table.items() if k != "name"}
+    err = gain_key_error(sp, schema, where, list(gains))
+    if err is not None:
+        raise err
+    for g in schema.box:
+        if g not in gains:
+            form = " = [lo, hi]" if where.startswith("[[box]]") else ""
+            raise InputError(f"expected {g}{form} in {where} (design {sp.name}: "
+                             f"{', '.join(schema.box)}), received keys {sorted(gains)}")
+    return gains
+
+
+def _boxes(data: dict, sp: Any, schema: SweepSchema) -> list[GainBoxSpec]:
+    boxes_raw = data["box"] if "box" in data else [default_box(sp, schema)]
+    if isinstance(boxes_raw, dict):
+        boxes_raw = [boxes_raw]
+    if not isinstance(boxes_raw, list) or not boxes_raw:
+        raise InputError(f"expected at least one [[box]] table, received {boxes_raw!r}")
+    boxes = []
+    for k, b in enumerate(boxes_raw):
+        if not isinstance(b, dict):
+            raise InputError(f"expected a table [[box]], received {b!r}")
+        bname = b.get("name", f"box{k + 1}")
+        if not isinstance(bname, str) or not re.fullmatch(r"[A-Za-z0-9_.-]+", bname):
+            raise InputError(f"expected box names made of letters, digits, '_', '.', '-', received {bname!r}")
+        given = _gain_values(b, f"[[box]] {bname!r}", sp, schema)
+        bounds = []
+        for g in schema.box:
+            v = given[g]
+            lo, hi = (v if isinstance(v, list) else [v, v]) if not isinstance(v, list) or len(v) == 2 else (None, None)
+            if lo is None:
+                raise InputError(f"expected box.{g} = [lo, hi] or a number in box {bname!r}, received {v!r}")
+            lo_q, hi_q = parse_number(lo, f"box {bname} {g}"), parse_number(hi, f"box {bname} {g}")
+            if not 0 < lo_q <= hi_q:
+                raise InputError(
+                    f"expected 0 < lo <= hi for {g} in box {bname!r}, received [{float(lo_q):g}, {float(hi_q):g}]"
+                )
+            bounds.append((lo_q, hi_q))
+        boxes.append(GainBoxSpec(bname, GainBox.parse(bounds, schema.box)))
+    if len({b.name for b in boxes}) != len(boxes):
+        raise InputError(f"expected distinct box names, received {[b.name for b in boxes]}")
+    return boxes
+
+
+def _montecarlo(m: Any, sp: Any, schema: SweepSchema) -> MonteCarloSpec:
+    sw = schema.switching
+    keys = _KEYS["montecarlo"] | ({sw} if sw else set())
+    if isinstance(m, dict) and sw is None and "K_v" in m:
+        raise InputError(f"expected no montecarlo.K_v for design {sp.name} (it has no switching "
+                         "gain), received one")
+    m = _check_keys(m, "montecarlo", keys)
+    gains = m.get("gains", "reference")
+    if gains not in ("reference", "recommended"):
+        raise InputError(f"expected montecarlo.gains reference or recommended, received {gains!r}")
+    case = m.get("case", "")
+    if not isinstance(case, str):
+        raise InputError(f"expected montecarlo.case as a path string or a shipped case's name, "
+                         f"received {case!r}")
+    dist = m.get("disturbance", "")
+    if dist not in ("", "paper", "gravity-gradient", "none"):
+        raise InputError(
+            f"expected montecarlo.disturbance paper, gravity-gradient or none, received {dist!r}"
+        )
+    phases = m.get("phases", True)
+    if not isinstance(phases, bool):
+        raise InputError(f"expected true/false for montecarlo.phases, received {phases!r}")
+    kv = m.get(sw) if sw else None
+    kvq = None if kv is None else parse_number(kv, f"montecarlo.{sw}")
+    if kvq is not None and kvq < 0:
+        raise InputError(f"expected montecarlo.{sw} >= 0, received {float(kvq):g}")
+    return MonteCarloSpec(
+        runs=_pos_int(m.get("runs", 20), "montecarlo.runs", 1, 10**7),
+        seed=_pos_int(m.get("seed", 0), "montecarlo.seed", 0),
+        gains=gains,
+        case=case,
+        K_v=kvq,
+        max_angle_deg=_pos_float(m.get("max_angle_deg", 100.0), "montecarlo.max_angle_deg", allow_zero=True),
+        max_rate=_pos_float(m.get("max_rate", 0.9), "montecarlo.max_rate", allow_zero=True),
+        phases=phases,
+        tf=_pos_float(m.get("tf", 200.0), "montecarlo.tf"),
+        step=_pos_float(m.get("step", 0.1), "montecarlo.step"),
+        output_step=_pos_float(m.get("output_step", 0.5), "montecarlo.output_step"),
+        disturbance=dist,
+        switching=sw,
+    )
+
+
+def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Path = ".",
+                       spec: Any = None) -> Campaign:
     """Validate a campaign document (the TOML layout of :func:`load_campaign`).
+
+    ``spec``: the design (a ``Spec``, a shipped design's name or a ``.py`` path relative
+    to the current folder) when the document names none (``[campaign] design``,
+    relative to ``spec_dir``); default liang2016.  The gain tables are checked against
+    the design's gains.
 
     >>> c = campaign_from_dict({"campaign": {"name": "t", "graphs": ["ring:4"]}})
     >>> c.boxes[0].name, [float(v) for v in c.reference], c.resolution
     ('standard', [1.6, 0.4, 0.3], 8)
+    >>> c = campaign_from_dict({"campaign": {"name": "t", "graphs": ["ring:4"],
+    ...                                      "design": "pd_consensus"}})
+    >>> c.schema.box, [float(v) for v in c.reference], str(c.boxes[0].box)
+    (('k_p', 'k_d'), [0.4, 1.6], 'k_p=0.1:2, k_d=0.5:3')
     """
     if not isinstance(data, dict):
         raise InputError(f"expected a campaign table, received {data!r}")
@@ -259,145 +396,117 @@ def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Pa
         graphs = [graphs]
     if not isinstance(graphs, list) or not graphs or not all(isinstance(g, str) and g.strip() for g in graphs):
         raise InputError(f"expected campaign.graphs as a non-empty list of graph-set specs, received {graphs!r}")
-    spec = c.get("spec", "")
-    if not isinstance(spec, str):
-        raise InputError(f"expected campaign.spec as a path string, received {spec!r}")
+    compare = c.get("compare", "")
+    if not isinstance(compare, str):
+        raise InputError(f"expected campaign.compare as the path of a sweep results folder, received "
+                         f"{compare!r}")
+    ref_text, spec_arg = _design_ref(c, spec)
+    sp = load_design(spec_arg) if spec_arg is not None else load_design(ref_text, spec_dir)
+    schema = check_sweepable(sp)
     cond = c.get("conditions", "derived")
     if cond not in ("derived", "paper"):
         raise InputError(f"expected campaign.conditions derived or paper, received {cond!r}")
+    if cond == "paper" and not is_default_design(sp):
+        raise InputError(f"expected campaign.conditions derived for design {sp.name} (the printed "
+                         "conditions are liang2016's), received paper")
     margin = parse_number(c.get("margin", 0), "campaign.margin")
     if margin < 0:
         raise InputError(f"expected a non-negative campaign.margin, received {float(margin):g}")
-    ref = _check_keys(data.get("reference", DEFAULT_REFERENCE), "reference")
-    for g in GAINS:
-        if g not in ref:
-            raise InputError(f"expected reference.{g}, received keys {sorted(ref)}")
-    reference = tuple(parse_number(ref[g], f"reference.{g}") for g in GAINS)
+    ref = data["reference"] if "reference" in data else default_reference(sp, schema)
+    if not isinstance(ref, dict):
+        raise InputError(f"expected a table [reference], received {ref!r}")
+    if "name" in ref:
+        raise InputError(f"expected only gains in [reference], received unknown {['name']}")
+    ref = _gain_values(ref, "[reference]", sp, schema)
+    reference = tuple(parse_number(ref[g], f"reference.{g}") for g in schema.box)
     if any(v <= 0 for v in reference):
         raise InputError(f"expected positive reference gains, received {[float(v) for v in reference]}")
-    boxes_raw = data.get("box", [DEFAULT_BOX])
-    if isinstance(boxes_raw, dict):
-        boxes_raw = [boxes_raw]
-    if not isinstance(boxes_raw, list) or not boxes_raw:
-        raise InputError(f"expected at least one [[box]] table, received {boxes_raw!r}")
-    boxes = []
-    for k, b in enumerate(boxes_raw):
-        b = _check_keys(b, "box")
-        bname = b.get("name", f"box{k + 1}")
-        if not isinstance(bname, str) or not re.fullmatch(r"[A-Za-z0-9_.-]+", bname):
-            raise InputError(f"expected box names made of letters, digits, '_', '.', '-', received {bname!r}")
-        bounds = []
-        for g in GAINS:
-            if g not in b:
-                raise InputError(f"expected box.{g} = [lo, hi] in box {bname!r}, received none")
-            v = b[g]
-            lo, hi = (v if isinstance(v, list) else [v, v]) if not isinstance(v, list) or len(v) == 2 else (None, None)
-            if lo is None:
-                raise InputError(f"expected box.{g} = [lo, hi] or a number in box {bname!r}, received {v!r}")
-            lo_q, hi_q = parse_number(lo, f"box {bname} {g}"), parse_number(hi, f"box {bname} {g}")
-            if not 0 < lo_q <= hi_q:
-                raise InputError(
-                    f"expected 0 < lo <= hi for {g} in box {bname!r}, received [{float(lo_q):g}, {float(hi_q):g}]"
-                )
-            bounds.append((lo_q, hi_q))
-        boxes.append(GainBoxSpec(bname, GainBox.parse(bounds, GAINS)))
-    if len({b.name for b in boxes}) != len(boxes):
-        raise InputError(f"expected distinct box names, received {[b.name for b in boxes]}")
+    boxes = _boxes(data, sp, schema)
     reg = _check_keys(data.get("region", {}), "region")
     resolution = _pos_int(reg.get("resolution", 8), "region.resolution", 1, 512)
     des = _check_keys(data.get("design", {}), "design")
     betas = _pos_int(des.get("betas", 5), "design.betas", 1, 1000)
     penalty = _pos_float(des.get("penalty", 0.0), "design.penalty", allow_zero=True)
-    mc = None
-    if "montecarlo" in data:
-        m = _check_keys(data["montecarlo"], "montecarlo")
-        gains = m.get("gains", "reference")
-        if gains not in ("reference", "recommended"):
-            raise InputError(f"expected montecarlo.gains reference or recommended, received {gains!r}")
-        case = m.get("case", "")
-        if not isinstance(case, str):
-            raise InputError(f"expected montecarlo.case as a path string, received {case!r}")
-        dist = m.get("disturbance", "")
-        if dist not in ("", "paper", "gravity-gradient", "none"):
-            raise InputError(
-                f"expected montecarlo.disturbance paper, gravity-gradient or none, received {dist!r}"
-            )
-        phases = m.get("phases", True)
-        if not isinstance(phases, bool):
-            raise InputError(f"expected true/false for montecarlo.phases, received {phases!r}")
-        kv = m.get("K_v")
-        kvq = None if kv is None else parse_number(kv, "montecarlo.K_v")
-        if kvq is not None and kvq < 0:
-            raise InputError(f"expected montecarlo.K_v >= 0, received {float(kvq):g}")
-        mc = MonteCarloSpec(
-            runs=_pos_int(m.get("runs", 20), "montecarlo.runs", 1, 10**7),
-            seed=_pos_int(m.get("seed", 0), "montecarlo.seed", 0),
-            gains=gains,
-            case=case,
-            K_v=kvq,
-            max_angle_deg=_pos_float(m.get("max_angle_deg", 100.0), "montecarlo.max_angle_deg", allow_zero=True),
-            max_rate=_pos_float(m.get("max_rate", 0.9), "montecarlo.max_rate", allow_zero=True),
-            phases=phases,
-            tf=_pos_float(m.get("tf", 200.0), "montecarlo.tf"),
-            step=_pos_float(m.get("step", 0.1), "montecarlo.step"),
-            output_step=_pos_float(m.get("output_step", 0.5), "montecarlo.output_step"),
-            disturbance=dist,
-        )
+    mc = _montecarlo(data["montecarlo"], sp, schema) if "montecarlo" in data else None
     return Campaign(
         name=name, title=title, graphs=tuple(g.strip() for g in graphs), boxes=tuple(boxes),
         reference=reference, conditions=cond, margin=margin, resolution=resolution,
         design_betas=betas, design_penalty=penalty, montecarlo=mc, base=str(base),
-        spec=spec.strip(), spec_dir=str(spec_dir),
+        spec=ref_text, spec_dir=str(spec_dir), schema=schema,
+        spec_value=sp if spec_arg is not None else None, compare=compare.strip(),
     )
 
 
-def load_campaign(path: str | Path) -> Campaign:
+def load_campaign(path: str | Path, spec: Any = None) -> Campaign:
     """Load a campaign TOML file; graph folders and the Monte-Carlo case are
-    resolved relative to the current directory, ``campaign.spec`` (a controller
-    specification file, default the paper's) relative to the campaign file.
+    resolved relative to the current directory, ``campaign.design`` (a shipped
+    design's name or a design file, default liang2016) relative to the campaign file.
+    ``spec``: the design when the file names none (``--design``).
 
     Layout::
 
         [campaign]   name, title, graphs = ["atlas:6", "ring:4..12", ...],
                      conditions = "derived" | "paper", margin = 0,
-                     spec = "my_controller.py"  (optional; default the paper's)
-        [reference]  K_o, K_q, beta            (default: the paper's 1.6, 0.4, 0.3)
-        [[box]]      name, K_o = [lo, hi], K_q = [lo, hi], beta = [lo, hi]
-                     (default: one box "standard" [0.05,5] x [0.05,5] x [0.01,1])
+                     design = "pd_consensus" | "my_design.py"  (optional; default liang2016;
+                     old name: spec),
+                     compare = "reports/sweep-atlas6"  (optional: another sweep's results
+                     folder; the summary compares the reference statuses, .compare)
+        [reference]  the design's controller gains: K_o, K_q, beta for liang2016 (default
+                     the paper's 1.6, 0.4, 0.3); k_p, k_d for pd_consensus (default: its
+                     shipped case's)
+        [[box]]      name, one [lo, hi] per controller gain: K_o = [lo, hi], ...
+                     (default: one box "standard", the declared ranges, liang2016's
+                     [0.05,5] x [0.05,5] x [0.01,1])
         [region]     resolution = 8
-        [design]     betas = 5, penalty = 0.0
-        [montecarlo] runs, seed, gains = "reference" | "recommended", case, K_v,
-                     max_angle_deg, max_rate, phases, tf, step, output_step,
-                     disturbance       (optional table: no Monte-Carlo without it)
+        [design]     betas = 5 (values of the swept third gain: beta; a multiplier such
+                     as eps), penalty = 0.0
+        [montecarlo] runs, seed, gains = "reference" | "recommended", case, K_v (the
+                     switching gain, only for a design with one), max_angle_deg,
+                     max_rate, phases, tf, step, output_step, disturbance
+                     (optional table: no Monte-Carlo without it)
+
+    Multipliers of the design's Lyapunov candidate are never given: every certificate
+    searches them over their declared ranges.
     """
     from formsync_design.tomlio import load_toml
 
     p = Path(path)
     data = load_toml(p, "campaign TOML file")
-    return campaign_from_dict(data, spec_dir=p.parent)
+    return campaign_from_dict(data, spec_dir=p.parent, spec=spec)
 
 
 def resolve_spec(campaign: Campaign, spec: Any = None) -> Any:
     """The :class:`~formsync_design.spec.loader.Spec` a campaign runs: ``spec`` (a
-    ``Spec``, a path) or else the campaign's ``spec`` file, else the paper's.
+    ``Spec``, a name, a path) or else the campaign's design, else the paper's.
 
-    Raises :class:`InputError` when both name a specification.
+    Raises :class:`InputError` when both name a design, or when the design's gains are
+    not the ones the campaign's tables were checked against.
 
     >>> c = campaign_from_dict({"campaign": {"name": "t", "graphs": ["ring:4"]}})
     >>> resolve_spec(c).name
     'liang2016'
+    >>> resolve_spec(c, "pd_consensus")
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected a design with the campaign's gains (K_o, K_q, beta), received design pd_consensus with k_p, k_d (multipliers eps)
     """
-    from formsync_design.spec.loader import Spec, load_spec
-
-    if spec is not None and campaign.spec:
+    if spec is not None and (campaign.spec or campaign.spec_value is not None):
         raise InputError(
-            f"expected one specification, received both a spec argument and campaign.spec = {campaign.spec!r}"
+            f"expected one specification, received both a spec argument and the campaign's design "
+            f"{campaign.spec or campaign.spec_value.name!r}"
         )
-    if isinstance(spec, Spec):
-        return spec
-    if spec is None and campaign.spec_path is None:
-        return load_spec(None)
-    return load_spec(spec if spec is not None else campaign.spec_path)
+    if spec is not None:
+        sp = load_design(spec)
+    elif campaign.spec_value is not None:
+        sp = campaign.spec_value
+    else:
+        sp = load_design(campaign.spec, campaign.spec_dir)
+    schema = SweepSchema.of_design(sp)
+    if schema != campaign.schema:
+        mult = f" (multipliers {', '.join(schema.multipliers)})" if schema.multipliers else ""
+        raise InputError(f"expected a design with the campaign's gains ({', '.join(campaign.schema.box)}), "
+                         f"received design {sp.name} with {', '.join(schema.box)}{mult}")
+    return sp
 
 
 def spec_key(spec: Any) -> str:
@@ -423,19 +532,31 @@ def graph_records(graphs: Sequence[GraphEntry]) -> list[dict[str, Any]]:
 
 
 def case_text(mc: MonteCarloSpec) -> tuple[str, str]:
-    """``(path, TOML text)`` of the Monte-Carlo case (default: the paper's), read here so
-    that workers of a remote cluster need no access to the file."""
+    """``(path, TOML text)`` of the Monte-Carlo case (a file, a shipped case's name;
+    default: the paper's), read here so that workers of a remote cluster need no access
+    to the file.  A design with a switching gain needs its value from the case or from
+    ``[montecarlo]``."""
+    from formsync_design.resources import case_file, case_names
     from formsync_design.verify.case import default_case_path, load_case
 
-    p = Path(mc.case) if mc.case else default_case_path()
-    load_case(p)  # validates (InputError for a missing or malformed case)
+    if not mc.case:
+        p = default_case_path()
+    elif mc.case.isidentifier() and mc.case in case_names() and not Path(mc.case).exists():
+        p = case_file(mc.case)
+    else:
+        p = Path(mc.case)
+    case = load_case(p)  # validates (InputError for a missing or malformed case)
+    if mc.switching is not None and mc.K_v is None and not case.gains.K_v:
+        raise InputError(f"expected montecarlo.{mc.switching} (the case {mc.case or p.name} gives "
+                         "no switching gain), received none")
     return str(p), p.read_text(encoding="utf-8")
 
 
 def campaign_hash(campaign: Campaign, graphs: Sequence[GraphEntry], spec: Any = None) -> str:
     """sha256 of the canonical definition, the expanded graph list (ids and edges), the
-    content key of the specification (``spec``, resolved by :func:`resolve_spec`) and,
-    with Monte-Carlo, the content of the case file.
+    columns, the content key of the design (``spec``, resolved by :func:`resolve_spec`),
+    with Monte-Carlo the content of the case file, and with ``compare`` the compared
+    sweep's results.
 
     The package version is deliberately *not* hashed: the committed reports must
     regenerate byte for byte across releases, and a folder stays resumable across
@@ -449,10 +570,13 @@ def campaign_hash(campaign: Campaign, graphs: Sequence[GraphEntry], spec: Any = 
     >>> campaign_hash(c, gs) == campaign_hash(c, gs), len(campaign_hash(c, gs))
     (True, 64)
     """
-    doc: dict[str, Any] = {"format": FORMAT, "columns": list(COLUMNS),
+    doc: dict[str, Any] = {"format": FORMAT, "columns": list(campaign.schema.columns),
                            "campaign": campaign.to_dict(), "graphs": graph_records(graphs),
                            "spec_sha256": spec_key(resolve_spec(campaign, spec))}
     if campaign.montecarlo is not None:
         doc["case_sha256"] = hashlib.sha256(case_text(campaign.montecarlo)[1].encode()).hexdigest()
-    return _digest(doc)
+    if campaign.compare:
+        from formsync_design.sweep.compare import load_compared
 
+        doc["compare_sha256"] = load_compared(campaign.compare, campaign.base).sha256
+    return _digest(doc)

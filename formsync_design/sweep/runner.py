@@ -20,7 +20,7 @@ from formsync_design.sweep.campaign import (
 )
 from formsync_design.sweep.executor import check_scheduler_address, execute
 from formsync_design.sweep.graphsets import expand_graphs, graph_set_bound
-from formsync_design.sweep.schema import COLUMNS, FORMAT
+from formsync_design.sweep.schema import FORMAT
 from formsync_design.sweep.store import (
     OWNED,
     Journal,
@@ -92,6 +92,7 @@ class SweepOutcome:
     files: tuple[Path, ...]
     wall_seconds: float
     executor: str
+    design: str = "liang2016"
 
 
 def run_sweep(
@@ -123,9 +124,10 @@ def run_sweep(
         (``pending`` = tasks this call computes; finished tasks of a resumed run excluded)
     command : the command line recorded in ``summary.md``
     task_fn : the task function (default :func:`run_task`; tests inject failures)
-    spec : the controller specification (a ``Spec`` or a path; default the
-        campaign's ``spec``, else the paper's); its content key is part of the
-        campaign hash, so a folder of another specification is refused
+    spec : the design (a ``Spec``, a name or a path; default the campaign's design,
+        else the paper's); it must have the gains the campaign's tables were checked
+        against; its content key is part of the campaign hash, so a folder of another
+        design is refused
 
     Raises
     ------
@@ -157,14 +159,15 @@ def run_sweep(
     outp = Path(out)
     mode = check_folder(outp, sha, resume=resume, overwrite=overwrite)
     tasks = build_tasks(campaign, graphs, sp if spec is not None else None)
+    columns = campaign.schema.columns
     ids = {t["task"] for t in tasks}
     done: dict[str, dict[str, str]] = {}
     jpath = outp / "journal.jsonl"
     if mode == "resume":
         if (outp / "results.csv").is_file():
-            for r in read_results(outp / "results.csv"):
+            for r in read_results(outp / "results.csv", columns):
                 done[r["task"]] = r
-        for k, r in read_journal(jpath, repair=True).items():
+        for k, r in read_journal(jpath, repair=True, columns=columns).items():
             if k in done and done[k] != r:
                 raise InputError(f"expected identical rows for task {k!r} in results.csv and the journal")
             done[k] = r
@@ -182,7 +185,7 @@ def run_sweep(
         "graphs": graph_records(graphs),
         "skipped": skipped,
         "tasks": len(tasks),
-        "columns": list(COLUMNS),
+        "columns": list(columns),
         "spec": {"name": sp.name, "sha256": spec_key(sp)},
     }
     man_bytes = (json.dumps(manifest, indent=1, sort_keys=True, ensure_ascii=True) + "\n").encode()
@@ -239,13 +242,20 @@ def run_sweep(
         assert journal is not None
         journal.close()
     rows = sorted((done[t["task"]] for t in tasks), key=sort_key)
-    atomic_write(outp / "results.csv", csv_bytes(rows))
+    atomic_write(outp / "results.csv", csv_bytes(rows, columns))
     files = [outp / "manifest.json", outp / "results.csv"]
-    files += write_summary(outp, rows, manifest, command=command)
+    compared = None
+    if campaign.compare:
+        from formsync_design.sweep.compare import load_compared
+
+        compared = load_compared(campaign.compare, campaign.base)
+    files += write_summary(outp, rows, manifest, command=command, schema=campaign.schema,
+                           compared=compared)
     jpath.unlink(missing_ok=True)
     return SweepOutcome(
         out=outp, sha256=sha, tasks=len(tasks), computed=len(pending),
         reused=len(tasks) - len(pending), graphs=len(graphs), skipped=tuple(skipped),
         files=tuple(files), wall_seconds=time.perf_counter() - t0, executor=executor,
+        design=sp.name,
     )
 

@@ -8,6 +8,7 @@ import signal
 import threading
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from formsync_design.errors import InputError
 from formsync_design.sweep.schema import COLUMNS
@@ -28,8 +29,10 @@ def atomic_write(path: Path, data: bytes) -> None:
     os.replace(tmp, path)
 
 
-def read_journal(path: Path, *, repair: bool) -> dict[str, dict[str, str]]:
-    """Rows of the journal; a torn last line is cut off (when ``repair``)."""
+def read_journal(path: Path, *, repair: bool,
+                 columns: Sequence[str] = COLUMNS) -> dict[str, dict[str, str]]:
+    """Rows of the journal (each with exactly ``columns``, the campaign's); a torn last
+    line is cut off (when ``repair``)."""
     rows: dict[str, dict[str, str]] = {}
     if not path.is_file():
         return rows
@@ -40,7 +43,7 @@ def read_journal(path: Path, *, repair: bool) -> dict[str, dict[str, str]]:
     for k, line in enumerate(lines):
         try:
             row = json.loads(line)
-            if not isinstance(row, dict) or set(row) != set(COLUMNS):
+            if not isinstance(row, dict) or set(row) != set(columns):
                 raise ValueError("columns")
         except ValueError:
             if k == len(lines) - 1:  # torn tail with a newline inside a partial write: drop it
@@ -95,28 +98,46 @@ class Journal:
         self.fh.close()
 
 
-def read_results(path: str | Path) -> list[dict[str, str]]:
-    """Rows of a ``results.csv`` (strings, in file order), checking the header."""
+def read_results(path: str | Path, columns: Sequence[str] | None = None) -> list[dict[str, str]]:
+    """Rows of a ``results.csv`` (strings, in file order), checking the header: the
+    campaign's ``columns`` when given, else any sweep header (its columns are named after
+    the design's gains, :class:`~formsync_design.sweep.schema.SweepSchema`).
+
+    >>> import tempfile
+    >>> p = Path(tempfile.mkdtemp()) / "results.csv"
+    >>> _ = p.write_bytes(csv_bytes([{c: "1" for c in COLUMNS}]))
+    >>> len(read_results(p)), read_results(p, COLUMNS)[0]["task"]
+    (1, '1')
+    """
     import csv
 
     p = Path(path)
     with open(p, newline="", encoding="utf-8") as fh:
         rd = csv.reader(fh)
-        header = next(rd, None)
-        if header is None or tuple(header) != COLUMNS:
+        header: Any = next(rd, None)
+        ok = header is not None and (tuple(header) == tuple(columns) if columns is not None
+                                     else header[:3] == list(COLUMNS[:3]))
+        if not ok:
             raise InputError(f"expected the sweep columns in {p}, received header {header!r}")
-        return [dict(zip(COLUMNS, r)) for r in rd]
+        rows = []
+        for k, r in enumerate(rd, start=2):
+            if len(r) != len(header):
+                raise InputError(f"expected {len(header)} cells per row in {p}, received {len(r)} "
+                                 f"at line {k}")
+            rows.append(dict(zip(header, r)))
+        return rows
 
 
-def csv_bytes(rows: Sequence[dict[str, str]]) -> bytes:
+def csv_bytes(rows: Sequence[dict[str, str]], columns: Sequence[str] = COLUMNS) -> bytes:
+    """``results.csv`` of ``rows`` (the campaign's ``columns``, in order)."""
     import csv
     import io
 
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(COLUMNS)
+    w.writerow(columns)
     for r in rows:
-        w.writerow([r[c] for c in COLUMNS])
+        w.writerow([r[c] for c in columns])
     return buf.getvalue().encode("utf-8")
 
 

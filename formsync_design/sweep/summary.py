@@ -7,7 +7,7 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
-from formsync_design.sweep.schema import COLUMN_DOC, COLUMNS, GAINS
+from formsync_design.sweep.schema import CLASSIC_SCHEMA, SweepSchema
 from formsync_design.sweep.store import atomic_write
 
 __all__ = ["plot_fraction", "plot_convergence", "write_summary"]
@@ -95,10 +95,30 @@ def _pct(x: float) -> str:
     return f"{100 * x:.1f}%"
 
 
+def _design_line(manifest: dict[str, Any]) -> str | None:
+    """The design of the campaign, unless it is the shipped liang2016 (the default)."""
+    from formsync_design.spec.loader import load_spec
+
+    sp = manifest["spec"]
+    if sp["name"] == "liang2016" and sp["sha256"] == load_spec(None).key:
+        return None
+    return f"- design: `{sp['name']}` (sha256 `{sp['sha256'][:16]}`)"
+
+
+def _span(vals: Sequence[str]) -> str:
+    xs = sorted(float(v) for v in vals if v != "")
+    if not xs:
+        return "-"
+    return f"{xs[0]:g}" if xs[0] == xs[-1] else f"{xs[0]:g} .. {xs[-1]:g}"
+
+
 def write_summary(
-    out: str | Path, rows: Sequence[dict[str, str]], manifest: dict[str, Any], *, command: str = ""
+    out: str | Path, rows: Sequence[dict[str, str]], manifest: dict[str, Any], *, command: str = "",
+    schema: SweepSchema = CLASSIC_SCHEMA, compared: Any = None,
 ) -> list[Path]:
-    """Write ``summary.md`` and the figures from the rows; returns the paths."""
+    """Write ``summary.md`` and the figures from the rows (columns of ``schema``, the
+    design's gain names) and, with ``compared`` (:class:`~.compare.Compared`), a
+    comparison with another sweep's reference statuses; returns the paths."""
     d = Path(out)
     camp = manifest["campaign"]
     paths = []
@@ -124,18 +144,27 @@ def write_summary(
         L.append(f"Regenerate with `{command}`.")
     L.append("")
     L.append(f"- campaign sha256: `{manifest['sha256']}`")
+    dl = _design_line(manifest)
+    if dl:
+        L.append(dl)
     L.append(f"- graph sets: {', '.join('`' + g + '`' for g in camp['graphs'])} "
              f"({len(manifest['graphs'])} graphs, {len(rows)} tasks)")
     if manifest["skipped"]:
         L.append(f"- skipped (listed, not analysed): {', '.join(manifest['skipped'])}")
     L.append(f"- conditions: {camp['conditions']} Lyapunov conditions (Theta_i > {camp['margin']}, "
              f"Pi > {camp['margin']})")
-    L.append("- reference gains: " + ", ".join(f"{g} = {float(Fraction(ref[g])):g}" for g in GAINS))
+    L.append("- reference gains: " + ", ".join(f"{g} = {float(Fraction(ref[g])):g}" for g in schema.box))
     for b in camp["boxes"]:
         L.append(f"- box `{b['name']}`: " + " x ".join(
-            f"{g} in [{float(Fraction(b[g][0])):g}, {float(Fraction(b[g][1])):g}]" for g in GAINS))
+            f"{g} in [{float(Fraction(b[g][0])):g}, {float(Fraction(b[g][1])):g}]" for g in schema.box))
     L.append(f"- region resolution R = {camp['region']['resolution']} per axis; design: "
-             f"{camp['design']['betas']} beta values, penalty {camp['design']['penalty']:g}")
+             f"{camp['design']['betas']} {schema.swept} values, penalty {camp['design']['penalty']:g}")
+    if schema.multipliers:
+        from formsync_design.certify.multipliers import GRID_POINTS
+
+        L.append("- multipliers of the Lyapunov candidate, searched by every certificate: "
+                 + ", ".join(f"{m} ({GRID_POINTS} geometric grid values over its declared range)"
+                             for m in schema.multipliers))
     if camp["montecarlo"]:
         m = camp["montecarlo"]
         L.append(f"- Monte-Carlo: {m['runs']} runs per graph at the {m['gains']} gains, seed "
@@ -145,6 +174,14 @@ def write_summary(
     L.append("Certified / refuted statuses are proofs (rigorous re-check of every vertex of a "
              "multi-affine family); spectral values are floating point and only position the "
              "points in the figures.")
+    if schema.multipliers:
+        names = ", ".join(schema.multipliers)
+        L.append("")
+        L.append(f"A box is certified when one value of the multipliers ({names}) makes every "
+                 "family positive definite on the whole box; that value is the evidence (columns "
+                 + ", ".join(f"`ref_cert_{m}`, `rec_cert_{m}`" for m in schema.multipliers)
+                 + "). A value that fails refutes that Lyapunov candidate only, so such boxes are "
+                 "undecided, never refuted.")
     L.append("")
     # reference gains by N
     L.append("## Reference gains by formation size")
@@ -161,9 +198,15 @@ def write_summary(
                 fam = "Pi" if r["ref_refuted_by"].startswith("Pi") else "Theta_i"
                 by[fam] = by.get(fam, 0) + 1
         body.append([n, len(sub), cnt["certified"], cnt["refuted"], cnt["undecided"], cnt["error"],
-                     ", ".join(f"{k}: {v}" for k, v in sorted(by.items())) or "-"])
-    L += _table(["N", "graphs", "certified", "refuted", "undecided", "error", "refuted by"], body)
+                     ", ".join(f"{k}: {v}" for k, v in sorted(by.items())) or "-",
+                     *[_span([r[f"ref_cert_{m}"] for r in sub]) for m in schema.multipliers]])
+    L += _table(["N", "graphs", "certified", "refuted", "undecided", "error", "refuted by",
+                 *[f"{m} certifying" for m in schema.multipliers]], body)
     L.append("")
+    if compared is not None:
+        from formsync_design.sweep.compare import comparison_lines
+
+        L += comparison_lines(rows, manifest, compared)
     # certified fraction by box and max degree
     for bi, b in enumerate(camp["boxes"]):
         sub = [r for r in rows if r["box_index"] == str(bi)]
@@ -212,7 +255,8 @@ def write_summary(
     L.append("")
     L.append("## results.csv columns")
     L.append("")
-    L += _table(["column", "meaning"], [[c, COLUMN_DOC[c]] for c in COLUMNS])
+    doc = schema.doc
+    L += _table(["column", "meaning"], [[c, doc[c]] for c in schema.columns])
     L.append("")
     p = d / "summary.md"
     atomic_write(p, ("\n".join(L)).encode("utf-8"))

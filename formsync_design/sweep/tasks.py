@@ -1,4 +1,16 @@
-"""Tasks of a sweep: one payload per graph x box, and the pure function computing its row."""
+"""Tasks of a sweep: one payload per graph x box, and the pure function computing its row.
+
+A row is computed for any design the sweep takes (:func:`~.designs.check_sweepable`):
+the reference point and the box are over the design's controller gains, its
+multipliers are searched over their declared ranges by the certificate of the
+reference point (:func:`~formsync_design.certify.multipliers.certify_with_multipliers`)
+and per cell by the region map
+(:func:`~formsync_design.certify.multiregion.region_with_multipliers`) - for a design
+without multipliers these are :func:`certify_box` and :func:`region_map` - and the
+gain design optimizes the first two family gains, sweeps the third and holds a
+multiplier at its recommended value in the largest certified box, as ``formsync
+certify``, ``formsync region`` and ``formsync design`` do.
+"""
 
 from __future__ import annotations
 
@@ -11,7 +23,7 @@ from typing import Any
 from formsync_design.graphs.build import Graph
 from formsync_design.sweep.campaign import Campaign, case_text
 from formsync_design.sweep.graphsets import GraphEntry
-from formsync_design.sweep.schema import COLUMNS, GAINS, fmt_cell, rational_text
+from formsync_design.sweep.schema import SweepSchema, fmt_cell, rational_text
 
 __all__ = ["build_tasks", "run_task"]
 
@@ -21,14 +33,15 @@ def build_tasks(
 ) -> list[dict[str, Any]]:
     """One payload per graph x box (plain data: picklable, executor-independent).
 
-    ``spec`` (a ``Spec`` or a path; default the campaign's, else the paper's) is
-    carried as its file path (``None`` for the paper's), or as the ``Spec`` value
-    itself when it was built in Python (Dask pickles it by value).
+    ``spec`` (a ``Spec``, a name or a path; default the campaign's design, else the
+    paper's) is carried as its file path (``None`` for the paper's), or as the ``Spec``
+    value itself when it was built in Python (Dask pickles it by value).
     """
     from formsync_design.sweep.campaign import resolve_spec
+    from formsync_design.sweep.designs import is_default_design
 
     sp = resolve_spec(campaign, spec)
-    if spec is None and campaign.spec_path is None:
+    if is_default_design(sp):
         spec_payload: Any = None
     elif getattr(sp, "source", sp.path) == "<python>":
         spec_payload = sp
@@ -36,6 +49,7 @@ def build_tasks(
         spec_payload = str(Path(sp.path).resolve())
     common = {
         "spec": spec_payload,
+        "schema": campaign.schema.to_dict(),
         "conditions": campaign.conditions,
         "margin": rational_text(campaign.margin),
         "reference": [rational_text(v) for v in campaign.reference],
@@ -65,7 +79,8 @@ def build_tasks(
     return tasks
 
 
-def _mc_formation(graph: Graph, mc: dict, gains: Sequence[Fraction]) -> Any:
+def _mc_formation(graph: Graph, mc: dict, schema: SweepSchema,
+                  gains: Sequence[Fraction]) -> tuple[Any, float | None]:
     import numpy as np
 
     from formsync_design.sim.simulator import Formation, Gains
@@ -79,10 +94,13 @@ def _mc_formation(graph: Graph, mc: dict, gains: Sequence[Fraction]) -> Any:
     if mc["disturbance"]:
         table = {"model": mc["disturbance"], **({"signs": table["signs"]} if "signs" in table else {})}
     dist = make_disturbance(table, J, case.orbit)
-    kv = float(Fraction(mc["K_v"])) if mc["K_v"] is not None else float(min(case.gains.K_v))
     att = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
-    g = Gains(float(gains[0]), float(gains[1]), float(gains[2]), (kv,) * n)
-    return Formation(graph, J, att, np.zeros((n, 3)), g, dist), kv
+    values = {g: float(v) for g, v in zip(schema.box, gains)}
+    if schema.switching is None:
+        return Formation(graph, J, att, np.zeros((n, 3)), Gains(values), dist), None
+    kv_given = mc[schema.switching]
+    kv = float(Fraction(kv_given)) if kv_given is not None else float(min(case.gains.K_v))
+    return Formation(graph, J, att, np.zeros((n, 3)), Gains(values, (kv,) * n), dist), kv
 
 
 def _task_spec(task: dict[str, Any]) -> Any:
@@ -92,7 +110,7 @@ def _task_spec(task: dict[str, Any]) -> Any:
     return sp if isinstance(sp, Spec) else load_spec(sp)
 
 
-def _run_mc(graph: Graph, mc: dict, gains: Sequence[Fraction] | None,
+def _run_mc(graph: Graph, mc: dict, schema: SweepSchema, gains: Sequence[Fraction] | None,
             spec: Any = None) -> dict[str, Any]:
     from formsync_design.gains import GainBox
     from formsync_design.sim.montecarlo import MonteCarloSettings, run_montecarlo
@@ -102,8 +120,11 @@ def _run_mc(graph: Graph, mc: dict, gains: Sequence[Fraction] | None,
     if gains is None:
         out["mc_status"] = "skipped (no recommended gains)"
         return out
-    base, kv = _mc_formation(graph, mc, gains)
-    box = GainBox.parse({**dict(zip(GAINS, gains)), "K_v": kv}, positive=GAINS)
+    base, kv = _mc_formation(graph, mc, schema, gains)
+    point: dict[str, Any] = dict(zip(schema.box, gains))
+    if schema.switching is not None:
+        point[schema.switching] = kv
+    box = GainBox.parse(point, positive=schema.box)
     st = MonteCarloSettings(runs=mc["runs"], seed=mc["seed"], max_angle_deg=mc["max_angle_deg"],
                             max_rate=mc["max_rate"], phases=mc["phases"])
     opt = SimOptions(tf=mc["tf"], step=mc["step"], output_step=mc["output_step"], norm_tol=1e-5)
@@ -126,6 +147,13 @@ def _run_mc(graph: Graph, mc: dict, gains: Sequence[Fraction] | None,
     return out
 
 
+def _chosen(box: Any, names: Sequence[str]) -> dict[str, Fraction]:
+    """The multiplier values a certificate's box holds (points when certified)."""
+    if box is None:
+        return {}
+    return {n: box[n].lo for n in names if n in box and box[n].is_point}
+
+
 def run_task(task: dict[str, Any]) -> dict[str, str]:
     """Compute one row of ``results.csv`` (a pure function of the payload).
 
@@ -140,12 +168,14 @@ def run_task(task: dict[str, Any]) -> dict[str, str]:
     ('ring:4@standard', '4', 'certified')
     """
     from formsync_design.certify.design import design_gains
-    from formsync_design.certify.engine import certify_box
-    from formsync_design.certify.region import region_map
+    from formsync_design.certify.multipliers import certify_with_multipliers
+    from formsync_design.certify.multiregion import region_with_multipliers
     from formsync_design.derive.conditions import derive_conditions, paper_conditions
 
+    schema = SweepSchema.from_dict(task["schema"])
+    columns = schema.columns
     g = Graph(task["n"], tuple(tuple(e) for e in task["edges"]), task["graph"])
-    row: dict[str, Any] = {c: None for c in COLUMNS}
+    row: dict[str, Any] = {c: None for c in columns}
     ev = g.laplacian_eigenvalues
     deg = g.degrees
     bounds = [(Fraction(lo), Fraction(hi)) for lo, hi in task["bounds"]]
@@ -159,38 +189,44 @@ def run_task(task: dict[str, Any]) -> dict[str, str]:
         "lambda_2": float(ev[1]), "lambda_max": float(ev[-1]),
         "conditions": task["conditions"], "box": task["box"], "resolution": task["resolution"],
     })
-    for gname, (lo, hi), r in zip(GAINS, bounds, ref):
+    for gname, (lo, hi), r in zip(schema.box, bounds, ref):
         row[f"box_{gname}_lo"], row[f"box_{gname}_hi"] = lo, hi
         row[f"ref_{gname}"] = r
     spec = _task_spec(task)
     conds = derive_conditions(g, spec) if task["conditions"] == "derived" else paper_conditions(g)
-    box = {gname: b for gname, b in zip(GAINS, bounds)}
+    box = {gname: b for gname, b in zip(schema.box, bounds)}
+    mult = {m: spec.decl.gain(m).range for m in schema.multipliers}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # solver chatter; statuses are mapped explicitly
-        cert = certify_box(conds, dict(zip(GAINS, ref)), margin=margin)
-        rm = region_map(conds, box, resolution=task["resolution"], margin=margin)
-        des = design_gains(conds, box, betas=task["design_betas"], penalty=task["design_penalty"],
-                           margin=margin)
+        cert = certify_with_multipliers(conds, dict(zip(schema.box, ref)), mult, margin=margin)
+        rm = region_with_multipliers(conds, box, mult, resolution=task["resolution"], margin=margin)
+        des = design_gains(conds, {**box, **mult}, betas=task["design_betas"],
+                           penalty=task["design_penalty"], margin=margin, hold=schema.multipliers)
     row["ref_status"] = cert.status
     row["ref_margin"] = cert.margin_lower_bound if cert.certified else None
     row["ref_refuted_by"] = cert.witness.family if cert.witness is not None else None
+    if cert.certified:
+        for m, v in _chosen(cert.box, schema.multipliers).items():
+            row[f"ref_cert_{m}"] = v
     row["frac_certified"] = rm.fractions["certified"]
     row["frac_refuted"] = rm.fractions["refuted"]
     row["frac_undecided"] = rm.fractions["undecided"]
     row["design_status"] = des.status
     rec = None
     if des.status == "designed":
-        rec = [des.gains[gname] for gname in GAINS]
-        for gname, v in zip(GAINS, rec):
+        rec = [des.gains[gname] for gname in schema.box]
+        for gname, v in zip(schema.box, rec):
             row[f"rec_{gname}"] = v
+        for m in schema.multipliers:
+            row[f"rec_cert_{m}"] = des.gains[m]
         row["rec_margin"] = des.margin
         if des.box is not None:
-            for gname, (lo, hi) in zip(GAINS, des.box):
-                row[f"cbox_{gname}_lo"], row[f"cbox_{gname}_hi"] = lo, hi
+            for gname, (lo, hi) in zip(conds.gains, des.box):
+                if gname in schema.box:
+                    row[f"cbox_{gname}_lo"], row[f"cbox_{gname}_hi"] = lo, hi
             row["cbox_half_width"] = des.box_half_width
             row["cbox_status"] = des.box_result.status if des.box_result is not None else None
     mc = task["montecarlo"]
     if mc is not None:
-        row.update(_run_mc(g, mc, ref if mc["gains"] == "reference" else rec, spec))
-    return {c: fmt_cell(row[c]) for c in COLUMNS}
-
+        row.update(_run_mc(g, mc, schema, ref if mc["gains"] == "reference" else rec, spec))
+    return {c: fmt_cell(row[c]) for c in columns}

@@ -90,4 +90,5 @@ def case_kind(data: dict[str, Any], source: str) -> str:
 def verifier(kind: str) -> Callable[[VerifyRequest], int]:
     """The verifier function registered for ``kind``."""
     module, _, func = KINDS[kind].partition(":")
-    return getattr(importlib.import_module(module), func)
+    fn: Callable[[VerifyRequest], int] = getattr(importlib.import_module(module), func)
+    return fn

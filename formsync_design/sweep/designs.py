@@ -1,0 +1,166 @@
+"""What a campaign takes from its design: the design itself, its gain schema and the
+default gain box and reference point.
+
+A campaign runs one design (``[campaign] design = NAME|FILE``, ``--design``; default
+liang2016).  Its ``[reference]`` and ``[[box]]`` tables are keyed by the design's
+*controller gains*; the Lyapunov-candidate multipliers are searched over their declared
+ranges by every certificate (never given), and the switching gain is a Monte-Carlo
+setting only (``[montecarlo] K_v`` for liang2016).  Defaults:
+
+* box: each controller gain's declared range; liang2016's gains, which declare none,
+  take the standard box :data:`DEFAULT_BOX`;
+* reference: liang2016's gains the paper's point :data:`DEFAULT_REFERENCE`; another
+  design the gains of its shipped case (``verification/NAME.toml``), else the campaign
+  must give ``[reference]``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from formsync_design.errors import InputError
+from formsync_design.gains import parse_number
+from formsync_design.sweep.schema import GAINS, SweepSchema, rational_text
+
+__all__ = ["DEFAULT_BOX", "DEFAULT_REFERENCE", "load_design", "check_sweepable", "gain_key_error",
+           "default_box", "default_reference", "is_default_design", "is_shipped"]
+
+DEFAULT_BOX = {"name": "standard", "K_o": ["0.05", "5"], "K_q": ["0.05", "5"], "beta": ["0.01", "1"]}
+DEFAULT_REFERENCE = {"K_o": "1.6", "K_q": "0.4", "beta": "0.3"}
+
+
+def load_design(ref: Any = None, base: str | Path = ".") -> Any:
+    """The :class:`~formsync_design.spec.loader.Spec` named by ``ref``: a ``Spec``, a
+    shipped design's name (unless a file of that name exists in ``base``), a ``.py`` file
+    (relative to ``base``), or ``None`` / ``""`` for liang2016.
+
+    >>> load_design("pd_consensus").name, load_design().name
+    ('pd_consensus', 'liang2016')
+    """
+    from formsync_design.spec.loader import Spec, load_spec
+
+    if isinstance(ref, Spec):
+        return ref
+    if ref is None or (isinstance(ref, str) and not ref.strip()):
+        return load_spec(None)
+    if not isinstance(ref, (str, Path)):
+        return load_spec(ref)  # refuses the type (one line)
+    p = Path(ref)
+    if not p.is_absolute():
+        p = Path(base) / p
+    if isinstance(ref, str) and ref.isidentifier() and not p.exists():
+        return load_spec(ref)  # a shipped design's name (or a one-line error listing them)
+    return load_spec(p)
+
+
+def is_default_design(spec: Any) -> bool:
+    """Whether ``spec`` is the shipped liang2016 design (its content)."""
+    from formsync_design.spec.loader import load_spec
+
+    return bool(spec.key == load_spec(None).key)
+
+
+def check_sweepable(spec: Any) -> SweepSchema:
+    """The schema of ``spec``, refusing (one line) a design the sweep cannot run.
+
+    A sweep derives the design's conditions (a derivable representation) and runs a
+    region map and a gain design per task: three family dimensions (two optimized by
+    the SDP, the third swept), as ``formsync region`` and ``formsync design`` need.
+
+    >>> from formsync_design.spec.loader import load_spec
+    >>> check_sweepable(load_spec("pd_consensus")).box
+    ('k_p', 'k_d')
+    """
+    from formsync_design.spec.declarations import DERIVABLE
+
+    if spec.representation not in DERIVABLE:
+        raise InputError(f"expected a design in a derivable representation ({', '.join(DERIVABLE)}) "
+                         f"for a sweep, received design {spec.name} in {spec.representation!r}")
+    schema = SweepSchema.of_design(spec)
+    if len(schema.family) != 3:
+        raise InputError(
+            f"expected a design with three box dimensions (controller gains and multipliers) for "
+            f"a sweep's region map and gain design, received design {spec.name} with "
+            f"{', '.join(schema.family)}"
+        )
+    return schema
+
+
+def gain_key_error(spec: Any, schema: SweepSchema, where: str, keys: Any) -> InputError | None:
+    """The one-line error for keys of a gain table ``where`` that are not controller gains
+    of the design (``None`` when every key is one).
+
+    >>> from formsync_design.spec.loader import load_spec
+    >>> sp = load_spec("pd_consensus")
+    >>> print(gain_key_error(sp, SweepSchema.of_design(sp), "[reference]", ["k_p", "eps"]))
+    expected the controller gains of design pd_consensus (k_p, k_d) in [reference], received eps (a multiplier of the Lyapunov candidate: every certificate searches it over its declared range 0.001:1)
+    """
+    bad = [k for k in keys if k not in schema.box]
+    if not bad:
+        return None
+    k = bad[0]
+    if k in schema.multipliers:
+        why = (f" (a multiplier of the Lyapunov candidate: every certificate searches it over its "
+               f"declared range {spec.decl.gain(k).range})")
+    elif k == schema.switching:
+        why = " (the switching gain: not a box dimension; set it in [montecarlo])"
+    else:
+        why = ""
+    got = k if why else f"unknown {sorted(map(str, bad))}"
+    return InputError(f"expected the controller gains of design {spec.name} "
+                      f"({', '.join(schema.box)}) in {where}, received {got}{why}")
+
+
+def default_box(spec: Any, schema: SweepSchema) -> dict[str, Any]:
+    """The box ``standard`` of a campaign without ``[[box]]`` (see module docstring).
+
+    >>> from formsync_design.spec.loader import load_spec
+    >>> sp = load_spec("pd_consensus")
+    >>> default_box(sp, SweepSchema.of_design(sp))
+    {'name': 'standard', 'k_p': ['1/10', '2'], 'k_d': ['1/2', '3']}
+    """
+    out: dict[str, Any] = {"name": "standard"}
+    for g in schema.box:
+        r = spec.decl.gain(g).range
+        if r is not None:
+            out[g] = [rational_text(r.lo), rational_text(r.hi)]
+        elif g in GAINS:
+            out[g] = DEFAULT_BOX[g]
+        else:
+            raise InputError(f"expected a [[box]] with {g} (design {spec.name} declares no range for "
+                             "it), received none")
+    return out
+
+
+def default_reference(spec: Any, schema: SweepSchema) -> dict[str, Any]:
+    """The reference point of a campaign without ``[reference]`` (see module docstring).
+
+    >>> from formsync_design.spec.loader import load_spec
+    >>> sp = load_spec("pd_consensus")
+    >>> default_reference(sp, SweepSchema.of_design(sp))
+    {'k_p': '2/5', 'k_d': '8/5'}
+    """
+    from formsync_design.resources import case_names
+
+    if schema.box == GAINS:
+        return dict(DEFAULT_REFERENCE)
+    if spec.name in case_names():
+        from formsync_design.verify.case import load_case
+
+        case = load_case(spec.name)
+        if case.spec == spec.name and is_shipped(spec):
+            have = case.gains.as_dict()
+            if all(g in have and not isinstance(have[g], tuple) for g in schema.box):
+                return {g: rational_text(parse_number(have[g], f"case {spec.name} {g}"))
+                        for g in schema.box}
+    raise InputError(f"expected a [reference] table (or --ref) with {', '.join(schema.box)} for "
+                     f"design {spec.name} (it has no shipped case with scalar gains), received none")
+
+
+def is_shipped(spec: Any) -> bool:
+    """Whether ``spec`` is the shipped design of its name (its content)."""
+    from formsync_design.resources import design_names
+    from formsync_design.spec.loader import load_spec
+
+    return spec.name in design_names() and bool(load_spec(spec.name).key == spec.key)
