@@ -138,10 +138,11 @@ def simulate_agents_sampled(design: AgentDesign, formation: Any, opt: Any,
         raise InputError(f"expected a sampling period for the periodic design {design.name}, "
                          "received none")
     ref_rate = f.reference.rate if f.reference is not None else ("0", "0", "0")
-    kern = get_agent_kernel(design, f.neighbours(), opt.switch, 1, 1, ref_rate, compile=False)
+    law_design = _law_design(design)
+    kern = get_agent_kernel(law_design, f.neighbours(), opt.switch, 1, 1, ref_rate, compile=False)
     p = agent_parameters(design, f, opt, kern.layout)
     nbrs = f.neighbours()
-    laws = {len(nb): agent_law(design, len(nb), opt.switch) for nb in nbrs}
+    laws = {len(nb): agent_law(law_design, len(nb), opt.switch) for nb in nbrs}
     a_all = f.weights()
     offs = np.cumsum([0] + [len(nb) for nb in nbrs])
     b = f.graph.pinning_matrix.diagonal() if f.graph.has_leader else np.zeros(n)
@@ -263,6 +264,21 @@ def simulate_agents_sampled(design: AgentDesign, formation: Any, opt: Any,
         record["kept"] = tuple(np.array(k) for k in kept_log)
     return assemble_result(design, f, opt, kern, p, np.asarray(res.t), X, "hybrid-dop853",
                    torques=np.asarray(res.u), sampled=res)
+
+
+def _law_design(design: AgentDesign) -> AgentDesign:
+    """The design the kernel translates: itself, or for a design with kept values its law
+    alone (its trigger functions read ``v.kept`` and are translated by
+    :mod:`formsync_design.sim.agent_triggers`)."""
+    if not design.decl.hold:
+        return design
+    from dataclasses import replace
+    from types import MappingProxyType
+
+    return replace(design, key=f"{design.key}:law", decl=replace(design.decl, hold=(),
+                   sampling="periodic"), functions=MappingProxyType(
+                   {"controller": design.controller, **{k: v for k, v in design.functions.items()
+                                                        if k == "monitors"}}))
 
 
 def _compiled_plant(design: AgentDesign, kern: Any, neighbours: Any, ref_rate: Any) -> Any:

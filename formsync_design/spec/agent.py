@@ -511,6 +511,10 @@ def _check_symbols(fn: str, expr: Any, v: AgentView, where: str, allowed_extra: 
     bad = free - allowed
     if not bad:
         return
+    if bad & cls["kept"]:
+        raise DerivationError(f"{where}: {fn}(view): expected the kept values v.kept only in "
+                              "event(view) and next_interval(view), received a use in "
+                              f"{fn.split('(')[0]}")
     provided = set().union(*cls.values())
     unknown = sorted(str(s) for s in bad - provided)
     if unknown:
