@@ -27,7 +27,11 @@ data flows through the stages:
   :func:`monte_carlo`; agent designs: :class:`AgentFormation`, :class:`Reference`,
   :class:`AgentOptions`, :func:`simulate_agents` (:class:`AgentResult`);
 * verification of a published case: :func:`load_case`, :func:`verify_case`;
-  :func:`load_agent_case` (the case files of agent designs);
+  :func:`load_agent_case` (the case files of agent designs); self-triggered designs
+  (seed 001): :func:`sampling_variant` (a design under another sampling rule),
+  :func:`scheme_designs`, :func:`run_scheme` (self-, event-triggered and periodic runs
+  with their measurements), :func:`interevent_bound` (the certified inter-event lower
+  bound; ``formsync verify`` judges a case);
 * campaigns: :func:`load_campaign`, :func:`run_sweep`;
 * numbers: :func:`parse_number` (the exact-number parser) and
   :func:`json_number` (the JSON number convention);
@@ -136,6 +140,10 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "VerificationResult": "formsync_design.verify",
     "verify_case": "formsync_design.verify",
     "load_agent_case": "formsync_design.verify",
+    "scheme_designs": "formsync_design.verify.selftrigger_runs",
+    "run_scheme": "formsync_design.verify.selftrigger_runs",
+    "interevent_bound": "formsync_design.verify.selftrigger_cert",
+    "sampling_variant": "formsync_design.spec.agent",
     # campaigns
     "load_campaign": "formsync_design.sweep",
     "run_sweep": "formsync_design.sweep",

@@ -127,11 +127,15 @@ assert all(p.resolve().is_relative_to(lib.resolve()) for p in paths), paths
 print("designs", *resources.design_names())
 print("cases", *resources.case_names())
 print("files", *sorted(p.name for p in paths))
+from formsync_design.spec.loader import load_design
+from formsync_design.tomlio import load_toml
+from formsync_design.verify.agentcase import load_agent_case
 for name in resources.design_names():
-    spec = load_spec(resources.design_file(name))
+    spec = load_design(resources.design_file(name))
     assert callable(spec.controller), name
 for name in resources.case_names():
-    load_case(resources.case_file(name))
+    kind = load_toml(resources.case_file(name), "case").get("case", {{}}).get("kind", "formation")
+    (load_case if kind == "formation" else load_agent_case)(resources.case_file(name))
 print("default-spec", Path(str(load_spec(None).path)).name)
 """
 
@@ -141,7 +145,7 @@ def test_built_package_finds_every_resource_outside_the_checkout(
 ) -> None:
     proc = _run_outside(built_lib, CHECK.format(lib=str(built_lib)), tmp_path)
     assert proc.returncode == 0, proc.stderr
-    lines = {line.split()[0]: line.split()[1:] for line in proc.stdout.splitlines()}
+    lines = {line.split()[0]: line.split()[1:] for line in proc.stdout.splitlines() if line.strip()}
     src_designs = sorted(p.stem for p in (ROOT / "derivations").glob("*.py")
                          if not p.stem.startswith("_") and not p.stem.endswith("_printed"))
     src_cases = sorted(p.stem for p in (ROOT / "verification").glob("*.toml")

@@ -11,6 +11,8 @@ documented commands produce:
   (the same files ``formsync derive`` writes);
 * ``formsync verify pd_consensus`` -> reports/pd_consensus-verification.md (+ figures) and
   reports/pd_consensus-derivation-ring4.{md,tex}: the PD consensus baseline design end to end;
+* ``formsync verify selftrigger_mrp`` -> reports/selftrigger_mrp-verification.md (+ figures):
+  the self-triggered MRP design of seed 001 against its event-triggered and periodic variants;
 * ``verification/region_report.py`` -> reports/liang2016-region.md (+ figures);
 * ``verification/analysis_report.py`` -> reports/liang2016-certificates.md (+ figure): the
   paper's, exact, searched and spectral certificates side by side;
@@ -42,6 +44,7 @@ def main() -> int:
     jobs: list[list[str]] = [
         ["verify", "liang2016"],
         ["verify", "pd_consensus"],
+        ["verify", "selftrigger_mrp"],
         ["sweep", "--campaign", "verification/sweep_atlas6.toml", "--out", "reports/sweep-atlas6",
          "--overwrite"],
         ["sweep", "--campaign", "verification/sweep_pd_atlas5.toml", "--out",

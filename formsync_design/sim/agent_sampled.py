@@ -10,6 +10,14 @@ spacecraft ``i`` (module docstring of :mod:`formsync_design.sim.agents`) it broa
 broadcasts and the reference at that instant, then held.  The reference itself is known to
 pinned spacecraft at all times (closed form for a constant reference rate, a DOP853 solution
 at ``rtol = 1e-12`` otherwise).
+
+A design with kept values (``HOLD``, :mod:`formsync_design.sim.agent_triggers`) computes
+``hold(v)`` at each of its updates and its trigger functions read them.  ``record`` (a dict,
+optional) receives the hybrid run (``"hybrid"``), the number of trigger-function
+evaluations per spacecraft (``"trigger_evaluations"``: every evaluation of ``event`` by the
+integrator's crossing detection and root finding, or one ``next_interval`` per broadcast)
+and the kept values at every update (``"kept"``: per spacecraft, ``(K_i, size)``).  The rigid
+bodies' right-hand side is compiled (C, cached on disk) unless ``FORMSYNC_NO_COMPILE`` is set.
 """
 
 from __future__ import annotations
@@ -38,6 +46,8 @@ from formsync_design.sim.hybrid import (
 from formsync_design.spec.agent import AgentDesign
 
 __all__ = ["simulate_agents_sampled", "attitude_entries_np", "reference_trajectory"]
+
+_PLANTS: dict[tuple[Any, ...], Any] = {}
 
 
 def attitude_entries_np(rep: str, q: np.ndarray) -> np.ndarray:
@@ -70,12 +80,18 @@ def reference_trajectory(reference: Any, tf: float) -> Any:
     >>> np.round(f(10.0)[0], 12).tolist() == np.round([0, 0, math.sin(0.5), math.cos(0.5)], 12).tolist()
     True
     """
-    rr = reference_rate_function(reference.rate)
+    reference_rate_function(reference.rate)  # validates the expressions
+    import sympy as sp
+
+    ts = sp.Symbol("t", real=True)
+    exprs = [sp.sympify(r, locals={"t": ts}) for r in reference.rate]
+    w_np = sp.lambdify(ts, exprs, "numpy")
+    wd_np = sp.lambdify(ts, [sp.diff(e, ts) for e in exprs], "numpy")
     q0 = np.asarray(reference.attitude, float)
 
     def rates(t: float) -> tuple[np.ndarray, np.ndarray]:
-        w, wd = rr(t)
-        return np.asarray(w).ravel(), np.asarray(wd).ravel()
+        return (np.asarray(w_np(t), dtype=float).ravel(),
+                np.asarray(wd_np(t), dtype=float).ravel())
 
     if reference.constant_rate:
         w = rates(0.0)[0]
@@ -107,8 +123,10 @@ def reference_trajectory(reference: Any, tf: float) -> Any:
     return at_t
 
 
-def simulate_agents_sampled(design: AgentDesign, formation: Any, opt: Any) -> Any:
-    """The sampled path of :func:`~formsync_design.sim.agents.simulate_agents` (module docstring)."""
+def simulate_agents_sampled(design: AgentDesign, formation: Any, opt: Any,
+                            record: dict | None = None) -> Any:
+    """The sampled path of :func:`~formsync_design.sim.agents.simulate_agents` (module
+    docstring; ``record``: the hybrid run, trigger evaluations and kept values)."""
     from formsync_design.sim.agents import agent_parameters, assemble_result
 
     f = formation
@@ -120,10 +138,11 @@ def simulate_agents_sampled(design: AgentDesign, formation: Any, opt: Any) -> An
         raise InputError(f"expected a sampling period for the periodic design {design.name}, "
                          "received none")
     ref_rate = f.reference.rate if f.reference is not None else ("0", "0", "0")
-    kern = get_agent_kernel(design, f.neighbours(), opt.switch, 1, 1, ref_rate, compile=False)
+    law_design = _law_design(design)
+    kern = get_agent_kernel(law_design, f.neighbours(), opt.switch, 1, 1, ref_rate, compile=False)
     p = agent_parameters(design, f, opt, kern.layout)
     nbrs = f.neighbours()
-    laws = {len(nb): agent_law(design, len(nb), opt.switch) for nb in nbrs}
+    laws = {len(nb): agent_law(law_design, len(nb), opt.switch) for nb in nbrs}
     a_all = f.weights()
     offs = np.cumsum([0] + [len(nb) for nb in nbrs])
     b = f.graph.pinning_matrix.diagonal() if f.graph.has_leader else np.zeros(n)
@@ -131,12 +150,15 @@ def simulate_agents_sampled(design: AgentDesign, formation: Any, opt: Any) -> An
     J = np.asarray(f.inertias, float)
     umax = np.inf if opt.torque_limit is None else opt.torque_limit
     ref_at = reference_trajectory(f.reference, opt.tf) if f.reference is not None else None
+    last_ref: list[Any] = [None, None]
 
     def ref_vec(t: float) -> np.ndarray:
         if ref_at is None:
             return np.zeros(na + 6)
-        q, w, wd = ref_at(t)
-        return np.concatenate([attitude_entries_np(rep, q), w, wd])
+        if last_ref[0] != t:  # every spacecraft's trigger is evaluated at the same instants
+            q, w, wd = ref_at(t)
+            last_ref[0], last_ref[1] = t, np.concatenate([attitude_entries_np(rep, q), w, wd])
+        return last_ref[1]
 
     def row(xr: np.ndarray) -> np.ndarray:
         return np.concatenate([attitude_entries_np(rep, xr[:4]), xr[4:7]])
@@ -150,30 +172,52 @@ def simulate_agents_sampled(design: AgentDesign, formation: Any, opt: Any) -> An
     def weights(i: int) -> np.ndarray:
         return a_all[offs[i]: offs[i + 1]] if len(nbrs[i]) else np.zeros(1)
 
+    gains_in = gains if gains.size else np.zeros(1)
+    kept_fns: dict[int, Any] = {}
+    if design.decl.hold:
+        from formsync_design.sim.agent_triggers import kept_size, kept_trigger_functions
+
+        kept_fns = {len(nb): kept_trigger_functions(design, len(nb), opt.switch) for nb in nbrs}
+        kept = np.zeros((n, max(kept_size(design), 1)))
+    kept_log: list[list[np.ndarray]] = [[] for _ in range(n)]
+    evaluations = np.zeros(n, dtype=np.int64)
+
     def control(t: float, i: int, xi: np.ndarray, held: np.ndarray) -> np.ndarray:
         law = laws[len(nbrs[i])]
-        u = law.law(row(xi), J[i], t, nbr_block(i, held), weights(i),
-                    b[i], ref_vec(t), gains if gains.size else np.zeros(1), opt.phi)[0]
-        return np.clip(np.asarray(u).ravel(), -umax, umax)
+        if kept_fns:
+            kept[i] = _caller(kept_fns[len(nbrs[i])].hold)(
+                row(xi), row(held[i]), kept[i], J[i], t, nbr_block(i, held), weights(i), b[i],
+                ref_vec(t), gains_in, opt.phi)[0]
+            kept_log[i].append(kept[i].copy())
+        u = _caller(law.law)(row(xi), J[i], t, nbr_block(i, held), weights(i),
+                             b[i], ref_vec(t), gains_in, opt.phi)[0]
+        return np.clip(u, -umax, umax)
 
     def trig_args(t: float, i: int, xi: np.ndarray, held: np.ndarray) -> list[Any]:
+        if kept_fns:
+            return [row(xi), row(held[i]), kept[i], J[i], t, nbr_block(i, held), weights(i), b[i],
+                    ref_vec(t), gains_in, opt.phi]
         return [row(xi), row(held[i]), J[i], t, nbr_block(i, held), weights(i), b[i], ref_vec(t),
-                gains if gains.size else np.zeros(1), opt.phi]
+                gains_in, opt.phi]
+
+    def trig_fn(i: int, which: str) -> Any:
+        src = kept_fns[len(nbrs[i])] if kept_fns else laws[len(nbrs[i])]
+        fn = getattr(src, which)
+        assert fn is not None
+        return fn
 
     if rule == "periodic":
         rules = [periodic(opt.period)] * n
     elif rule == "event":
         def g(t: float, i: int, xi: np.ndarray, held: np.ndarray) -> float:
-            law = laws[len(nbrs[i])]
-            assert law.event is not None
-            return float(law.event(*trig_args(t, i, xi, held)))
+            evaluations[i] += 1
+            return float(_caller(trig_fn(i, "event"))(*trig_args(t, i, xi, held))[0][0])
 
         rules = [event(g)] * n
     elif rule == "self-triggered":
         def tau(t: float, i: int, xi: np.ndarray, held: np.ndarray) -> float:
-            law = laws[len(nbrs[i])]
-            assert law.next_interval is not None
-            val = float(law.next_interval(*trig_args(t, i, xi, held)))
+            evaluations[i] += 1
+            val = float(_caller(trig_fn(i, "next_interval"))(*trig_args(t, i, xi, held))[0][0])
             if not (math.isfinite(val) and val > 0):
                 from formsync_design.errors import SimulationError
 
@@ -186,13 +230,20 @@ def simulate_agents_sampled(design: AgentDesign, formation: Any, opt: Any) -> An
     else:  # pragma: no cover - validated at load
         raise InputError(f"expected a sampled design, received SAMPLING {rule!r}")
 
-    plant = kern.plant
+    plant = _compiled_plant(design, kern, f.neighbours(), ref_rate)
+    # the bodies' rates do not depend on the reference quaternion the plant also carries
+    lead = np.array([0.0, 0.0, 0.0, 1.0]) if ref_at is not None else np.zeros(0)
+
+    call = _BufferedCall(plant, [np.zeros(kern.nx), np.zeros(3 * n), np.zeros(1), p], kern.nx)
 
     def dyn(t: float, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        xx = np.concatenate([x[:, :4].ravel(), x[:, 4:7].ravel()])
-        if ref_at is not None:
-            xx = np.concatenate([xx, ref_at(t)[0]])
-        dx = np.asarray(plant(xx, u.ravel(), t, p)).ravel()
+        args = call.args
+        args[0][: 4 * n] = x[:, :4].ravel()
+        args[0][4 * n: 7 * n] = x[:, 4:7].ravel()
+        args[0][7 * n:] = lead
+        args[1][:] = u.ravel()
+        args[2][0] = t
+        dx = call()
         dq = dx[: 4 * n].reshape(n, 4)
         dw = dx[4 * n: 7 * n].reshape(n, 3)
         return np.concatenate([dq, dw], axis=1)
@@ -207,5 +258,93 @@ def simulate_agents_sampled(design: AgentDesign, formation: Any, opt: Any) -> An
                        axis=1)
     if ref_at is not None:
         X = np.concatenate([X, np.array([ref_at(tk)[0] for tk in res.t])], axis=1)
+    if record is not None:
+        record["hybrid"] = res
+        record["trigger_evaluations"] = evaluations.copy()
+        record["kept"] = tuple(np.array(k) for k in kept_log)
     return assemble_result(design, f, opt, kern, p, np.asarray(res.t), X, "hybrid-dop853",
                    torques=np.asarray(res.u), sampled=res)
+
+
+def _law_design(design: AgentDesign) -> AgentDesign:
+    """The design the kernel translates: itself, or for a design with kept values its law
+    alone (its trigger functions read ``v.kept`` and are translated by
+    :mod:`formsync_design.sim.agent_triggers`)."""
+    if not design.decl.hold:
+        return design
+    from dataclasses import replace
+    from types import MappingProxyType
+
+    return replace(design, key=f"{design.key}:law", decl=replace(design.decl, hold=(),
+                   sampling="periodic"), functions=MappingProxyType(
+                   {"controller": design.controller, **{k: v for k, v in design.functions.items()
+                                                        if k == "monitors"}}))
+
+
+def _compiled_plant(design: AgentDesign, kern: Any, neighbours: Any, ref_rate: Any) -> Any:
+    """The kernel's plant ``(x, u, t, p) -> xdot``, compiled to C (cached on disk by the
+    generated source) unless compilation is disabled."""
+    from formsync_design.sim.kernels import compile_enabled, compile_function
+
+    if not compile_enabled():
+        return kern.plant
+    key = (design.key, tuple(neighbours), tuple(str(r) for r in ref_rate))
+    hit = _PLANTS.get(key)
+    if hit is None:
+        hit, _ = compile_function(kern.plant, design.key)
+        _PLANTS[key] = hit
+    return hit
+
+
+_CALLERS: dict[int, Any] = {}
+
+
+def _caller(fn: Any) -> Any:
+    """The buffered caller of a CasADi function (one per function object, kept alive)."""
+    hit = _CALLERS.get(id(fn))
+    if hit is None or hit[0] is not fn:
+        hit = (fn, _ArgCall(fn))
+        _CALLERS[id(fn)] = hit
+    return hit[1]
+
+
+class _ArgCall:
+    """``fn(*args) -> [outputs as flat arrays]`` through the zero-copy buffer of ``fn``: each
+    argument (a number or an array, matrices column-major as CasADi stores them) is copied into
+    a bound array, so no CasADi ``DM`` is built per call."""
+
+    def __init__(self, fn: Any) -> None:
+        self.ins = [np.zeros(fn.size1_in(k) * fn.size2_in(k)) for k in range(fn.n_in())]
+        self.outs = [np.zeros(fn.size1_out(k) * fn.size2_out(k)) for k in range(fn.n_out())]
+        self._buf, self._trigger = fn.buffer()
+        for k, a in enumerate(self.ins):
+            if a.size:
+                self._buf.set_arg(k, memoryview(a))  # type: ignore[arg-type]
+        for k, a in enumerate(self.outs):
+            if a.size:
+                self._buf.set_res(k, memoryview(a))  # type: ignore[arg-type]
+
+    def __call__(self, *args: Any) -> list[np.ndarray]:
+        for dst, a in zip(self.ins, args):
+            if dst.size:
+                dst[:] = np.ravel(a, order="F")
+        self._trigger()
+        return [o.copy() for o in self.outs]
+
+
+class _BufferedCall:
+    """A CasADi function evaluated through its zero-copy buffer (``Function.buffer``): the
+    arguments are NumPy arrays bound once (``args``, updated in place by the caller), the
+    result a fresh copy - about 200 times cheaper per call than ``fn(*numpy_arrays)``."""
+
+    def __init__(self, fn: Any, args: list[np.ndarray], n_out: int) -> None:
+        self.args = [np.ascontiguousarray(a, dtype=float).copy() for a in args]
+        self.out = np.zeros(n_out)
+        self._buf, self._trigger = fn.buffer()
+        for k, a in enumerate(self.args):
+            self._buf.set_arg(k, memoryview(a))  # type: ignore[arg-type]
+        self._buf.set_res(0, memoryview(self.out))  # type: ignore[arg-type]
+
+    def __call__(self) -> np.ndarray:
+        self._trigger()
+        return self.out.copy()

@@ -51,6 +51,14 @@ Functions (``v`` is an :class:`AgentView` of spacecraft ``i`` with ``m`` in-neig
 ``monitors(v)`` (optional)
     ``{name: scalar}`` quantities recorded along a simulation (e.g. a determinant that
     vanishes where the law is undefined): the result reports each one's extremes.
+``HOLD = {"s": 3, ...}`` + ``hold(v)`` (optional, sampled designs)
+    Quantities a spacecraft computes and keeps at each of its own updates (e.g. its
+    sliding variable at the trigger, built from the neighbours' broadcasts of that instant):
+    ``hold(v)`` returns ``{name: kx1}`` from the view of the update instant; ``event(v)`` and
+    ``next_interval(v)`` read the kept values as ``v.kept[name]``.  This is how a trigger
+    compares "the state error at the last trigger" with "now" (Girard 2015; the patent of
+    seed 001).  Designs built from another one's functions with another sampling rule:
+    :func:`sampling_variant`.
 Under a sampled rule the torque is held between the spacecraft's own updates, and the
 neighbours' quantities are their last broadcasts (see :mod:`formsync_design.sim.agents`).
 
@@ -97,6 +105,7 @@ __all__ = [
     "agent_design_from_module",
     "agent_design_from_functions",
     "agent_expressions",
+    "sampling_variant",
 ]
 
 #: Representations an agent design may be written in.
@@ -108,7 +117,7 @@ QUANTITIES: tuple[str, ...] = (
     "reference", "time",
 )
 
-_FUNCTIONS = ("controller", "states", "event", "next_interval", "monitors")
+_FUNCTIONS = ("controller", "states", "event", "next_interval", "monitors", "hold")
 
 
 class sgn(sp.Function):  # noqa: N801 - reads like the papers' sgn
@@ -213,6 +222,7 @@ class AgentDeclarations(Declarations):
     states: tuple[tuple[str, int], ...] = ()
     leader: bool = False
     measured: tuple[str, ...] = QUANTITIES
+    hold: tuple[tuple[str, int], ...] = ()
 
     @property
     def state_size(self) -> int:
@@ -223,6 +233,8 @@ class AgentDeclarations(Declarations):
         out = super().to_dict()
         out.update(form="agent", states={n: k for n, k in self.states}, leader=self.leader,
                    measured=list(self.measured))
+        if self.hold:
+            out["hold"] = {n: k for n, k in self.hold}
         return out
 
 
@@ -324,6 +336,8 @@ class AgentView:
         self.t = sp.Symbol("t", real=True)
         self.nbrs = [NeighbourView(rep, k, decl.states) for k in range(1, m + 1)]
         self.held = AttitudeSymbols(rep, "held")
+        self.kept = {n: sp.Matrix(sp.symbols(f"{n}_kept_1:{k + 1}", real=True))
+                     for n, k in decl.hold}
         if decl.leader:
             self.b = sp.Symbol("b", nonnegative=True)
             self.ref = AttitudeSymbols(rep, "ref", reference=True)
@@ -344,7 +358,8 @@ class AgentView:
         """The names this view provides, for messages."""
         own = {"quaternion": ["q", "q0"], "mrp": ["sigma"], "so3": ["R"]}[self.representation]
         extra = ["b", "ref"] if self.decl.leader else []
-        return ", ".join([*own, "w", "J", "z", "t", "nbrs", "held", *extra, *self.gains,
+        kept = ["kept"] if self.kept else []
+        return ", ".join([*own, "w", "J", "z", "t", "nbrs", "held", *kept, *extra, *self.gains,
                           "sgn", "sig", "hat", "vee", "G", "E"])
 
     def symbols_by_class(self) -> dict[str, set[Any]]:
@@ -365,6 +380,7 @@ class AgentView:
             out["neighbour-states"] |= s["states"]
         h = self.held.symbols()
         out["held"] = h["attitude"] | h["rate"]
+        out["kept"] = {s for m in self.kept.values() for s in m}
         if self.decl.leader:
             r = self.ref.symbols()
             out["reference"] = r["attitude"] | r["rate"] | r["wdot"] | {self.b}
@@ -439,19 +455,12 @@ def _parse_agent_declarations(attrs: Mapping[str, Any], where: str) -> AgentDecl
         raise DerivationError(f"{where}: GAINS[{base.switching!r}].role: expected 'controller' or "
                               "'multiplier' in an agent design (a switching gain is a controller "
                               "gain there), received 'switching'")
-    raw = attrs.get("STATES", {})
-    if not isinstance(raw, Mapping):
-        raise DerivationError(f"{where}: STATES: expected a dict name -> size, received "
-                              f"{type(raw).__name__}")
-    states: list[tuple[str, int]] = []
     taken = {g.name for g in base.gains} | {"q", "q0", "sigma", "R", "w", "J", "t", "b", "z"}
-    for n, k in raw.items():
-        if not isinstance(n, str) or not n.isidentifier() or n in taken or n.startswith("_"):
-            raise DerivationError(f"{where}: STATES: expected state names that are identifiers "
-                                  f"unlike the gains and the view's quantities, received {n!r}")
-        if not isinstance(k, int) or isinstance(k, bool) or not 1 <= k <= 12:
-            raise DerivationError(f"{where}: STATES[{n!r}]: expected a size 1..12, received {k!r}")
-        states.append((n, k))
+    states = _sized_names(attrs.get("STATES", {}), "STATES", taken, where)
+    hold = _sized_names(attrs.get("HOLD", {}), "HOLD", set(), where)
+    if hold and base.sampling == "continuous":
+        raise DerivationError(f"{where}: HOLD: expected a sampled design (SAMPLING 'event', "
+                              "'self-triggered' or 'periodic'), received SAMPLING 'continuous'")
     leader = attrs.get("LEADER", False)
     if not isinstance(leader, bool):
         raise DerivationError(f"{where}: LEADER: expected True or False, received {leader!r}")
@@ -461,7 +470,24 @@ def _parse_agent_declarations(attrs: Mapping[str, Any], where: str) -> AgentDecl
                               f"received {measured!r}")
     return AgentDeclarations(representation=base.representation, gains=base.gains,
                              graphs=base.graphs, sampling=base.sampling, states=tuple(states),
-                             leader=leader, measured=tuple(measured))
+                             leader=leader, measured=tuple(measured), hold=tuple(hold))
+
+
+def _sized_names(raw: Any, what: str, taken: set[str], where: str) -> list[tuple[str, int]]:
+    """``{name: size}`` of ``STATES`` / ``HOLD``, validated (identifiers, sizes 1..12)."""
+    if not isinstance(raw, Mapping):
+        raise DerivationError(f"{where}: {what}: expected a dict name -> size, received "
+                              f"{type(raw).__name__}")
+    out: list[tuple[str, int]] = []
+    for n, k in raw.items():
+        if not isinstance(n, str) or not n.isidentifier() or n in taken or n.startswith("_"):
+            kind = "state names" if what == "STATES" else "names"
+            raise DerivationError(f"{where}: {what}: expected {kind} that are identifiers "
+                                  f"unlike the gains and the view's quantities, received {n!r}")
+        if not isinstance(k, int) or isinstance(k, bool) or not 1 <= k <= 12:
+            raise DerivationError(f"{where}: {what}[{n!r}]: expected a size 1..12, received {k!r}")
+        out.append((n, k))
+    return out
 
 
 def _call(fn: str, f: Callable[[AgentView], Any], v: AgentView, where: str) -> Any:
@@ -494,6 +520,10 @@ def _check_symbols(fn: str, expr: Any, v: AgentView, where: str, allowed_extra: 
     bad = free - allowed
     if not bad:
         return
+    if bad & cls["kept"]:
+        raise DerivationError(f"{where}: {fn}(view): expected the kept values v.kept only in "
+                              "event(view) and next_interval(view), received a use in "
+                              f"{fn.split('(')[0]}")
     provided = set().union(*cls.values())
     unknown = sorted(str(s) for s in bad - provided)
     if unknown:
@@ -558,14 +588,31 @@ def agent_expressions(design: AgentDesign, m: int, where: str | None = None) -> 
         for n, e in out["states"].items():
             _check_symbols(f"states()[{n!r}]", e, v, where, set())
     held = v.symbols_by_class()["held"]
+    kept = v.symbols_by_class()["kept"]
+    if decl.hold:
+        raw = _call("hold", design.functions["hold"], v, where)
+        if not isinstance(raw, Mapping) or set(raw) != {n for n, _ in decl.hold}:
+            got = sorted(raw) if isinstance(raw, Mapping) else type(raw).__name__
+            raise DerivationError(f"{where}: hold(view): expected a dict with the keys "
+                                  f"{[n for n, _ in decl.hold]}, received {got}")
+        out["hold"] = {n: _vector(f"hold()[{n!r}]", raw[n], k, where) for n, k in decl.hold}
+        for n, e in out["hold"].items():
+            _check_symbols(f"hold()[{n!r}]", e, v, where, set())
+    for fn, extra in (("controller", out["u"]), *(
+            (f"states()[{n!r}]", e) for n, e in out.get("states", {}).items()), *(
+            (f"hold()[{n!r}]", e) for n, e in out.get("hold", {}).items())):
+        if kept & set(sp.Matrix(extra).free_symbols):
+            raise DerivationError(f"{where}: {fn}: expected the kept values v.kept only in "
+                                  "event(view) and next_interval(view), received a use in "
+                                  f"{fn.split('(')[0]}")
     if "event" in design.functions:
         out["event"] = _scalar("event", _call("event", design.functions["event"], v, where), where)
-        _check_symbols("event", out["event"], v, where, held)
+        _check_symbols("event", out["event"], v, where, held | kept)
     if "next_interval" in design.functions:
         out["next_interval"] = _scalar(
             "next_interval", _call("next_interval", design.functions["next_interval"], v, where),
             where)
-        _check_symbols("next_interval", out["next_interval"], v, where, set())
+        _check_symbols("next_interval", out["next_interval"], v, where, kept)
     if "monitors" in design.functions:
         raw = _call("monitors", design.functions["monitors"], v, where)
         if not isinstance(raw, Mapping) or not all(isinstance(k, str) for k in raw):
@@ -575,7 +622,7 @@ def agent_expressions(design: AgentDesign, m: int, where: str | None = None) -> 
         for k, e in out["monitors"].items():
             # a monitor observes the run: it may read any quantity of the view
             cls = v.symbols_by_class()
-            allowed = set().union(*cls.values())
+            allowed = set().union(*cls.values()) - cls["kept"]
             bad = sorted(str(s) for s in e.free_symbols - allowed)
             if bad:
                 raise DerivationError(f"{where}: monitors()[{k!r}]: expected only the view's "
@@ -609,6 +656,12 @@ def _check_functions(attrs: Mapping[str, Any], decl: AgentDeclarations, where: s
         if fn in fns and decl.sampling != rule:
             raise DerivationError(f"{where}: expected SAMPLING = {rule!r} with a function "
                                   f"{fn}(view), received SAMPLING = {decl.sampling!r}")
+    if decl.hold and "hold" not in fns:
+        raise DerivationError(f"{where}: expected a function hold(view) for HOLD "
+                              f"{[n for n, _ in decl.hold]}, received none")
+    if not decl.hold and "hold" in fns:
+        raise DerivationError(f"{where}: expected HOLD declared for the function hold(view), "
+                              "received none")
     if decl.states and decl.sampling != "continuous":
         raise DerivationError(f"{where}: expected SAMPLING 'continuous' for a design with "
                               f"controller STATES, received {decl.sampling!r}")
@@ -620,7 +673,7 @@ def _validate(design: AgentDesign, where: str) -> str:
     for m in (0, 1, 2):
         ex = agent_expressions(design, m, where)
         parts.append(sp.srepr(ex["u"]))
-        for k in ("states", "event", "next_interval", "monitors"):
+        for k in ("states", "event", "next_interval", "monitors", "hold"):
             if k in ex:
                 parts.append(sp.srepr(ex[k]))
     return "\n".join(parts)
@@ -628,14 +681,18 @@ def _validate(design: AgentDesign, where: str) -> str:
 
 def agent_design_from_module(mod: ModuleType, where: str, key: str, stem: str) -> AgentDesign:
     """The :class:`AgentDesign` of an executed design module (validated; see module docstring)."""
-    attrs = mod.__dict__
+    return _design_from_attrs(mod.__dict__, where, key, stem)[0]
+
+
+def _design_from_attrs(attrs: Mapping[str, Any], where: str, key: str,
+                       stem: str) -> tuple[AgentDesign, str]:
+    """The validated design of a namespace and the text of its expressions."""
     decl = _parse_agent_declarations(attrs, where)
     fns = _check_functions(attrs, decl, where)
     d = AgentDesign(name=str(attrs.get("NAME", stem)), title=str(attrs.get("TITLE", stem)),
                     path=where, key=key, source=where, decl=decl,
                     functions=MappingProxyType(fns), module=MappingProxyType(dict(attrs)))
-    _validate(d, where)
-    return d
+    return d, _validate(d, where)
 
 
 def agent_design_from_functions(controller: Callable[[AgentView], Any], *, name: str = "custom",
@@ -652,18 +709,21 @@ def agent_design_from_functions(controller: Callable[[AgentView], Any], *, name:
     """
     where = "<python>"
     attrs: dict[str, Any] = {"controller": controller}
-    for k in ("representation", "gains", "graphs", "sampling", "states", "leader", "measured"):
+    for k in ("representation", "gains", "graphs", "sampling", "states", "leader", "measured",
+              "hold"):
         if k in declarations:
             attrs[k.upper()] = declarations.pop(k)
     if "states_fn" in declarations:
         attrs["states"] = declarations.pop("states_fn")
+    if "hold_fn" in declarations:
+        attrs["hold"] = declarations.pop("hold_fn")
     for fn in ("event", "next_interval", "monitors", "conditions"):
         if fn in declarations:
             attrs[fn] = declarations.pop(fn)
     if declarations:
         raise DerivationError(f"{where}: expected declarations among representation, gains, "
-                              "graphs, sampling, states, leader, measured, states_fn, event, "
-                              f"next_interval, monitors, conditions; received "
+                              "graphs, sampling, states, leader, measured, hold, states_fn, "
+                              "hold_fn, event, next_interval, monitors, conditions; received "
                               f"{sorted(declarations)}")
     decl = _parse_agent_declarations(attrs, where)
     fns = _check_functions(attrs, decl, where)
@@ -683,3 +743,48 @@ def agent_design_from_functions(controller: Callable[[AgentView], Any], *, name:
     h = hashlib.sha256(f"agent:{name}\n{decl.to_dict()!r}\n{body}".encode()).hexdigest()
     return AgentDesign(name=d.name, title=d.title, path=where, key=h, source=where, decl=decl,
                        functions=d.functions, module=extra)
+
+
+def sampling_variant(design: AgentDesign, sampling: str, *, name: str | None = None,
+                     **functions: Any) -> AgentDesign:
+    """The design ``design`` (from a file) under another sampling rule, with the same
+    declarations, controller and module namespace.
+
+    ``functions``: the new rule's functions by their contract names (``event``,
+    ``next_interval``, ``hold``; ``None`` removes one) and ``HOLD`` (a dict) when the rule
+    keeps values.  The key digests the original key, the rule and the new expressions.
+    Used to run a self-triggered design's law under event-triggered or periodic sampling
+    on the same formation.
+
+    >>> import formsync_design.resources as res
+    >>> from formsync_design.spec.loader import load_design
+    >>> d = load_design("selftrigger_mrp")
+    >>> p = sampling_variant(d, "periodic", next_interval=None)
+    >>> p.decl.sampling, p.name, p.key != d.key, p.has("next_interval")
+    ('periodic', 'selftrigger_mrp-periodic', True, False)
+    """
+    attrs = dict(design.module)
+    if not attrs:
+        raise DerivationError(f"expected a design loaded from a file for a sampling variant, "
+                              f"received {design.name!r} built from functions")
+    attrs["SAMPLING"] = sampling
+    for fn in ("event", "next_interval", "hold"):
+        attrs.pop(fn, None)
+    for fn, f in functions.items():
+        if fn == "HOLD":
+            attrs["HOLD"] = f
+        elif fn not in ("event", "next_interval", "hold"):
+            raise DerivationError(f"{design.path}: expected variant functions among event, "
+                                  f"next_interval, hold, HOLD; received {fn!r}")
+        elif f is not None:
+            attrs[fn] = f
+    if "hold" not in attrs:
+        attrs.pop("HOLD", None)
+    vname = name or f"{design.name}-{sampling}"
+    attrs["NAME"] = vname
+    where = f"{design.path} ({sampling} variant)"
+    d, body = _design_from_attrs(attrs, where, "", vname)
+    key = hashlib.sha256(f"{design.key}\nvariant:{sampling}\n{body}".encode()).hexdigest()
+    return AgentDesign(name=d.name, title=f"{design.title} ({sampling} sampling)", path=design.path,
+                       key=key, source=design.source, decl=d.decl, functions=d.functions,
+                       module=d.module)
