@@ -55,6 +55,7 @@ __all__ = [
     "pack_params",
     "param_layout",
     "gain_size",
+    "compile_function",
 ]
 
 
@@ -440,3 +441,15 @@ def clear_kernel_cache() -> None:
     []
     """
     _KERNELS.clear()
+
+
+def compile_function(fn: ca.Function, key: str) -> tuple[ca.Function, bool]:
+    """Compile a CasADi function through the kernel compiler and disk cache.
+
+    The entry point for simulation modules other than the formation kernels (e.g.
+    :mod:`formsync_design.sim.flyaround`): C code generation, the C compiler, the disk
+    cache keyed by the generated source, ``key`` (the design's content digest), the flags
+    and the host; the CasADi virtual machine without a compiler.  Returns the function and
+    whether it was compiled.
+    """
+    return _compile(fn, key)
