@@ -40,7 +40,7 @@ from formsync_design.errors import InputError, SolverError
 from formsync_design.gains import json_number
 from formsync_design.models.thrusters import ThrusterLayout
 
-__all__ = ["LPAllocation", "MinFuelAllocator", "lp_allocation_cvxpy"]
+__all__ = ["LPAllocation", "MinFuelAllocator", "BoundedLP", "lp_allocation_cvxpy"]
 
 
 @dataclass(frozen=True)
@@ -111,7 +111,7 @@ class MinFuelAllocator:
                              "received one whose dual polytope has no vertex")
         self.vertices = np.array(verts)
         self.active = [np.flatnonzero(np.abs(a.T @ y - 1) <= 1e-9) for y in verts]
-        self._bounded: _BoundedLP | None = None
+        self._bounded: BoundedLP | None = None
 
     def allocate(self, wrench: Any) -> LPAllocation:
         """The minimum-fuel thrusts for ``wrench`` (explicit, else the bounded LP)."""
@@ -133,13 +133,19 @@ class MinFuelAllocator:
         if ok and float(f.max()) <= self.layout.thrust:
             return LPAllocation(f, "explicit", float(f.sum()), float(vals[j]), res, True)
         if self._bounded is None:
-            self._bounded = _BoundedLP(self.layout)
+            self._bounded = BoundedLP(self.layout)
         return self._bounded.solve(w)
 
 
-class _BoundedLP:
-    """The two-stage bounded LP of :func:`lp_allocation_cvxpy`, built once (cvxpy
-    parameters, so a re-solve only updates the wrench)."""
+class BoundedLP:
+    """The two-stage bounded LP of :func:`lp_allocation_cvxpy` for one layout, built once
+    (cvxpy parameters: a re-solve only updates the wrench).
+
+    >>> from formsync_design.models.thrusters import zhang2014_layout
+    >>> r = BoundedLP(zhang2014_layout()).solve(np.array([10.0, 0, 0, 0, 0, 5.0]))
+    >>> r.method, round(r.fuel_thrust, 5)
+    ('cvxpy', 10.0)
+    """
 
     def __init__(self, layout: ThrusterLayout) -> None:
         import cvxpy as cp
@@ -191,4 +197,4 @@ def lp_allocation_cvxpy(layout: ThrusterLayout, wrench: Any) -> LPAllocation:
     w = np.asarray(wrench, dtype=float)
     if w.shape != (6,) or not np.all(np.isfinite(w)):
         raise InputError(f"expected a wrench as 6 finite numbers, received shape {w.shape}")
-    return _BoundedLP(layout).solve(w)
+    return BoundedLP(layout).solve(w)

@@ -80,6 +80,7 @@ __all__ = [
     "initial_state",
     "lqr_for",
     "euler321",
+    "rotation_vectors",
 ]
 
 #: Allocation rules: pseudo-inverse with a null-space shift, pseudo-inverse clipped, LP.
@@ -569,6 +570,17 @@ def _run_lp(kern: _Kernel, sc: FlyaroundScenario, p: np.ndarray, x0: np.ndarray,
         if not np.all(np.isfinite(xn)):
             raise SimulationError(f"the fly-around state became non-finite by t = {t[k]:g} s")
     return fb
+
+
+def rotation_vectors(sigma: np.ndarray) -> np.ndarray:
+    """Rotation vectors ``4 atan|sigma| sigma/|sigma|`` (rad) of MRPs, ``(K, 3)``.
+
+    >>> rotation_vectors(np.array([[0.0, 0.0, math.tan(0.25)]])).round(12).tolist()
+    [[0.0, 0.0, 1.0]]
+    """
+    n = np.linalg.norm(sigma, axis=1)
+    scale = np.where(n > 0, 4 * np.arctan(n) / np.where(n > 0, n, 1.0), 4.0)
+    return sigma * scale[:, None]
 
 
 def with_options(opt: FlyaroundOptions, **kw: Any) -> FlyaroundOptions:
