@@ -22,6 +22,10 @@ data flows through the stages:
   trigger rules), :func:`metric_figure`, :func:`torque_figures`,
   :func:`monte_carlo`;
 * verification of a published case: :func:`load_case`, :func:`verify_case`;
+* tracking designs (the fly-around of Zhang et al. 2014): :func:`load_flyaround_case`,
+  :class:`FlyaroundScenario`, :class:`FlyaroundOptions`, :func:`simulate_flyaround`
+  (-> :class:`FlyaroundRun`), :func:`flyaround_figures`, :func:`derive_tracking_attitude`,
+  :func:`attitude_certificate`, :func:`verify_flyaround`;
 * campaigns: :func:`load_campaign`, :func:`run_sweep`;
 * numbers: :func:`parse_number` (the exact-number parser) and
   :func:`json_number` (the JSON number convention);
@@ -121,6 +125,16 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "load_case": "formsync_design.verify",
     "VerificationResult": "formsync_design.verify",
     "verify_case": "formsync_design.verify",
+    # tracking designs: the fly-around case
+    "load_flyaround_case": "formsync_design.verify.flyaround_case",
+    "FlyaroundScenario": "formsync_design.sim.flyaround",
+    "FlyaroundOptions": "formsync_design.sim.flyaround",
+    "FlyaroundRun": "formsync_design.sim.flyaround",
+    "simulate_flyaround": "formsync_design.sim.flyaround",
+    "flyaround_figures": "formsync_design.sim.flyaround_figures",
+    "derive_tracking_attitude": "formsync_design.derive.tracking",
+    "attitude_certificate": "formsync_design.analysis.flyaround",
+    "verify_flyaround": "formsync_design.verify.flyaround",
     # campaigns
     "load_campaign": "formsync_design.sweep",
     "run_sweep": "formsync_design.sweep",

@@ -79,7 +79,8 @@ def control(t, y, sc, spec, opt, lqr_k, z):
     return wrench, alloc.thrusts, dx, sig, w_sd
 
 
-def simulate_numpy(sc, opt, spec, samples: int, rtol: float = 1e-10, atol: float = 1e-12):
+def simulate_numpy(sc, opt, spec, samples: int, rtol: float = 1e-10, atol: float = 1e-12,
+                   method: str = "DOP853"):
     """``samples`` control samples; returns the states at the sample instants (K+1, 12), the
     on-times (K, m) and the errors."""
     lqr, _, _ = lqr_for(spec, sc)
@@ -106,7 +107,7 @@ def simulate_numpy(sc, opt, spec, samples: int, rtol: float = 1e-10, atol: float
             on = ((start <= mid) & (mid < end)).astype(float)
             wr = a @ (sc.layout.thrust * on)
             sol = solve_ivp(lambda t, yy, wr=wr: rhs(t, yy, wr), (t0 + lo, t0 + hi), y,
-                            method="DOP853", rtol=rtol, atol=atol)
+                            method=method, rtol=rtol, atol=atol)
             y = sol.y[:, -1]
         n2 = float(y[6:9] @ y[6:9])
         if n2 > 1:

@@ -130,8 +130,13 @@ print("files", *sorted(p.name for p in paths))
 for name in resources.design_names():
     spec = load_spec(resources.design_file(name))
     assert callable(spec.controller), name
+from formsync_design.tomlio import load_toml
+from formsync_design.verify.kinds import case_kind
+from formsync_design.verify.flyaround_case import load_flyaround_case
+loaders = {"formation": load_case, "flyaround": load_flyaround_case}
 for name in resources.case_names():
-    load_case(resources.case_file(name))
+    path = resources.case_file(name)
+    loaders[case_kind(load_toml(path), str(path))](path)
 print("default-spec", Path(str(load_spec(None).path)).name)
 """
 

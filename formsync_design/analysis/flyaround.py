@@ -176,7 +176,13 @@ def _bound_poly(expr: sp.Expr, bounds: dict[sp.Symbol, Fraction]) -> Fraction:
 
 
 def attitude_certificate(case: Any, rate_samples: int = 2000) -> AttitudeCertificate:
-    """Certify the attitude law over the case's ``[certificate]`` box (module docstring)."""
+    """Certify the attitude law over the case's ``[certificate]`` box (module docstring).
+
+    >>> from formsync_design.verify.flyaround_case import load_flyaround_case
+    >>> cert = attitude_certificate(load_flyaround_case(), rate_samples=50)
+    >>> str(cert.status), cert.vertices, float(cert.alpha) > 0.02
+    ('certified', 128, True)
+    """
     import cvxpy as cp
 
     der = derive_tracking_attitude(case.spec)

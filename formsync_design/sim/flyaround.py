@@ -19,9 +19,11 @@ attitude is the desired attitude at ``t = 0`` rotated by the 3-2-1 angles
 
 >>> from formsync_design.verify.flyaround_case import load_flyaround_case
 >>> sc = load_flyaround_case().scenario          # the paper's case and the case file's gains
+>>> isinstance(sc, FlyaroundScenario), sc.gains["k_p"]
+(True, (807.0,))
 >>> run = simulate_flyaround(sc, FlyaroundOptions(tf=2.0))
->>> run.t.shape, bool(run.states.shape == (11, 12))
-((10,), True)
+>>> run.t.shape, run.states.shape, round(run.fuel, 4) > 0
+((10,), (11, 12), True)
 """
 
 from __future__ import annotations

@@ -88,6 +88,11 @@ def _plane_normal(params: Any) -> np.ndarray:
     return rotation_rT(params).T @ np.array([0.0, 0.0, 1.0])  # z_r in T
 
 
+def _max(a: np.ndarray) -> float:
+    """``max`` of an array, nan when it is empty (a window the run does not reach)."""
+    return float(np.max(a)) if np.size(a) else math.nan
+
+
 def run_metrics(run: Any, steady_from: float) -> dict[str, float]:
     """Every quantity of :data:`QUANTITIES` and the report's further numbers for a run."""
     o = run.outputs
@@ -118,17 +123,17 @@ def run_metrics(run: Any, steady_from: float) -> dict[str, float]:
     saturated = int(np.sum(np.any(tau >= opt.sample_period - 1e-12, axis=1)))
     short_norm = np.abs(short).max(axis=1)
     return {
-        "rate_error_deg_s": float(rate.max()),
-        "attitude_error_deg": float(rv.max()),
-        "velocity_error_m_s": float(dx[:, 3:].max()),
-        "position_error_m": float(dx[:, :3].max()),
+        "rate_error_deg_s": _max(rate),
+        "attitude_error_deg": _max(rv),
+        "velocity_error_m_s": _max(dx[:, 3:]),
+        "position_error_m": _max(dx[:, :3]),
         "delta_v_m_s": run.delta_v,
         "fuel_kg": run.fuel,
         "min_pulse_fraction": float(is_min[fired].sum() / n_fired) if n_fired else math.nan,
         "final_plane_error_deg": abs(tilt - math.degrees(sc.reference.alpha)),
         "final_radius_error_m": float(np.max(np.abs(r[last] - sc.reference.a))),
         "transition_overshoot_deg": overshoot,
-        "pointing_error_deg": float(point[after].max()),
+        "pointing_error_deg": _max(point[after]),
         # further numbers of the report
         "delta_v_net_m_s": run.delta_v_net,
         "pulses_after_100s": float(n_fired),
@@ -138,7 +143,7 @@ def run_metrics(run: Any, steady_from: float) -> dict[str, float]:
         "raw_min_thrust_n": float(np.min(o["raw_min"])),
         "negative_samples_fraction": float(np.mean(o["raw_min"] < 0)),
         "allocation_shortfall_max": float(short_norm.max()),
-        "allocation_shortfall_after_100s": float(short_norm[after].max()),
+        "allocation_shortfall_after_100s": _max(short_norm[after]),
         "saturated_samples": float(saturated),
         "fallback_frames": float(np.sum(o["frame_status"] != 0)),
     }
@@ -261,7 +266,26 @@ def _lp_check(run: Any, samples: int = 60) -> dict[str, float]:
 
 def verify_flyaround(path: str | Path | None = None, spec: Any = None,
                      progress: Callable[[str], None] | None = None) -> FlyaroundVerification:
-    """Run the whole verification of a fly-around case (module docstring)."""
+    """Run the whole verification of a fly-around case (module docstring).
+
+    ``path`` is a case file (default: the shipped ``zhang2014_flyaround``, about a minute
+    and a half); the example shortens it to 160 s without a sensitivity study:
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from formsync_design.resources import case_file
+    >>> text = case_file("zhang2014_flyaround").read_text()
+    >>> text = text.replace("tf = 18000.0", "tf = 160.0").replace("steady_from = 1000.0",
+    ...                                                          "steady_from = 120.0")
+    >>> text = text[:text.index("[sensitivity]")] + text[text.index("[certificate]"):]
+    >>> short = Path(tempfile.mkdtemp()) / "short.toml"
+    >>> _ = short.write_text(text)
+    >>> res = verify_flyaround(short)
+    >>> [c.id for c in res.claims][:3], str(res.attitude_cert.status)
+    (['rate_error', 'attitude_error', 'velocity_error'], 'certified')
+    >>> res.allocation["lp"]["fuel_kg"] < res.allocation["pinv-shift"]["fuel_kg"]
+    True
+    """
     from dataclasses import replace
 
     from formsync_design.analysis.flyaround import attitude_certificate, orbit_certificate
