@@ -133,7 +133,7 @@ for name in resources.design_names():
 from formsync_design.tomlio import load_toml
 from formsync_design.verify.kinds import case_kind
 from formsync_design.verify.flyaround_case import load_flyaround_case
-loaders = {"formation": load_case, "flyaround": load_flyaround_case}
+loaders = {{"formation": load_case, "flyaround": load_flyaround_case}}
 for name in resources.case_names():
     path = resources.case_file(name)
     loaders[case_kind(load_toml(path), str(path))](path)

@@ -268,7 +268,8 @@ def attitude_certificate(case: Any, rate_samples: int = 2000) -> AttitudeCertifi
             return None
         if prob.status not in ("optimal", "optimal_inaccurate") or mu.value is None:
             return None
-        return float(q1.value), float(q2.value), 1.0, float(mu.value)
+        return (float(np.asarray(q1.value)), float(np.asarray(q2.value)), 1.0,
+                float(np.asarray(mu.value)))
 
     lo, hi = 0.0, 0.25
     sol0 = solve(0.0)

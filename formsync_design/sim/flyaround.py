@@ -549,14 +549,14 @@ def _run_lp(kern: _Kernel, sc: FlyaroundScenario, p: np.ndarray, x0: np.ndarray,
     xn, cn, tau, wp, sw = np.zeros(12), np.zeros(c0.size), np.zeros(nt), np.zeros(6), np.zeros(1)
     cbuf, ctrig = kern.ctrl_c.buffer()
     for i, arr in enumerate((x, c, tk, p)):
-        cbuf.set_arg(i, memoryview(arr))
+        cbuf.set_arg(i, arr.data)
     for i, arr in enumerate((wr, fa, co, rdr)):
-        cbuf.set_res(i, memoryview(arr))
+        cbuf.set_res(i, arr.data)
     pbuf, ptrig = kern.prop_c.buffer()
     for i, arr in enumerate((x, c, tk, p, f, rdr)):
-        pbuf.set_arg(i, memoryview(arr))
+        pbuf.set_arg(i, arr.data)
     for i, arr in enumerate((xn, cn, tau, wp, sw)):
-        pbuf.set_res(i, memoryview(arr))
+        pbuf.set_res(i, arr.data)
     fb = 0
     for k in range(t.size):
         tk[0] = t[k]

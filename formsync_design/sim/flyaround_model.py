@@ -87,7 +87,7 @@ def dcm_to_mrp_ca(r: Any) -> Any:
     for i in range(3):
         j, m = (i + 1) % 3, (i + 2) % 3
         si = 2 * ca.sqrt(ca.fmax(1 + 2 * r[i, i] - tr, 1e-300))
-        q = [None] * 4
+        q: list[Any] = [None] * 4
         q[0] = (r[m, j] - r[j, m]) / si
         q[1 + i] = si / 4
         q[1 + j] = (r[j, i] + r[i, j]) / si

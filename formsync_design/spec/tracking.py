@@ -153,7 +153,7 @@ class WeightView(_View):
         super().__init__(decl, (GainRole.WEIGHT,))
 
 
-def _call(where: str, name: str, f: Callable[[Any], Any], view: Any) -> Any:
+def _call(where: str, name: str, f: Callable[[Any], Any], view: _View) -> Any:
     try:
         return f(view)
     except AttributeError as e:

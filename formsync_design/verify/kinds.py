@@ -91,4 +91,4 @@ def case_kind(data: dict[str, Any], source: str) -> str:
 def verifier(kind: str) -> Callable[[VerifyRequest], int]:
     """The verifier function registered for ``kind``."""
     module, _, func = KINDS[kind].partition(":")
-    return getattr(importlib.import_module(module), func)  # type: ignore[no-any-return]
+    return getattr(importlib.import_module(module), func)
