@@ -125,6 +125,7 @@ def run_metrics(run: Any, steady_from: float) -> dict[str, float]:
     return {
         "rate_error_deg_s": _max(rate),
         "attitude_error_deg": _max(rv),
+        "attitude_error_axis": float(np.argmax(rv.max(axis=0))) if rv.size else math.nan,
         "velocity_error_m_s": _max(dx[:, 3:]),
         "position_error_m": _max(dx[:, :3]),
         "delta_v_m_s": run.delta_v,

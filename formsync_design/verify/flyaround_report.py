@@ -208,6 +208,12 @@ def flyaround_markdown(res: FlyaroundVerification, case_display: str, command: s
           "error (the reference starts moving at 0.61 m/s while the chaser is at rest "
           "relative to the target) is removed in the first tens of seconds, with "
           f"{int(m['saturated_samples'])} samples in which a thruster is on for the whole sample.",
+          f"* The largest steady-state attitude error is about the body "
+          f"{'xyz'[int(m['attitude_error_axis'])] if math.isfinite(m['attitude_error_axis']) else '-'} "
+          f"axis ({_g(m['attitude_error_deg'])}°; x is the sensor axis, a rotation about it "
+          f"does not move the line of sight): the pointing error stays below "
+          f"{_g(m['pointing_error_deg'])}°.  The error is the minimum-pulse dead band: a "
+          "torque command below what one 30 ms pulse per sample delivers is rounded to zero.",
           f"* The desired-frame fallback (straight-line or no relative motion) is never "
           f"needed in this case ({int(m['fallback_frames'])} samples).", ""]
     L += ["## Figures", ""]
