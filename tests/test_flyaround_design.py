@@ -75,14 +75,18 @@ def test_good_tracking_design_and_weight_only_in_tracking(tmp_path):
         parse_declarations({"GAINS": {"k": {}, "w": {"role": "weight"}}}, "x.py")
 
 
-def test_formation_stages_refuse_a_tracking_design(capsys):
+def test_formation_stages_refuse_a_tracking_design(capsys, tmp_path):
     from formsync_design.cli.main import main
 
     with pytest.raises(DerivationError, match="received a tracking design"):
         controller_expression(DESIGN)
-    for argv in (["derive", "--design", "zhang2014_flyaround", "--out", "/tmp/unused-fs"],
+    for argv in (["derive", "--design", "zhang2014_flyaround", "--out", str(tmp_path / "d")],
                  ["simulate", "--design", "zhang2014_flyaround", "--tf", "1"],
-                 ["certify", "--design", "zhang2014_flyaround", "--graph", "ring:4"]):
+                 ["certify", "--design", "zhang2014_flyaround", "--graph", "ring:4"],
+                 ["verify", "liang2016", "--design", "zhang2014_flyaround",
+                  "--out", str(tmp_path / "v")],
+                 ["verify", "zhang2014_flyaround", "--design", "liang2016",
+                  "--out", str(tmp_path / "w")]):
         assert main(argv) == 2, argv
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "Traceback" not in err[0], err

@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from formsync_design.errors import InputError
 from formsync_design.gains import json_number
 from formsync_design.sim.flyaround import rotation_vectors
 from formsync_design.verify.kinds import VerifyRequest
@@ -301,7 +302,11 @@ def verify_flyaround(path: str | Path | None = None, spec: Any = None,
     case = load_flyaround_case(path)
     if spec is not None:
         s = load_spec(spec)
-        case = replace(case, design=s.path if s.path != "<python>" else case.design)
+        if s.decl.kind != "tracking" or s.path == "<python>":
+            raise InputError(f"expected a tracking design file for the fly-around case "
+                             f"{case.path}, received {s.name} (a {s.decl.kind} design"
+                             f"{', built in Python' if s.path == '<python>' else ''})")
+        case = replace(case, design=s.path)
     design = case.spec
     say("derive the attitude loop")
     der = derive_tracking_attitude(design)
