@@ -96,7 +96,7 @@ def orbit_certificate(case: Any) -> OrbitCertificate:
     return OrbitCertificate(design.K, design.riccati_residual, design.max_real_part, margins, rho)
 
 
-def reference_rate_bounds(case: Any, samples: int = 2000) -> tuple[np.ndarray, np.ndarray]:
+def reference_rate_bounds(case: Any, samples: int = 721) -> tuple[np.ndarray, np.ndarray]:
     """Componentwise ``max |omega_di|`` and ``max |omega_di'|`` (in ``d``) over the case's
     horizon, on ``samples`` equally spaced times (a measurement; the certificate covers
     these times the case's ``rate_margin``)."""
@@ -175,7 +175,7 @@ def _bound_poly(expr: sp.Expr, bounds: dict[sp.Symbol, Fraction]) -> Fraction:
     return tot
 
 
-def attitude_certificate(case: Any, rate_samples: int = 2000) -> AttitudeCertificate:
+def attitude_certificate(case: Any, rate_samples: int = 721) -> AttitudeCertificate:
     """Certify the attitude law over the case's ``[certificate]`` box (module docstring).
 
     >>> from formsync_design.verify.flyaround_case import load_flyaround_case

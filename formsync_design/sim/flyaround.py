@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -90,6 +90,10 @@ ALLOCATIONS = ("pinv-shift", "pinv-clip", "lp")
 
 #: Samples per call of the compiled chunk.
 CHUNK = 500
+
+#: An ``lp`` run compiles its control and propagation functions from this many samples
+#: on (a shorter run is faster in the CasADi virtual machine than with a cold C build).
+LP_COMPILE_MIN_SAMPLES = 5000
 
 
 def euler321(angles_deg: Any) -> np.ndarray:
@@ -365,9 +369,12 @@ def initial_state(scenario: FlyaroundScenario,
 
 
 class _Kernel:
-    def __init__(self, fns: dict[str, Any], chunk: Any, compiled: bool, seconds: float) -> None:
+    def __init__(self, fns: dict[str, Any], chunk: Any, compiled: bool, seconds: float,
+                 tag: str) -> None:
         self.fns, self.chunk, self.compiled, self.seconds = fns, chunk, compiled, seconds
+        self.tag = tag  # the disk-cache key material: the design's digest and the options
         self.ctrl_c: Any = None
+        self.lp_compiled = False
         self.prop_c: Any = None
 
 
@@ -418,10 +425,10 @@ def _kernel(spec: Spec, opt: FlyaroundOptions) -> _Kernel:
     fns = build_functions(laws, laws["ngain"], opt.substeps, opt.sample_period)
     chunk = fns["step"].mapaccum("fa_chunk", CHUNK, 2)
     compiled = False
+    tag = f"{spec.key}|flyaround|{opt.substeps}|{opt.sample_period!r}"
     if compile:
-        tag = f"{spec.key}|flyaround|{opt.substeps}|{opt.sample_period!r}"
         chunk, compiled = compile_function(chunk, tag)
-    k = _Kernel(fns, chunk, compiled, time.perf_counter() - t0)
+    k = _Kernel(fns, chunk, compiled, time.perf_counter() - t0, tag)
     _KERNELS[key] = k
     return k
 
@@ -534,11 +541,13 @@ def _run_lp(kern: _Kernel, sc: FlyaroundScenario, p: np.ndarray, x0: np.ndarray,
     from formsync_design.models.allocation import MinFuelAllocator
     from formsync_design.sim.kernels import compile_function
 
-    if kern.ctrl_c is None:
+    if kern.ctrl_c is None or (kern.compiled and not kern.lp_compiled
+                               and t.size >= LP_COMPILE_MIN_SAMPLES):
         ctrl, prop = kern.fns["ctrl"], kern.fns["prop"]
-        if kern.compiled:
-            ctrl, _ = compile_function(ctrl, "flyaround-ctrl")
-            prop, _ = compile_function(prop, "flyaround-prop")
+        kern.lp_compiled = kern.compiled and t.size >= LP_COMPILE_MIN_SAMPLES
+        if kern.lp_compiled:
+            ctrl, _ = compile_function(ctrl, kern.tag + "|ctrl")
+            prop, _ = compile_function(prop, kern.tag + "|prop")
         kern.ctrl_c, kern.prop_c = ctrl, prop
     alloc = MinFuelAllocator(sc.layout)
     m, nt = sc.layout.count, N_THRUSTERS_MAX
@@ -583,8 +592,3 @@ def rotation_vectors(sigma: np.ndarray) -> np.ndarray:
     n = np.linalg.norm(sigma, axis=1)
     scale = np.where(n > 0, 4 * np.arctan(n) / np.where(n > 0, n, 1.0), 4.0)
     return sigma * scale[:, None]
-
-
-def with_options(opt: FlyaroundOptions, **kw: Any) -> FlyaroundOptions:
-    """``dataclasses.replace`` for options (validated again)."""
-    return replace(opt, **kw)
