@@ -32,6 +32,10 @@ data flows through the stages:
   :func:`scheme_designs`, :func:`run_scheme` (self-, event-triggered and periodic runs
   with their measurements), :func:`interevent_bound` (the certified inter-event lower
   bound; ``formsync verify`` judges a case);
+* tracking designs (the fly-around of Zhang et al. 2014): :func:`load_flyaround_case`,
+  :class:`FlyaroundScenario`, :class:`FlyaroundOptions`, :func:`simulate_flyaround`
+  (-> :class:`FlyaroundRun`), :func:`flyaround_figures`, :func:`derive_tracking_attitude`,
+  :func:`attitude_certificate`, :func:`verify_flyaround`;
 * campaigns: :func:`load_campaign`, :func:`run_sweep`;
 * numbers: :func:`parse_number` (the exact-number parser) and
   :func:`json_number` (the JSON number convention);
@@ -144,6 +148,16 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "run_scheme": "formsync_design.verify.selftrigger_runs",
     "interevent_bound": "formsync_design.verify.selftrigger_cert",
     "sampling_variant": "formsync_design.spec.agent",
+    # tracking designs: the fly-around case
+    "load_flyaround_case": "formsync_design.verify.flyaround_case",
+    "FlyaroundScenario": "formsync_design.sim.flyaround",
+    "FlyaroundOptions": "formsync_design.sim.flyaround",
+    "FlyaroundRun": "formsync_design.sim.flyaround",
+    "simulate_flyaround": "formsync_design.sim.flyaround",
+    "flyaround_figures": "formsync_design.sim.flyaround_figures",
+    "derive_tracking_attitude": "formsync_design.derive.tracking",
+    "attitude_certificate": "formsync_design.analysis.flyaround",
+    "verify_flyaround": "formsync_design.verify.flyaround",
     # campaigns
     "load_campaign": "formsync_design.sweep",
     "run_sweep": "formsync_design.sweep",

@@ -118,7 +118,7 @@ def design_file(name: str) -> Path:
     >>> design_file("nope")
     Traceback (most recent call last):
     ...
-    formsync_design.errors.InputError: expected a design name in ['liang2016', 'pd_consensus', 'selftrigger_mrp'], received 'nope'
+    formsync_design.errors.InputError: expected a design name in ['liang2016', 'pd_consensus', 'selftrigger_mrp', 'zhang2014_flyaround'], received 'nope'
     """
     return _file(DESIGNS_PACKAGE, name, ".py", "design", design_names())
 

@@ -133,9 +133,13 @@ from formsync_design.verify.agentcase import load_agent_case
 for name in resources.design_names():
     spec = load_design(resources.design_file(name))
     assert callable(spec.controller), name
+from formsync_design.tomlio import load_toml
+from formsync_design.verify.kinds import case_kind
+from formsync_design.verify.flyaround_case import load_flyaround_case
+loaders = {{"formation": load_case, "flyaround": load_flyaround_case}}
 for name in resources.case_names():
-    kind = load_toml(resources.case_file(name), "case").get("case", {{}}).get("kind", "formation")
-    (load_case if kind == "formation" else load_agent_case)(resources.case_file(name))
+    path = resources.case_file(name)
+    loaders.get(case_kind(load_toml(path), str(path)), load_agent_case)(path)
 print("default-spec", Path(str(load_spec(None).path)).name)
 """
 

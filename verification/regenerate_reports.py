@@ -13,6 +13,9 @@ documented commands produce:
   reports/pd_consensus-derivation-ring4.{md,tex}: the PD consensus baseline design end to end;
 * ``formsync verify selftrigger_mrp`` -> reports/selftrigger_mrp-verification.md (+ figures):
   the self-triggered MRP design of seed 001 against its event-triggered and periodic variants;
+* ``formsync verify zhang2014_flyaround`` -> reports/zhang2014_flyaround-verification.md (+
+  figures): the fly-around case of Zhang et al. 2014 (a tracking design, case kind
+  ``flyaround``), its claims, sensitivity study, allocation comparison and certificates;
 * ``verification/region_report.py`` -> reports/liang2016-region.md (+ figures);
 * ``verification/analysis_report.py`` -> reports/liang2016-certificates.md (+ figure): the
   paper's, exact, searched and spectral certificates side by side;
@@ -45,6 +48,7 @@ def main() -> int:
         ["verify", "liang2016"],
         ["verify", "pd_consensus"],
         ["verify", "selftrigger_mrp"],
+        ["verify", "zhang2014_flyaround"],
         ["sweep", "--campaign", "verification/sweep_atlas6.toml", "--out", "reports/sweep-atlas6",
          "--overwrite"],
         ["sweep", "--campaign", "verification/sweep_pd_atlas5.toml", "--out",

@@ -26,6 +26,13 @@ rules: formsync_design/verify/claims.py).  The specification is --spec, else
 the case file's [case] spec, else the paper's; the derivation and every
 simulation use it.
 
+The case file's [case] kind picks the verifier: "formation" (the default,
+above) or "flyaround" (a tracking design: zhang2014_flyaround simulates the
+18 000 s fly-around with PWM inside every 0.2 s sample, judges the published
+numbers and claims, runs the sensitivity study and the pseudo-inverse / LP
+allocation comparison, and certifies the LQR and the attitude law;
+format: formsync_design/verify/flyaround_case.py).
+
 Writes <out>/<CASE file stem>-verification.md, its figures under
 <out>/figures/<CASE file stem>-verification/, and the derivation report it
 links to.  --out is checked before any work; an existing report of a
@@ -38,6 +45,7 @@ input (solver, compiler).
 
 examples:
   formsync verify liang2016
+  formsync verify zhang2014_flyaround --format json
   formsync verify liang2016 --format json --strict
   formsync verify my_case.toml --out /tmp/verification
   formsync verify my_case.toml --spec my_design.py --out /tmp/variant --overwrite

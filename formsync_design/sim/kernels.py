@@ -383,10 +383,6 @@ def _compile(fn: ca.Function, spec_key: str) -> tuple[ca.Function, bool]:
         ) from None
 
 
-#: The public name of the compile step (C code generation + the C compiler, cached on disk by
-#: the generated source and a key; the CasADi VM without a compiler): ``(fn, key) -> (fn, ok)``.
-compile_function = _compile
-
 _KERNELS: dict[tuple[Any, ...], Kernel] = {}
 
 
@@ -445,3 +441,15 @@ def clear_kernel_cache() -> None:
     []
     """
     _KERNELS.clear()
+
+
+def compile_function(fn: ca.Function, key: str) -> tuple[ca.Function, bool]:
+    """Compile a CasADi function through the kernel compiler and disk cache.
+
+    The entry point for simulation modules other than the formation kernels (e.g.
+    :mod:`formsync_design.sim.flyaround`): C code generation, the C compiler, the disk
+    cache keyed by the generated source, ``key`` (the design's content digest), the flags
+    and the host; the CasADi virtual machine without a compiler.  Returns the function and
+    whether it was compiled.
+    """
+    return _compile(fn, key)

@@ -39,6 +39,15 @@ what was expected):
 ``SAMPLING`` (default ``"continuous"``)
     ``"continuous"``, ``"periodic"``, ``"event"`` or ``"self-triggered"``:
     how each spacecraft samples (see :mod:`formsync_design.sim.hybrid`).
+
+``KIND`` (default ``"formation"``)
+    What the design controls: ``"formation"`` (a formation's attitudes on a graph: the
+    quaternion ``controller(view)``/``lyapunov(view)`` contract of
+    :mod:`formsync_design.spec.loader`) or ``"tracking"`` (one spacecraft tracking a
+    reference: relative orbit and attitude, ``REPRESENTATION = "orbit"``, no graph; the
+    contract of :mod:`formsync_design.spec.tracking`).  A tracking design may declare
+    gains of role ``"weight"`` (design weights from which a gain is computed, e.g. LQR
+    weights); the formation stages refuse a tracking design with one line.
 """
 
 from __future__ import annotations
@@ -67,6 +76,7 @@ __all__ = [
     "CLASSIC",
     "RESERVED_NAMES",
     "parse_declarations",
+    "DESIGN_KINDS",
 ]
 
 
@@ -76,6 +86,7 @@ class GainRole(enum.StrEnum):
     CONTROLLER = "controller"
     MULTIPLIER = "multiplier"
     SWITCHING = "switching"
+    WEIGHT = "weight"  # a design weight of a tracking design (e.g. an LQR weight)
 
 
 class GainKind(enum.StrEnum):
@@ -108,6 +119,9 @@ GRAPH_PROPERTIES: tuple[str, ...] = (
     "undirected",
     "leader-reachable",
 )
+
+#: Design kinds (module docstring: ``KIND``).
+DESIGN_KINDS: tuple[str, ...] = ("formation", "tracking")
 
 #: Names a gain may not take: the quantities the views provide.
 RESERVED_NAMES: frozenset[str] = frozenset(
@@ -170,6 +184,7 @@ class Declarations:
     gains: tuple[GainDecl, ...] = ()
     graphs: tuple[str, ...] = ("undirected", "weakly-connected")
     sampling: str = "continuous"
+    kind: str = "formation"
 
     @property
     def family_gains(self) -> tuple[str, ...]:
@@ -211,12 +226,15 @@ class Declarations:
         return {g.name: g.range for g in self.gains}
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        out: dict[str, Any] = {
             "representation": self.representation,
             "gains": [g.to_dict() for g in self.gains],
             "graphs": list(self.graphs),
             "sampling": self.sampling,
         }
+        if self.kind != "formation":  # formation designs keep their historical content keys
+            out["kind"] = self.kind
+        return out
 
 
 #: The gains of Liang et al. (2016): the default when a design declares none.
@@ -312,6 +330,12 @@ def parse_declarations(attrs: Mapping[str, Any], where: str) -> Declarations:
     rep = attrs.get("REPRESENTATION", "quaternion")
     if rep not in REPRESENTATIONS:
         raise _fail(where, "REPRESENTATION", f"one of {list(REPRESENTATIONS)}", _show(rep))
+    kind = attrs.get("KIND", "formation")
+    if kind not in DESIGN_KINDS:
+        raise _fail(where, "KIND", f"one of {list(DESIGN_KINDS)}", _show(kind))
+    if kind == "tracking" and rep != "orbit":
+        raise _fail(where, "REPRESENTATION", "'orbit' for a tracking design (KIND = 'tracking')",
+                    _show(rep))
     if "GAINS" not in attrs:
         gains = CLASSIC_GAINS
     else:
@@ -331,6 +355,9 @@ def parse_declarations(attrs: Mapping[str, Any], where: str) -> Declarations:
         gains = tuple(_parse_gain(n, s, where) for n, s in items)
         if not any(g.role == GainRole.CONTROLLER for g in gains):
             raise _fail(where, "GAINS", "at least one controller gain", "none")
+        if kind != "tracking" and any(g.role == GainRole.WEIGHT for g in gains):
+            raise _fail(where, "GAINS", "weights (role 'weight') only in a tracking design",
+                        [g.name for g in gains if g.role == GainRole.WEIGHT])
         if sum(g.role == GainRole.SWITCHING for g in gains) > 1:
             raise _fail(where, "GAINS", "at most one switching gain",
                         [g.name for g in gains if g.role == GainRole.SWITCHING])
@@ -344,6 +371,9 @@ def parse_declarations(attrs: Mapping[str, Any], where: str) -> Declarations:
     sampling = attrs.get("SAMPLING", "continuous")
     if sampling not in SAMPLING_RULES:
         raise _fail(where, "SAMPLING", f"one of {list(SAMPLING_RULES)}", _show(sampling))
+    if kind == "tracking" and "GAINS" not in attrs:
+        raise _fail(where, "GAINS", "the gains of a tracking design declared", "none")
     return Declarations(representation=str(rep), gains=gains,
-                        graphs=tuple(str(p) for p in graphs), sampling=str(sampling))
+                        graphs=tuple(str(p) for p in graphs), sampling=str(sampling),
+                        kind=str(kind))
 

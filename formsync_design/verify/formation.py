@@ -33,6 +33,11 @@ def verify_formation_case(req: VerifyRequest) -> int:
     case = load_case(path)
     spec_arg = req.design if req.design is not None else case.spec
     spec = load_spec(spec_arg) if spec_arg is not None else None
+    if spec is not None and spec.decl.kind != "formation":
+        from formsync_design.errors import InputError
+
+        raise InputError(f"expected a formation design for the formation case {case_display}, "
+                         f"received {spec.name} (a {spec.decl.kind} design)")
 
     res = verify_case(path, spec=spec, progress=req.progress)
     req.progress("write reports")
