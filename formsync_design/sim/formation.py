@@ -363,6 +363,11 @@ class SimOptions:
                 "expected integrator 'auto', 'rk4' or 'dopri5' with a sample period (zero-order "
                 f"hold), received {self.integrator!r}"
             )
+        if self.switch == "sgn" and self.integrator == "dopri5":
+            raise InputError(
+                "expected integrator 'rk4' (or 'auto') with the discontinuous sgn switch (an "
+                "adaptive step would chase its sliding mode), received 'dopri5'"
+            )
         if self.step is not None and self.integrator in ("dopri5", "cvodes"):
             raise InputError(
                 f"expected no step with integrator {self.integrator!r} (step is the RK4 step; "

@@ -195,7 +195,7 @@ def driver_config(opt: SimOptions, spec: Spec) -> np.ndarray:
         "hmax": opt.max_step if opt.max_step is not None else opt.tf,
         "floor": opt.q0_floor, "normtol": opt.norm_tol, "zoh": opt.sample_period is not None,
         "evtol": opt.event_tol, "qtol": opt.q_tol, "wtol": opt.omega_tol,
-        "maxsteps": 1e8, "h0": 0.0, "swkind": swkind, "kinkstop": 1.0,
+        "maxsteps": max(1e6, 1000.0 * _grid_count(opt)), "h0": 0.0, "swkind": swkind, "kinkstop": 1.0,
     }
     return np.array([float(vals[k]) for k in CFG])
 
