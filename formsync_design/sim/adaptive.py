@@ -105,15 +105,18 @@ class _Run:
         self.iq = np.arange(n) * 4 + 3
 
     # evaluations ---------------------------------------------------------------------
-    def f(self, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def f(self, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(xdot, u, tau, uraw)``: the closed loop, the limited torque, the switching
+        argument and the torque before the limit."""
         self.info["nfev"] += 1
         out = self.kern.evaluate(x, t, self.p)
         return tuple(np.asarray(o).ravel() for o in out)  # type: ignore[return-value]
 
-    def ctrl(self, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def ctrl(self, t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(u, tau, uraw)``: the controller alone."""
         self.info["nctrl"] += 1
         out = self.kern.evaluate(x, t, self.p)
-        return np.asarray(out[1]).ravel(), np.asarray(out[2]).ravel()
+        return tuple(np.asarray(o).ravel() for o in out[1:])  # type: ignore[return-value]
 
     def plant(self, t: float, x: np.ndarray, uh: np.ndarray) -> np.ndarray:
         self.info["nfev"] += 1
@@ -124,15 +127,17 @@ class _Run:
         self.X.append(np.array(x, dtype=float))
         self.U.append(np.array(u, dtype=float))
 
-    def evf(self, ch: int, tau: np.ndarray, u: np.ndarray) -> np.ndarray:
+    def evf(self, ch: int, tau: np.ndarray, ur: np.ndarray) -> np.ndarray:
+        """Event functions: the boundary layer ``|tau| - phi`` (``tau`` for sgn) and the
+        torque before the limit against the limit ``|uraw| - umax``."""
         if ch == 0:
             return tau if self.swkind == 2 else np.abs(tau) - self.phi
-        return np.abs(u) - self.umax * (1 - 1e-12)
+        return np.abs(ur) - self.umax
 
     def locate(self, itp: _Interp, ch: int, j: int, ga: float, gb: float) -> float:
         def g(th: float) -> float:
-            u, tau = self.ctrl(itp.t + th * itp.h, itp(th))
-            return float(self.evf(ch, tau, u)[j])
+            _, tau, ur = self.ctrl(itp.t + th * itp.h, itp(th))
+            return float(self.evf(ch, tau, ur)[j])
 
         return itp.t + _illinois(g, ga, gb, itp.h, self.c["evtol"]) * itp.h
 
@@ -218,9 +223,9 @@ class _Run:
                          tfail=t, q0fail=float(x[self.iq[imin]]), sc=float(imin + 1),
                          kdone=float(len(self.X) - 1))
 
-    def event(self, sc: int, tev: float, xn: np.ndarray, minq: np.ndarray) -> None:
+    def event(self, sc: int, tev: float, itp: _Interp, minq: np.ndarray) -> None:
         self.info.update(status=1.0, tevent=tev, sc=float(sc + 1), kdone=float(len(self.X) - 1))
-        np.minimum(minq, xn[self.iq], out=minq)
+        np.minimum(minq, itp((tev - itp.t) / itp.h)[self.iq], out=minq)  # up to the event
         minq[sc] = min(minq[sc], self.c["floor"])
 
 
@@ -229,13 +234,13 @@ def _rk4(R: _Run, x: np.ndarray, t: float, minq: np.ndarray) -> None:
     h = R.c["interval"] / M
     evs = not zoh and (R.swkind or R.limited)
     if not zoh:
-        k1, u0, tau0 = R.f(t, x)
+        k1, ul0, tau0, u0 = R.f(t, x)
     for _k in range(R.K):
         if zoh:
-            uh, _ = R.ctrl(t, x)
+            uh = R.ctrl(t, x)[0]
             R.grid(x, uh)
         else:
-            R.grid(x, u0)
+            R.grid(x, ul0)
         for _j in range(M):
             with np.errstate(all="ignore"):
                 if zoh:
@@ -253,13 +258,13 @@ def _rk4(R: _Run, x: np.ndarray, t: float, minq: np.ndarray) -> None:
             fb = None
             if not zoh:
                 with np.errstate(all="ignore"):
-                    fb, u1, tau1 = R.f(t + h, xn)
+                    fb, ul1, tau1, u1 = R.f(t + h, xn)
             elif hit:
                 fb = R.plant(t + h, xn, uh)
             itp = _Interp(t, h, x, k1, xn, fb)
             if hit:
                 sc, tev = R.q0_event(itp, x, xn)
-                R.event(sc, tev, xn, minq)
+                R.event(sc, tev, itp, minq)
                 return
             if not np.all(np.isfinite(xn)):
                 R.fail(x, t, 1)
@@ -272,12 +277,12 @@ def _rk4(R: _Run, x: np.ndarray, t: float, minq: np.ndarray) -> None:
             np.minimum(minq, xn[R.iq], out=minq)
             x = xn
             if not zoh:
-                k1, u0, tau0 = fb, u1, tau1  # type: ignore[assignment]
+                k1, ul0, u0, tau0 = fb, ul1, u1, tau1  # type: ignore[assignment]
             t = t + h
     if zoh:
         R.grid(x, R.ctrl(t, x)[0])
     else:
-        R.grid(x, u0)
+        R.grid(x, ul0)
     R.info["kdone"] = float(R.K)
 
 
@@ -312,20 +317,20 @@ def _dopri(R: _Run, x: np.ndarray, t0: float, minq: np.ndarray) -> None:
     kinkstop = not zoh and c["kinkstop"] != 0 and bool(R.swkind or R.limited)
     forced, fch, fj, fsign, hnat = False, -1, 0, False, 0.0
     uh = np.zeros(3 * R.n)
-    u0 = tau0 = uh
+    u0 = ul0 = tau0 = uh
     for seg in range(K if zoh else 1):
         tend = t0 + (seg + 1) * iv if zoh else t0 + K * iv
         ev: Callable[[float, np.ndarray], np.ndarray]
         if zoh:
             t = t0 + seg * iv
-            uh, _ = R.ctrl(t, x)
+            uh = R.ctrl(t, x)[0]
             R.grid(x, uh)
             ev = functools.partial(_held, R, uh)
             k1 = ev(t, x)
         else:
             ev = functools.partial(_closed, R)
-            k1, u0, tau0 = R.f(t, x)
-            R.grid(x, u0)
+            k1, ul0, tau0, u0 = R.f(t, x)
+            R.grid(x, ul0)
         if not h > 0:
             h = _hinit(R, ev, t, x, k1, rtol, atol, hmax)
         rejected_last = False
@@ -350,7 +355,7 @@ def _dopri(R: _Run, x: np.ndarray, t0: float, minq: np.ndarray) -> None:
                 if zoh:
                     k7 = ev(tn, y1)
                 else:
-                    k7, u1, tau1 = R.f(tn, y1)
+                    k7, ul1, tau1, u1 = R.f(tn, y1)
                 ks.append(k7)
                 sk = atol + rtol * np.maximum(np.abs(x), np.abs(y1))
                 e = h * sum(Ew[j] * ks[j] for j in range(7) if Ew[j] != 0.0) / sk
@@ -377,7 +382,7 @@ def _dopri(R: _Run, x: np.ndarray, t0: float, minq: np.ndarray) -> None:
                         yg = itp((tg - t) / itp.h)
                         R.grid(yg, R.ctrl(tg, yg)[0])
                         kg += 1
-                R.event(sc, tev, y1, minq)
+                R.event(sc, tev, itp, minq)
                 return
             if not (R.drift(y1) <= c["normtol"]):
                 R.fail(x, t, 4)
@@ -413,14 +418,14 @@ def _dopri(R: _Run, x: np.ndarray, t0: float, minq: np.ndarray) -> None:
                 while kg <= K and t0 + kg * iv <= tn:
                     tg = t0 + kg * iv
                     if kg == K or tg == tn:
-                        R.grid(y1, u1)
+                        R.grid(y1, ul1)
                     else:
                         yg = itp((tg - t) / itp.h)
                         R.grid(yg, R.ctrl(tg, yg)[0])
                     kg += 1
                 if not kinkstop and (R.swkind or R.limited):
                     R.events_step(itp, u0, tau0, u1, tau1)
-                u0, tau0 = u1, tau1
+                u0, ul0, tau0 = u1, ul1, tau1
             np.minimum(minq, y1[R.iq], out=minq)
             fac11 = err**expo1
             fac = min(facc1, max(facc2, fac11 / facold**beta / safe))

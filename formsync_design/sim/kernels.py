@@ -134,7 +134,8 @@ class Kernel:
 
     ``ctrl(x, t, p) -> u`` (3N torques, limited), ``plant(x, u, t, p) -> xdot``,
     ``rhs(x, t, p) -> (xdot, u)`` (continuous closed loop), ``evaluate(x, t, p) -> (xdot,
-    u, tau)`` (with the switching argument), ``metrics(x) -> (Omega_m, Q_m)``,
+    u, tau, uraw)`` (with the switching argument and the torque before the limit),
+    ``metrics(x) -> (Omega_m, Q_m)``,
     ``chunk(xa, h, p) -> (XA, U, MINQ0, MET)`` - ``K`` output intervals of ``M`` RK4
     sub-steps each, ``xa = (x, t)``; ``mc_chunk(xa, h, p) -> (XA_end, S)`` with
     per-interval summaries ``S = (Omega_m, Q_m, min q0, max|u|, max norm error)``.
@@ -181,17 +182,17 @@ def agent_functions(spec: Spec, switch: str, inverse: str
 
     ``fsk_trig(t, freq, orbit) -> trig`` (:data:`NTRIG` time-only disturbance terms, once
     per evaluation for the whole formation); ``fsk_agent(qb, w, s, trig, gains, K_v, phi,
-    umax, J, Jinv, harm, gg) -> (dqb, dw, u, tau)`` with ``qb = (q, q0)``, the body rate
-    ``w``, ``s = sum_j L_ij q_j``, the design's controller gains (:func:`gain_size`
-    entries), the limited torque ``u`` and the switching argument ``tau`` (zeros for a
-    design without a switching term); ``fsk_plant(qb, w, u, trig, J, Jinv, harm, gg) ->
+    umax, J, Jinv, harm, gg) -> (dqb, dw, u, tau, uraw)`` with ``qb = (q, q0)``, the body
+    rate ``w``, ``s = sum_j L_ij q_j``, the design's controller gains (:func:`gain_size`
+    entries), the limited torque ``u``, the switching argument ``tau`` (zeros for a design
+    without a switching term) and the torque before the limit ``uraw``; ``fsk_plant(qb, w, u, trig, J, Jinv, harm, gg) ->
     (dqb, dw)`` under a given (held) torque; ``fsk_ctrl`` (the inputs of ``fsk_agent``)
-    ``-> (u, tau)`` the controller alone.  ``J``, ``Jinv``: 9 entries, column-major;
+    ``-> (u, tau, uraw)`` the controller alone.  ``J``, ``Jinv``: 9 entries, column-major;
     ``harm``: 18 (:func:`~formsync_design.models.disturbances.kernel_parameters`).
 
     >>> trig, agent, plant, ctrl = agent_functions(load_spec(None), "sat", "E")
     >>> agent.name_out(), plant.n_in()
-    (['dqb', 'dw', 'u', 'tau'], 8)
+    (['dqb', 'dw', 'u', 'tau', 'uraw'], 8)
     """
     key = (spec.key, switch, inverse)
     hit = _AGENTS.get(key)
@@ -224,15 +225,15 @@ def agent_functions(spec: Spec, switch: str, inverse: str
 
     opts = {"cse": True}
     agent = ca.Function("fsk_agent", [qb, w, s, trig_v, gp, kv, phi, umax, J9, Ji9, harm, gg],
-                        [dqb, dw(u), u, out[1]],
+                        [dqb, dw(u), u, out[1], out[0]],
                         ["qb", "w", "s", "trig", "gains", "K_v", "phi", "umax", "J", "Jinv", "harm", "gg"],
-                        ["dqb", "dw", "u", "tau"], opts)
+                        ["dqb", "dw", "u", "tau", "uraw"], opts)
     plant = ca.Function("fsk_plant", [qb, w, u_in, trig_v, J9, Ji9, harm, gg], [dqb, dw(u_in)],
                         ["qb", "w", "u", "trig", "J", "Jinv", "harm", "gg"], ["dqb", "dw"], opts)
     ctrl = ca.Function("fsk_ctrl", [qb, w, s, trig_v, gp, kv, phi, umax, J9, Ji9, harm, gg],
-                       [u, out[1]],
+                       [u, out[1], out[0]],
                        ["qb", "w", "s", "trig", "gains", "K_v", "phi", "umax", "J", "Jinv", "harm", "gg"],
-                       ["u", "tau"], opts)
+                       ["u", "tau", "uraw"], opts)
     t, freq, orbit = ca.SX.sym("t"), ca.SX.sym("freq", 6), ca.SX.sym("orbit", 4)
     trig_fn = ca.Function("fsk_trig", [t, freq, orbit],
                           [_trig_vector(disturbance_trig(t, freq, orbit))],
@@ -271,8 +272,9 @@ def _build_symbolic(
     plant = ca.Function("fs_plant", [x, u_in, t, p], [xdot_u], ["x", "u", "t", "p"], ["xdot"])
     rhs = ca.Function("fs_rhs", [x, t, p], [xdot, u], ["x", "t", "p"], ["xdot", "u"])
     tau = ca.vertcat(*[o[3] for o in outs])
-    evaluate = ca.Function("fs_evaluate", [x, t, p], [xdot, u, tau], ["x", "t", "p"],
-                           ["xdot", "u", "tau"])
+    uraw = ca.vertcat(*[o[4] for o in outs])
+    evaluate = ca.Function("fs_evaluate", [x, t, p], [xdot, u, tau, uraw], ["x", "t", "p"],
+                           ["xdot", "u", "tau", "uraw"])
     metrics = ca.Function("fs_metrics", [x], [metrics_expr(x, n)], ["x"], ["m"])
     return ctrl, plant, rhs, metrics, evaluate
 

@@ -137,9 +137,10 @@ static void fsd_lap(fsd_model *m, const double *x) {
   }
 }
 
-/* closed loop at (t, x): xd (may be NULL), limited torque u and switching argument tau
-   (each may be NULL) */
-static void fsd_f(fsd_model *m, double t, const double *x, double *xd, double *u, double *tau) {
+/* closed loop at (t, x): xd (may be NULL), limited torque u, switching argument tau and the
+   torque before the limit ur (each may be NULL) */
+static void fsd_f(fsd_model *m, double t, const double *x, double *xd, double *u, double *tau,
+                  double *ur) {
   int i, n = m->n;
   const double *p = m->p;
   fsd_trig(m, t);
@@ -153,9 +154,11 @@ static void fsd_f(fsd_model *m, double t, const double *x, double *xd, double *u
     if (xd) {
       m->res[0] = xd + 4 * i; m->res[1] = xd + 4 * n + 3 * i;
       m->res[2] = u ? u + 3 * i : 0; m->res[3] = tau ? tau + 3 * i : 0;
+      m->res[4] = ur ? ur + 3 * i : 0;
       fsk_agent(m->arg, m->res, m->iw, m->w, 0);
     } else {  /* the controller alone */
       m->res[0] = u ? u + 3 * i : 0; m->res[1] = tau ? tau + 3 * i : 0;
+      m->res[2] = ur ? ur + 3 * i : 0;
       fsk_ctrl(m->arg, m->res, m->iw, m->w, 0);
     }
   }
@@ -308,7 +311,7 @@ static double fsd_root_comp(const fsd_interp *I, int c, double level, double tol
 
 /* ---- switching / torque-limit event channels ---- */
 typedef struct {
-  double *tau0, *u0, *tau1, *u1;   /* values at the step ends (3n each) */
+  double *tau0, *u0, *tau1, *u1;   /* values at the step ends (3n each; u: before the limit) */
   double *ytmp, *utmp, *ttmp;
   double ev[EV_SIZE];
   int swkind;                        /* 0 none, 1 boundary layer |tau| = phi, 2 sign tau */
@@ -327,9 +330,9 @@ static double fsd_evf(fsd_model *m, int ch, int j, const double *tau, const doub
     double phi = m->p[m->off[LY_PHI]];
     return swkind == 2 ? tau[j] : fabs(tau[j]) - phi;
   } else {
-    /* the limited torque sits at the limit exactly when |u_raw| >= umax */
+    /* the torque before the limit against the limit (smooth on both sides) */
     double um = m->p[m->off[LY_UMAX] + j];
-    return fabs(u[j]) - um * (1 - 1e-12);
+    return fabs(u[j]) - um;
   }
 }
 
@@ -342,7 +345,7 @@ static double fsd_locate_ev(fsd_model *m, const fsd_interp *I, fsd_events *E, in
   for (it = 0; it < 100 && (b - a) * I->h > tol; ++it) {
     double x = fsd_next(a, b, ga, gb, I->h, tol), gx;
     fsd_ivec(I, x, E->ytmp);
-    fsd_f(m, I->t + x * I->h, E->ytmp, 0, E->utmp, E->ttmp);
+    fsd_f(m, I->t + x * I->h, E->ytmp, 0, 0, E->ttmp, E->utmp);
     gx = fsd_evf(m, ch, j, E->ttmp, E->utmp, E->swkind);
     if ((gx > 0) == (ga > 0)) { a = x; ga = gx; if (side == -1) gb *= 0.5; side = -1; }
     else { b = x; gb = gx; if (side == 1) ga *= 0.5; side = 1; }
@@ -471,36 +474,38 @@ static void fsd_rk4(fsd_model *m, const double *cfg, const double *x0, double t0
   double h = cfg[CF_INTERVAL] / M, floor = cfg[CF_FLOOR], ntol = cfg[CF_NORMTOL];
   double tol = cfg[CF_EVTOL], t = t0, *sw;
   double *x = buf, *xn = buf + nx, *k1 = buf + 2 * nx, *k2 = buf + 3 * nx, *k3 = buf + 4 * nx,
-         *k4 = buf + 5 * nx, *ys = buf + 6 * nx, *fb = buf + 7 * nx, *uh = buf + 8 * nx;
+         *k4 = buf + 5 * nx, *ys = buf + 6 * nx, *fb = buf + 7 * nx, *uh = buf + 8 * nx,
+         *ul0 = buf + 8 * nx + 3 * n, *ul1 = buf + 8 * nx + 6 * n;
   memcpy(x, x0, sizeof(double) * nx);
   /* continuous control: the first stage at (t, x), which also gives the torque there, is
      evaluated at the end of the previous sub-step and carried over */
-  if (!zoh) fsd_f(m, t, x, k1, E->u0, E->tau0);
+  if (!zoh) fsd_f(m, t, x, k1, ul0, E->tau0, E->u0);
   for (k = 0; k < K; ++k) {
-    if (zoh) { fsd_f(m, t, x, 0, uh, 0); fsd_grid(m, o, k, x, uh); }
-    else fsd_grid(m, o, k, x, E->u0);
+    if (zoh) { fsd_f(m, t, x, 0, uh, 0, 0); fsd_grid(m, o, k, x, uh); }
+    else fsd_grid(m, o, k, x, ul0);
     for (j = 0; j < M; ++j) {
       fsd_interp I;
       int hit = 0;
       if (zoh) fsd_plant(m, t, x, uh, k1);
       for (c = 0; c < nx; ++c) ys[c] = x[c] + h / 2 * k1[c];
-      if (zoh) fsd_plant(m, t + h / 2, ys, uh, k2); else fsd_f(m, t + h / 2, ys, k2, 0, 0);
+      if (zoh) fsd_plant(m, t + h / 2, ys, uh, k2); else fsd_f(m, t + h / 2, ys, k2, 0, 0, 0);
       for (c = 0; c < nx; ++c) ys[c] = x[c] + h / 2 * k2[c];
-      if (zoh) fsd_plant(m, t + h / 2, ys, uh, k3); else fsd_f(m, t + h / 2, ys, k3, 0, 0);
+      if (zoh) fsd_plant(m, t + h / 2, ys, uh, k3); else fsd_f(m, t + h / 2, ys, k3, 0, 0, 0);
       for (c = 0; c < nx; ++c) ys[c] = x[c] + h * k3[c];
-      if (zoh) fsd_plant(m, t + h, ys, uh, k4); else fsd_f(m, t + h, ys, k4, 0, 0);
+      if (zoh) fsd_plant(m, t + h, ys, uh, k4); else fsd_f(m, t + h, ys, k4, 0, 0, 0);
       for (c = 0; c < nx; ++c) xn[c] = x[c] + h / 6 * (k1[c] + 2 * k2[c] + 2 * k3[c] + k4[c]);
       info[IN_STEPS] += 1;
       for (c = 0; c < n; ++c) { double b = xn[4 * c + 3]; if (isfinite(b) && b <= floor) hit = 1; }
       /* the derivative at the sub-step end: the next first stage (continuous control) */
-      if (!zoh) fsd_f(m, t + h, xn, fb, E->u1, E->tau1);
+      if (!zoh) fsd_f(m, t + h, xn, fb, ul1, E->tau1, E->u1);
       else if (hit) fsd_plant(m, t + h, xn, uh, fb);
       I.kind = 0; I.nx = nx; I.t = t; I.h = h; I.ya = x; I.fa = k1; I.yb = xn; I.fb = fb; I.rc = 0;
       if (hit) {
         double tev;
         int sc = fsd_q0_event(m, &I, x, xn, floor, tol, &tev);
         info[IN_STATUS] = 1; info[IN_TEVENT] = tev; info[IN_SC] = sc + 1; info[IN_KDONE] = k;
-        fsd_minq(n, xn, MINQ);
+        fsd_ivec(&I, (tev - t) / h, ys);  /* the smallest q0 up to the event */
+        fsd_minq(n, ys, MINQ);
         if (floor < MINQ[sc]) MINQ[sc] = floor;
         return;
       }
@@ -511,14 +516,15 @@ static void fsd_rk4(fsd_model *m, const double *cfg, const double *x0, double t0
       memcpy(x, xn, sizeof(double) * nx);
       if (!zoh) {
         sw = k1; k1 = fb; fb = sw;
+        sw = ul0; ul0 = ul1; ul1 = sw;
         sw = E->u0; E->u0 = E->u1; E->u1 = sw;
         sw = E->tau0; E->tau0 = E->tau1; E->tau1 = sw;
       }
       t = t + h;
     }
   }
-  if (zoh) { fsd_f(m, t, x, 0, uh, 0); fsd_grid(m, o, K, x, uh); }  /* the value the hold applies next */
-  else fsd_grid(m, o, K, x, E->u0);  /* the torque at tf */
+  if (zoh) { fsd_f(m, t, x, 0, uh, 0, 0); fsd_grid(m, o, K, x, uh); }  /* the value the hold applies next */
+  else fsd_grid(m, o, K, x, ul0);  /* the torque at tf */
   info[IN_KDONE] = K;
 }
 
@@ -540,8 +546,8 @@ static const double
   DD6 = -1453857185.0 / 822651844, DD7 = 69997945.0 / 29380423;
 
 static void fsd_eval(fsd_model *m, int zoh, double t, const double *x, const double *uh,
-                     double *xd, double *u, double *tau) {
-  if (zoh) fsd_plant(m, t, x, uh, xd); else fsd_f(m, t, x, xd, u, tau);
+                     double *xd, double *u, double *tau, double *ur) {
+  if (zoh) fsd_plant(m, t, x, uh, xd); else fsd_f(m, t, x, xd, u, tau, ur);
 }
 
 /* Hairer's initial step (hinit of DOPRI5) */
@@ -556,7 +562,7 @@ static double fsd_hinit(fsd_model *m, int zoh, double t, const double *x, const 
   h = (dnf <= 1e-10 || dny <= 1e-10) ? 1e-6 : sqrt(dny / dnf) * 0.01;
   if (h > hmax) h = hmax;
   for (c = 0; c < nx; ++c) y1[c] = x[c] + h * f0[c];
-  fsd_eval(m, zoh, t + h, y1, uh, f1, 0, 0);
+  fsd_eval(m, zoh, t + h, y1, uh, f1, 0, 0, 0);
   for (c = 0; c < nx; ++c) {
     double sk = atol + rtol * fabs(x[c]), d = (f1[c] - f0[c]) / sk;
     der2 += d * d;
@@ -579,7 +585,7 @@ static void fsd_dopri(fsd_model *m, const double *cfg, const double *x0, double 
   double *x = buf, *y1 = buf + nx, *k1 = buf + 2 * nx, *k2 = buf + 3 * nx, *k3 = buf + 4 * nx,
          *k4 = buf + 5 * nx, *k5 = buf + 6 * nx, *k6 = buf + 7 * nx, *k7 = buf + 8 * nx,
          *ys = buf + 9 * nx, *rc = buf + 10 * nx, *yg = buf + 15 * nx, *uh = buf + 16 * nx,
-         *ug = buf + 16 * nx + 3 * n;
+         *ug = buf + 16 * nx + 3 * n, *ul0 = buf + 16 * nx + 6 * n, *ul1 = buf + 16 * nx + 9 * n;
   long kg = 1, seg;
   int kinkstop = !zoh && cfg[CF_KINKSTOP] != 0 && (E->swkind || limited), forced = 0, fch = -1, fj = 0, fsign = 0;
   double hnat = 0;
@@ -590,12 +596,12 @@ static void fsd_dopri(fsd_model *m, const double *cfg, const double *x0, double 
     double tend = zoh ? t0 + (seg + 1) * iv : t0 + K * iv;
     if (zoh) {
       t = t0 + seg * iv;
-      fsd_f(m, t, x, 0, uh, 0);
+      fsd_f(m, t, x, 0, uh, 0, 0);
       fsd_grid(m, o, seg, x, uh);
       fsd_plant(m, t, x, uh, k1);
     } else {
-      fsd_f(m, t, x, k1, E->u0, E->tau0);
-      fsd_grid(m, o, 0, x, E->u0);
+      fsd_f(m, t, x, k1, ul0, E->tau0, E->u0);
+      fsd_grid(m, o, 0, x, ul0);
     }
     if (!(h > 0)) h = fsd_hinit(m, zoh, t, x, k1, uh, rtol, atol, hmax, ys, k2);
     rejected_last = 0;
@@ -608,21 +614,21 @@ static void fsd_dopri(fsd_model *m, const double *cfg, const double *x0, double 
       if (!forced) hnat = h;
       if (t + (forced ? 1.0 : 1.01) * h >= tend) { h = tend - t; last = 1; }
       for (c = 0; c < nx; ++c) ys[c] = x[c] + h * DA21 * k1[c];
-      fsd_eval(m, zoh, t + DC2 * h, ys, uh, k2, 0, 0);
+      fsd_eval(m, zoh, t + DC2 * h, ys, uh, k2, 0, 0, 0);
       for (c = 0; c < nx; ++c) ys[c] = x[c] + h * (DA31 * k1[c] + DA32 * k2[c]);
-      fsd_eval(m, zoh, t + DC3 * h, ys, uh, k3, 0, 0);
+      fsd_eval(m, zoh, t + DC3 * h, ys, uh, k3, 0, 0, 0);
       for (c = 0; c < nx; ++c) ys[c] = x[c] + h * (DA41 * k1[c] + DA42 * k2[c] + DA43 * k3[c]);
-      fsd_eval(m, zoh, t + DC4 * h, ys, uh, k4, 0, 0);
+      fsd_eval(m, zoh, t + DC4 * h, ys, uh, k4, 0, 0, 0);
       for (c = 0; c < nx; ++c)
         ys[c] = x[c] + h * (DA51 * k1[c] + DA52 * k2[c] + DA53 * k3[c] + DA54 * k4[c]);
-      fsd_eval(m, zoh, t + DC5 * h, ys, uh, k5, 0, 0);
+      fsd_eval(m, zoh, t + DC5 * h, ys, uh, k5, 0, 0, 0);
       for (c = 0; c < nx; ++c)
         ys[c] = x[c] + h * (DA61 * k1[c] + DA62 * k2[c] + DA63 * k3[c] + DA64 * k4[c] + DA65 * k5[c]);
       tn = last ? tend : t + h;
-      fsd_eval(m, zoh, tn, ys, uh, k6, 0, 0);
+      fsd_eval(m, zoh, tn, ys, uh, k6, 0, 0, 0);
       for (c = 0; c < nx; ++c)
         y1[c] = x[c] + h * (DA71 * k1[c] + DA73 * k3[c] + DA74 * k4[c] + DA75 * k5[c] + DA76 * k6[c]);
-      fsd_eval(m, zoh, tn, y1, uh, k7, E->u1, E->tau1);
+      fsd_eval(m, zoh, tn, y1, uh, k7, ul1, E->tau1, E->u1);
       for (c = 0; c < nx; ++c) {
         double sk = atol + rtol * (fabs(x[c]) > fabs(y1[c]) ? fabs(x[c]) : fabs(y1[c]));
         double e = h * (DE1 * k1[c] + DE3 * k3[c] + DE4 * k4[c] + DE5 * k5[c] + DE6 * k6[c] + DE7 * k7[c]) / sk;
@@ -656,11 +662,12 @@ static void fsd_dopri(fsd_model *m, const double *cfg, const double *x0, double 
             for (; kg <= K && t0 + kg * iv < tev; ++kg) {
               double tg = t0 + kg * iv;
               fsd_ivec(&I, (tg - t) / I.h, yg);
-              fsd_f(m, tg, yg, 0, ug, 0);
+              fsd_f(m, tg, yg, 0, ug, 0, 0);
               fsd_grid(m, o, kg, yg, ug);
             }
           info[IN_STATUS] = 1; info[IN_TEVENT] = tev; info[IN_SC] = sc + 1; info[IN_KDONE] = o->k;
-          fsd_minq(n, y1, MINQ);
+          fsd_ivec(&I, (tev - t) / I.h, yg);  /* the smallest q0 up to the event */
+          fsd_minq(n, yg, MINQ);
           if (floor < MINQ[sc]) MINQ[sc] = floor;
           return;
         }
@@ -696,13 +703,14 @@ static void fsd_dopri(fsd_model *m, const double *cfg, const double *x0, double 
       if (!zoh) {
         for (; kg <= K && t0 + kg * iv <= tn; ++kg) {
           double tg = t0 + kg * iv;
-          if (kg == K || tg == tn) { fsd_grid(m, o, kg, y1, E->u1); continue; }
+          if (kg == K || tg == tn) { fsd_grid(m, o, kg, y1, ul1); continue; }
           fsd_ivec(&I, (tg - t) / I.h, yg);
-          fsd_f(m, tg, yg, 0, ug, 0);
+          fsd_f(m, tg, yg, 0, ug, 0, 0);
           fsd_grid(m, o, kg, yg, ug);
         }
         if (!kinkstop && (E->swkind || limited)) fsd_events_step(m, &I, E, tol, limited);
         memcpy(E->u0, E->u1, sizeof(double) * 3 * n);
+        memcpy(ul0, ul1, sizeof(double) * 3 * n);
         memcpy(E->tau0, E->tau1, sizeof(double) * 3 * n);
       }
       fsd_minq(n, y1, MINQ);
@@ -728,7 +736,7 @@ static void fsd_dopri(fsd_model *m, const double *cfg, const double *x0, double 
       rejected_last = 0;
     }
   }
-  if (zoh) { fsd_f(m, t, x, 0, uh, 0); fsd_grid(m, o, K, x, uh); }
+  if (zoh) { fsd_f(m, t, x, 0, uh, 0, 0); fsd_grid(m, o, K, x, uh); }
   info[IN_KDONE] = K;
 }
 
@@ -740,7 +748,7 @@ static int fsd_run_core(int n, const double *p, const long *off, const double *c
   double *buf, *ebuf;
   int nx = 7 * n, i, limited = 0;
   if (fsd_init(&m, n, p, off) != 0) return -1;
-  buf = (double*)malloc(sizeof(double) * (17 * nx + 6 * n + 8));
+  buf = (double*)malloc(sizeof(double) * (17 * nx + 12 * n + 8));
   ebuf = (double*)malloc(sizeof(double) * (4 * 3 * n + nx + 6 * n + 10 * nx + 8));
   if (!buf || !ebuf) { free(buf); free(ebuf); fsd_free(&m); return -1; }
   E.tau0 = ebuf; E.u0 = ebuf + 3 * n; E.tau1 = ebuf + 6 * n; E.u1 = ebuf + 9 * n;
