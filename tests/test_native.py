@@ -96,7 +96,7 @@ def _tau_oracle(f: Formation, t: float, x: np.ndarray) -> np.ndarray:
 def test_switching_events_located_against_a_numpy_oracle(paper):
     """The first and the last crossing of the boundary layer |tau| = phi (the kinks of sat)
     agree with the crossings of a hand-written numpy closed loop integrated by scipy
-    RK45 at rtol 1e-11 (root found by brentq on its dense output)."""
+    DOP853 at rtol 1e-12 (root found by brentq on its dense output)."""
     f = paper.formation()
     tf = 1.5
     r = simulate(f, SimOptions(tf=tf, rtol=1e-10, atol=1e-13, event_tol=1e-10))
@@ -104,7 +104,7 @@ def test_switching_events_located_against_a_numpy_oracle(paper):
     assert ev["count"] > 5 and ev["last"] > 1.0 and r.stats["events"]["tolerance"] == 1e-10
     g = f.gains
     rhs = V.make_rhs(f.inertias, f.graph.laplacian, g.K_o, g.K_q, g.beta, g.K_v, "sat", 0.01, "paper")
-    sol = solve_ivp(rhs, (0, tf), f.initial_state(), method="RK45", rtol=1e-11, atol=1e-13,
+    sol = solve_ivp(rhs, (0, tf), f.initial_state(), method="DOP853", rtol=1e-12, atol=1e-14,
                     dense_output=True)
 
     def gvec(t: float) -> np.ndarray:
