@@ -9,11 +9,17 @@ repository), named ``<function>_<digest>.so`` where the digest covers the
 generated C source, the specification key, the flags, the CasADi version and
 the host.
 
-Compilation: with a C compiler (``gcc``/``cc``) the RK4 kernels are compiled;
-without one they run in CasADi's virtual machine (slower) and a
-:class:`RuntimeWarning` says so once.  ``FORMSYNC_NO_COMPILE=1`` selects the
-virtual machine on purpose.  A compiler that exists but fails raises
-:class:`~formsync_design.errors.CompilerError` (exit status 3).
+Everything is built from :func:`agent_functions`, the closed loop of one spacecraft
+(the derived model and the specification's controller through the bridge): the
+formation-level functions of :class:`Kernel` (CasADi's VM, CVODES, the RK4 ``chunk``
+kernels) call it per spacecraft, and the compiled whole-horizon kernel
+(:mod:`formsync_design.sim.native`) loops over it in C.
+
+Compilation (:mod:`formsync_design.sim.ccompile`): with a C compiler ``get_kernel(...,
+compile=True)`` compiles the ``chunk`` kernels; without one they run in CasADi's
+virtual machine (slower) and a :class:`RuntimeWarning` says so once.
+``FORMSYNC_NO_COMPILE=1`` selects the virtual machine on purpose.  A compiler that
+exists but fails raises :class:`~formsync_design.errors.CompilerError` (exit status 3).
 """
 
 from __future__ import annotations

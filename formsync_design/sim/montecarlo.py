@@ -10,16 +10,19 @@ rates (each component uniform in ``[-max_rate, max_rate]``) and - with
 ``phases=True`` - random phases of every oscillating disturbance factor and of
 the orbit.  Inertias, graph and disturbance model come from the case.
 
-All runs are integrated together by the compiled RK4 kernel of
-:mod:`formsync_design.sim.simulator` (its ``mc_chunk``), mapped over the batch
-with CasADi's thread map; only per-interval summaries (``Omega_m``, ``Q_m``,
-minimum ``q0`` (over every sub-step), peak ``|u|`` (sampled at the output
-grid), quaternion norm drift) come back.  Defaults
-differ from ``simulate`` for speed: ``step = 0.1`` s, ``output_step = 0.5`` s
-and ``norm_tol = 1e-5``.  Measured by ``benchmarks/bench_simulate.py`` on 20
-runs of the paper's case against a 0.01 s step: identical convergence times on
-the 0.5 s grid, final ``Q_m`` within 0.9 %, final ``Omega_m`` within 1.2e-5
-(relative); the final state agrees with a tight reference to 5e-6.
+All runs are integrated in batches by the compiled whole-horizon kernel
+(:mod:`formsync_design.sim.native`, one call per batch, the runs spread over
+threads) with the same integrator and events as :func:`simulate`; each run is
+reduced in the kernel to its summary (convergence time on the output grid, final
+``Omega_m`` and ``Q_m``, minimum ``q0`` over every step, peak ``|u|`` on the output
+grid, quaternion norm drift, event time), so a batched run gives exactly the record
+of a single simulation of its seed (tested).  Defaults (:data:`DEFAULT_OPTIONS`)
+differ from ``simulate`` for speed: DOPRI5 at ``rtol = 1e-6``, ``atol = 1e-10`` on an
+``output_step = 0.5`` s grid, ``norm_tol = 1e-5``.  Measured by
+``benchmarks/bench_simulate.py`` on 20 runs of the paper's case against rtol 1e-11:
+identical statuses and convergence times on the 0.5 s grid, final ``Q_m`` within
+7e-5 and final ``Omega_m`` within 4e-5 (relative), about 5 ms of CPU per run.  Without
+a C compiler the runs go one at a time through the driver's Python mirror.
 
 A run that does not converge (``not-converged``, ``singular`` - some
 ``q0`` reached ``q0_floor`` -, ``diverged`` - NaN/inf -, or ``inaccurate`` -
@@ -74,8 +77,8 @@ __all__ = [
 MC_GAINS = ("K_o", "K_q", "beta", "K_v")
 
 #: Largest number of runs of one campaign: every sampled formation is kept in memory
-#: (about 3 kB each for N = 8) and each run of the paper's case takes ~10 ms of CPU
-#: with the compiled kernel, so 100 000 runs are ~300 MB and ~20 CPU-minutes.
+#: (about 3 kB each for N = 8) and each run of the paper's case takes ~5 ms of CPU
+#: with the compiled kernel, so 100 000 runs are ~300 MB and ~10 CPU-minutes.
 MAX_RUNS = 100_000
 
 
@@ -181,7 +184,7 @@ class MonteCarloSettings:
         if self.runs > MAX_RUNS:
             raise InputError(
                 f"expected at most {MAX_RUNS} runs per campaign (each sampled formation is kept in "
-                f"memory, ~3 kB and ~10 ms of CPU per run for N = 8), received {self.runs}; split "
+                f"memory, ~3 kB and ~5 ms of CPU per run for N = 8), received {self.runs}; split "
                 "the campaign over several seeds"
             )
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
@@ -343,7 +346,11 @@ class MonteCarloResult:
             "options": {
                 "tf": self.options.tf, "switch": self.options.switch, "phi": self.options.phi,
                 "torque_limit": self.options.torque_limit, "sample_period": self.options.sample_period,
-                "step": self.options.step, "output_step": self.options.interval,
+                "integrator": self.options.method,
+                "step": self.options.rk4_step if self.options.method == "rk4" else None,
+                "rtol": self.options.rtol if self.options.method != "rk4" else None,
+                "atol": self.options.atol if self.options.method != "rk4" else None,
+                "output_step": self.options.interval,
                 "q_tol": self.options.q_tol, "omega_tol": self.options.omega_tol,
             },
             "failures": [r.to_dict() for r in self.failures],

@@ -33,7 +33,8 @@ from formsync_design.sim.kernels import NTRIG, agent_functions, gain_size, param
 from formsync_design.sim.native_c import CFG, DRIVER_SOURCE, EVENTS, INFO, LAYOUT, SUMMARY
 from formsync_design.spec.loader import Spec
 
-__all__ = ["NativeKernel", "get_native", "native_source", "layout_offsets", "METHODS", "SWITCH_EVENTS"]
+__all__ = ["NativeKernel", "RunOutput", "get_native", "clear_native_cache", "native_source",
+           "layout_offsets", "METHODS", "SWITCH_EVENTS"]
 
 #: The driver's integrators (``cfg[method]``).
 METHODS = {"rk4": 0, "dopri5": 1}

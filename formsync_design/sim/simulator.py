@@ -20,15 +20,16 @@ part first, scalar ``q0`` last, as in the model's ``state_symbols``) then
 ``3N`` body rates (rad/s, body frame w.r.t. inertial).  :func:`state_names`
 gives the names.  The full quaternion is integrated (``q0`` is a state, not
 ``sqrt(1 - |q|^2)``), so a crossing ``q0 -> 0`` - where ``Q = E^{-1}`` is
-singular and (4) undefined - is *seen*: every sub-step's ``q0`` is checked
+singular and (4) undefined - is *seen*: every (sub-)step's ``q0`` is checked
 against ``q0_floor`` (default 0.02) and the run stops with status
-``"singular"`` naming the spacecraft and the (linearly interpolated) time.
-Near ``q0 = 0`` the body rate ``|omega| ~ 2|q'|/q0`` grows without bound, so
-when the compiled fixed step blows up first, the interval is re-integrated
-with ``h/10`` and ``h/100`` (CasADi VM) to reach the floor; a blow-up that
-persists right after some ``q0 < 0.1`` is still reported as ``"singular"``
-(the message gives the smallest ``q0`` reached), any other NaN/inf raises
-:class:`SimulationError` naming the time.  Trajectories end at the event.
+``"singular"`` naming the spacecraft and the time, located on the step's
+interpolant to ``event_tol`` (default 1e-9 s).  Near ``q0 = 0`` the body rate
+``|omega| ~ 2|q'|/q0`` grows without bound, so when the fixed RK4 step blows up
+first, the interval is re-integrated with ``h/10`` and ``h/100`` to reach the
+floor (DOPRI5 shrinks its step by itself); a blow-up that persists right after
+some ``q0 < 0.1`` is still reported as ``"singular"`` (the message gives the
+smallest ``q0`` reached), any other NaN/inf raises :class:`SimulationError`
+naming the time.  Trajectories end at the event.
 
 Quaternion norm policy: no renormalisation.  The kinematics preserve
 ``|q_bar| = 1`` exactly, so its numerical drift measures integration error;
@@ -40,31 +41,45 @@ mapping can make.
 
 Integrators
 -----------
-``"rk4"`` (default): classical fixed-step Runge-Kutta 4 with step
-``step`` (default 0.05 s; on the paper's case the final state then agrees
-with a CVODES rtol 1e-12 reference to 3e-7 and the norm drift is 1e-7),
-compiled to C with CasADi code generation and gcc ``-O3 -march=native``,
-cached in the user cache dir (``$FORMSYNC_CACHE_DIR``, else
-``$XDG_CACHE_HOME/formsync-design`` or ``~/.cache/formsync-design``; keyed
-by the specification's content key ``spec.key``, the generated source, flags,
-CasADi version and host - the in-memory cache by ``spec.key`` and the sizes, so a
-variant controller never reuses another's kernel); the first build of a kernel
-takes 5-10 s, later ones load it.  Without a C compiler the same kernel runs in
-CasADi's virtual machine with a :class:`RuntimeWarning`; ``compile=False`` or
-``FORMSYNC_NO_COMPILE=1`` choose the virtual machine silently; a compiler that
-fails raises :class:`~formsync_design.errors.CompilerError`
-(:mod:`formsync_design.sim.kernels`).
-``"cvodes"``: CasADi's adaptive SUNDIALS CVODES (BDF) with ``rtol``/``atol``
-(defaults 1e-8/1e-10), for reference runs; continuous control only.
+All but CVODES run in the compiled whole-horizon kernel of
+:mod:`formsync_design.sim.native`: one call integrates the whole horizon,
+locates the events and returns the output grid; one shared object per
+specification, switch and ``inverse`` serves every formation size and graph.
+It is compiled with gcc ``-O3 -march=native`` and cached in the user cache dir
+(``$FORMSYNC_CACHE_DIR``, else ``$XDG_CACHE_HOME/formsync-design`` or
+``~/.cache/formsync-design``; keyed by the generated source, the specification's
+content key ``spec.key``, flags, CasADi version and host, so a variant controller
+never reuses another's kernel); the first build takes a few seconds, later runs
+load it.  Without a C compiler the same algorithms run in Python over CasADi's
+virtual machine (:mod:`formsync_design.sim.adaptive`) with a
+:class:`RuntimeWarning`; ``compile=False`` or ``FORMSYNC_NO_COMPILE=1`` choose it
+silently; a compiler that fails raises :class:`~formsync_design.errors.CompilerError`.
+
+``"auto"`` (default) is ``"dopri5"``, or ``"rk4"`` when a ``step`` is given or the
+switch is ``sgn``.  ``"dopri5"``: Dormand-Prince 5(4) (Hairer's DOPRI5, dense
+output) at ``rtol``/``atol`` (defaults 1e-8/1e-12, chosen by the error budget of the
+README: every quantity the verification judges within 1e-5 relative of a tight
+reference); every step ends at the next kink of the closed loop (a switching
+argument crossing the boundary layer ``|tau| = phi``, a torque crossing its limit),
+located on the dense output, so no step straddles one - on the paper's case the
+final state then agrees with a CVODES rtol 1e-12 reference to 1e-10.  ``"rk4"``:
+classical fixed-step Runge-Kutta 4 with ``step`` (default 0.05 s; final state to
+3e-7 on the paper's case); crossings are counted at step ends and the first and
+the last located on the cubic Hermite interpolant.  ``"cvodes"``: CasADi's adaptive
+SUNDIALS CVODES (BDF) with ``rtol``/``atol``, for reference runs; continuous
+control only.  ``stats["events"]`` gives the count and the first and last located
+time of the switching and torque-limit crossings.
 ``sgn`` is simulated as the discontinuous law it is: with a fixed step the
 switching term chatters at the step rate, so the relative rate stalls at a
 level proportional to the step (paper's case: ``Omega_m`` ~ 4.5e-4 rad/s with
 ``h = 0.05`` s, 8.7e-5 with 0.01 s) - what a digital implementation at that
-rate would do; use ``sat``/``tanh`` for smooth runs.
+rate would do; ``dopri5`` refuses it (it would chase the sliding mode); use
+``sat``/``tanh`` for smooth runs.
 
 Sampled control: with ``sample_period = Ts`` the torque is computed from the
 state at ``t_k = k Ts`` and held constant (zero-order hold) while the plant is
-integrated with sub-steps ``<= step``; the output grid is then the sample grid.
+integrated (RK4 sub-steps ``<= step``, or DOPRI5 on each hold interval); the
+output grid is then the sample grid.
 """
 
 from __future__ import annotations
