@@ -58,9 +58,10 @@ gain (and the switching gain K_v); --ko/--kq/--beta/--kv are the same for liang2
 gains.  A gain not given takes the case's value when the case has that gain, else the
 design's declared range.  A multiplier of the Lyapunov candidate is not a controller gain:
 it is never sampled.  --kv for a design without a switching gain is an error.
-The 0.1 s default step suits the paper's gains; stiffer gains (pd_consensus near the top
-of its declared ranges) can drift the quaternion norm past 1e-5, flagged "inaccurate":
-rerun with --step 0.05.
+Runs are integrated by the compiled adaptive DOPRI5 at --rtol 1e-6 / --atol 1e-10 (the
+Monte-Carlo default; on the paper's case convergence times identical on the 0.5 s grid and
+final metrics within 1e-4 of a tight reference, see benchmarks/bench_simulate.py); --step H
+selects the fixed-step RK4 instead.
 
 At most 100000 runs per campaign (each sampled formation is kept in memory); split
 larger campaigns over several seeds.
@@ -107,7 +108,9 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--torque-limit", metavar="NM", default=None, help="per-axis torque limit (N m) or 'none'")
     p.add_argument("--sample-period", metavar="TS", default=None, help="zero-order-hold period (s) or 'none'")
     p.add_argument("--disturbance", choices=DISTURBANCES, default=None, help="disturbance model")
-    p.add_argument("--step", metavar="H", default="0.1", help="rk4 step (default 0.1 s for Monte-Carlo)")
+    p.add_argument("--step", metavar="H", default=None, help="rk4 step in seconds (default: adaptive dopri5)")
+    p.add_argument("--rtol", default="1e-6", help="dopri5 relative tolerance (default 1e-6 for Monte-Carlo)")
+    p.add_argument("--atol", default="1e-10", help="dopri5 absolute tolerance (default 1e-10 for Monte-Carlo)")
     p.add_argument("--output-step", metavar="S", default="0.5", help="summary grid (default 0.5 s)")
     p.add_argument("--q-tol", default=None, help="convergence threshold on Q_m (default 1e-4)")
     p.add_argument("--omega-tol", default=None, help="threshold on Omega_m, rad/s (default 1e-5)")
@@ -118,7 +121,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--no-compile", action="store_true", help="use CasADi's VM instead of compiled C")
     add_theorem_option(p)
     add_format_option(p)
-    p.set_defaults(func=run, integrator=None, rtol=None, atol=None)
+    p.set_defaults(func=run, integrator=None)
 
 
 def _int(text: str, name: str, lo: int) -> int:

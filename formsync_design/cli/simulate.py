@@ -89,11 +89,15 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--disturbance", choices=DISTURBANCES, default=None,
                    help="paper: u_mg + u_un (section 3); gravity-gradient alone; none")
     p.add_argument("--integrator", choices=INTEGRATORS, default=None,
-                   help="rk4: compiled fixed step (default); cvodes: adaptive reference")
-    p.add_argument("--step", metavar="H", default=None, help="rk4 step in seconds (default 0.05)")
+                   help="auto (default): dopri5, or rk4 when --step is given or --switch sgn; "
+                        "rk4: compiled fixed step; dopri5: compiled adaptive Dormand-Prince 5(4) "
+                        "stopping at every kink; cvodes: adaptive reference (BDF)")
+    p.add_argument("--step", metavar="H", default=None,
+                   help="rk4 step in seconds (default 0.05); giving it selects rk4 under auto")
+    p.add_argument("--max-step", metavar="H", default=None, help="largest dopri5/cvodes step (s)")
     p.add_argument("--output-step", metavar="S", default=None, help="output grid spacing (default 0.1 s)")
-    p.add_argument("--rtol", default=None, help="cvodes relative tolerance (default 1e-8)")
-    p.add_argument("--atol", default=None, help="cvodes absolute tolerance (default 1e-10)")
+    p.add_argument("--rtol", default=None, help="dopri5/cvodes relative tolerance (default 1e-8)")
+    p.add_argument("--atol", default=None, help="dopri5/cvodes absolute tolerance (default 1e-12)")
     p.add_argument("--q-tol", default=None, help="convergence threshold on Q_m (default 1e-4)")
     p.add_argument("--omega-tol", default=None, help="convergence threshold on Omega_m in rad/s (default 1e-5)")
     p.add_argument("--angle-tol", default=None, metavar="DEG",
@@ -230,8 +234,8 @@ def options_from_args(args: argparse.Namespace, base: Any) -> Any:
     kw: dict[str, Any] = {}
     for attr, name in (("tf", "tf"), ("boundary_layer", "phi"), ("step", "step"),
                        ("output_step", "output_step"), ("rtol", "rtol"), ("atol", "atol"),
-                       ("q_tol", "q_tol"), ("omega_tol", "omega_tol")):
-        v = _opt_num(getattr(args, attr), "--" + attr.replace("_", "-"))
+                       ("q_tol", "q_tol"), ("omega_tol", "omega_tol"), ("max_step", "max_step")):
+        v = _opt_num(getattr(args, attr, None), "--" + attr.replace("_", "-"))
         if v is not None:
             kw[name] = v
     for attr in ("torque_limit", "sample_period"):
@@ -244,13 +248,15 @@ def options_from_args(args: argparse.Namespace, base: Any) -> Any:
         kw["integrator"] = args.integrator
         if args.integrator == "cvodes" and "sample_period" not in kw:
             kw["sample_period"] = None
+        if args.integrator in ("dopri5", "cvodes") and "step" not in kw:
+            kw["step"] = None  # the case's RK4 step does not apply
     if args.no_compile:
         kw["compile"] = False
     try:
         return replace(base, **kw)
     except InputError as e:  # name the command-line option that cannot be honoured
         msg = str(e)
-        for needle, flag in (("RK4 step", "--step"), ("expected tf", "--tf"),
+        for needle, flag in (("RK4 step", "--step"), ("no step with", "--step"), ("expected tf", "--tf"),
                              ("output intervals", "--tf / --output-step")):
             if needle in msg:
                 raise InputError(f"{flag}: {msg}") from None
@@ -285,11 +291,19 @@ def _text(case: Any, graph: Any, f: Any, r: Any, written: list[str], spec: Any =
     for i, row in enumerate(r.peak_torque):
         lines.append(f"  S/C{i + 1:<3d}{'':29s}{row[0]:9.4f} {row[1]:9.4f} {row[2]:9.4f}")
     st = r.stats
+    where = 'compiled C' if st.get('compiled') else 'CasADi VM'
     if st["integrator"] == "rk4":
         lines.append(
             f"integrator: rk4 h = {st['step']:g} s, {st['steps']} steps, {st['rhs_evaluations']} rhs evaluations, "
-            f"{'compiled C' if st['compiled'] else 'CasADi VM'}, {st['wall_seconds'] * 1e3:.1f} ms "
+            f"{where}, {st['wall_seconds'] * 1e3:.1f} ms "
             f"(+ build {st['build_seconds']:.2f} s), quaternion norm drift {st['max_norm_error']:.1e}"
+        )
+    elif st["integrator"] == "dopri5":
+        lines.append(
+            f"integrator: dopri5 rtol {st['rtol']:g} atol {st['atol']:g}, {st['steps']} steps "
+            f"({st['rejected_steps']} rejected), {st['rhs_evaluations']} rhs evaluations, {where}, "
+            f"{st['wall_seconds'] * 1e3:.1f} ms (+ build {st['build_seconds']:.2f} s), quaternion "
+            f"norm drift {st['max_norm_error']:.1e}"
         )
     else:
         lines.append(
@@ -297,6 +311,14 @@ def _text(case: Any, graph: Any, f: Any, r: Any, written: list[str], spec: Any =
             f"{st['rhs_evaluations']} rhs evaluations, {st['wall_seconds'] * 1e3:.1f} ms, "
             f"quaternion norm drift {st['max_norm_error']:.1e}"
         )
+    ev = st.get("events")
+    if ev is not None:
+        parts = []
+        for key, label in (("switching", "switching"), ("torque_limit", "torque limit")):
+            e = ev[key]
+            if e["count"]:
+                parts.append(f"{label} {e['count']} (first {e['first']:.6f} s, last {e['last']:.6f} s)")
+        lines.append(f"events located to {ev['tolerance']:g} s: " + ("; ".join(parts) if parts else "none"))
     if case.assumptions:
         lines.append("case assumptions:")
         lines += [f"  - {a}" for a in case.assumptions]
@@ -313,7 +335,7 @@ def _run_sampled(args: argparse.Namespace, case: Any, graph: Any, f: Any, opt: A
     if args.trigger is None:
         raise InputError(f"expected --trigger periodic:T or event:SIGMA[:FLOOR]: design "
                          f"{spec.name} declares {spec.decl.sampling} sampling, received none")
-    if opt.sample_period is not None or opt.integrator != "rk4":
+    if opt.sample_period is not None or args.integrator is not None:
         raise InputError("expected --trigger without --sample-period and --integrator (the "
                          "hybrid integrator is DOP853 with event location)")
     trig = parse_trigger(args.trigger)

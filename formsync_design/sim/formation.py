@@ -27,6 +27,7 @@ __all__ = [
     "SimOptions",
     "SimStatus",
     "INTEGRATORS",
+    "DEFAULT_STEP",
     "STATUSES",
     "MAX_GRID_POINTS",
     "state_names",
@@ -34,7 +35,10 @@ __all__ = [
     "unpack_state",
 ]
 
-INTEGRATORS = ("rk4", "cvodes")
+INTEGRATORS = ("auto", "rk4", "dopri5", "cvodes")
+
+#: The RK4 step when none is given (s).
+DEFAULT_STEP = 0.05
 
 
 class SimStatus(enum.StrEnum):
@@ -278,17 +282,31 @@ class SimOptions:
         Per-axis actuator limit ``|u_k| <= torque_limit`` (N m); None = unlimited.
     sample_period : float or None
         Zero-order-hold control period Ts (s); None = continuous control.
-    integrator : {"rk4", "cvodes"}
-    step : float
-        Largest RK4 step (s), default 0.05; each output interval is split into
-        ``ceil(interval / step)`` equal sub-steps.  A step longer than the output
-        interval cannot be honoured and is an error (not clamped).
+    integrator : {"auto", "rk4", "dopri5", "cvodes"}
+        ``auto`` (default): ``rk4`` when a ``step`` is given or the switch is ``sgn``
+        (a discontinuous law is simulated as a digital controller at the step rate),
+        else ``dopri5`` (adaptive Dormand-Prince 5(4) at ``rtol``/``atol``, whose default
+        tolerances meet the error budget stated in the README).  All but ``cvodes`` run
+        in the compiled whole-horizon kernel (:mod:`formsync_design.sim.native`).
+    step : float or None
+        Largest RK4 step (s), default None = 0.05 (:data:`DEFAULT_STEP`); each output
+        interval is split into ``ceil(interval / step)`` equal sub-steps.  A step longer
+        than the output interval cannot be honoured and is an error (not clamped), and so
+        is a step with ``dopri5`` or ``cvodes`` (use ``max_step``).
+    max_step : float or None
+        Largest step of ``dopri5``/``cvodes`` (s); None = unbounded.
     output_step : float
         Output grid spacing (s), default 0.1 (the sample period under ZOH).  ``tf``
         must be a whole multiple of it (of the sample period under ZOH), and
         ``tf / interval`` at most :data:`MAX_GRID_POINTS`.
     rtol, atol : float
-        CVODES tolerances (defaults 1e-8, 1e-10).
+        Tolerances of ``dopri5`` and ``cvodes`` (defaults 1e-8, 1e-12: the error budget of
+        the README - every quantity the verification judges within 1e-5 relative of a
+        tight reference on the paper's case, its topologies and its sensitivity study).
+    event_tol : float
+        Time tolerance (s) to which events are located on the integrator's interpolant:
+        ``q0`` reaching ``q0_floor`` (the stop) and the first/last switching and
+        torque-limit crossings (default 1e-9).
     q_tol, omega_tol : float
         Convergence thresholds on Q_m (-) and Omega_m (rad/s), defaults 1e-4, 1e-5.
     q0_floor : float
@@ -308,46 +326,65 @@ class SimOptions:
     phi: float = 0.01
     torque_limit: float | None = None
     sample_period: float | None = None
-    integrator: str = "rk4"
-    step: float = 0.05
+    integrator: str = "auto"
+    step: float | None = None
     output_step: float = 0.1
     rtol: float = 1e-8
-    atol: float = 1e-10
+    atol: float = 1e-12
     q_tol: float = 1e-4
     omega_tol: float = 1e-5
     q0_floor: float = 0.02
     norm_tol: float = 1e-5
     compile: bool = True
     inverse: str = "E"
+    max_step: float | None = None
+    event_tol: float = 1e-9
 
     def __post_init__(self) -> None:
         if self.switch not in SWITCHES:
             raise InputError(f"expected switch in {SWITCHES}, received {self.switch!r}")
         if self.integrator not in INTEGRATORS:
             raise InputError(f"expected integrator in {INTEGRATORS}, received {self.integrator!r}")
-        for name in ("tf", "phi", "step", "output_step", "rtol", "atol", "q_tol", "omega_tol", "norm_tol"):
+        for name in ("tf", "phi", "output_step", "rtol", "atol", "q_tol", "omega_tol", "norm_tol",
+                     "event_tol"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                 shown = f"{v:g}" if isinstance(v, (int, float)) else type(v).__name__
                 raise InputError(f"expected a positive finite {name}, received {shown}")
         if not (isinstance(self.q0_floor, (int, float)) and 0 <= self.q0_floor < 1):
             raise InputError(f"expected 0 <= q0_floor < 1, received {self.q0_floor}")
-        for name in ("torque_limit", "sample_period"):
+        for name in ("torque_limit", "sample_period", "step", "max_step"):
             v = getattr(self, name)
             if v is not None and (not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0):
                 shown = f"{v:g}" if isinstance(v, (int, float)) else type(v).__name__
                 raise InputError(f"expected a positive finite {name} or none, received {shown}")
-        if self.sample_period is not None and self.integrator != "rk4":
+        if self.sample_period is not None and self.integrator == "cvodes":
             raise InputError(
-                f"expected integrator 'rk4' with a sample period (zero-order hold), received {self.integrator!r}"
+                "expected integrator 'auto', 'rk4' or 'dopri5' with a sample period (zero-order "
+                f"hold), received {self.integrator!r}"
+            )
+        if self.switch == "sgn" and self.integrator == "dopri5":
+            raise InputError(
+                "expected integrator 'rk4' (or 'auto') with the discontinuous sgn switch (an "
+                "adaptive step would chase its sliding mode), received 'dopri5'"
+            )
+        if self.step is not None and self.integrator in ("dopri5", "cvodes"):
+            raise InputError(
+                f"expected no step with integrator {self.integrator!r} (step is the RK4 step; "
+                f"use max_step), received step {self.step:g} s"
+            )
+        if self.max_step is not None and self.method == "rk4":
+            raise InputError(
+                "expected max_step with an adaptive integrator (dopri5, cvodes), received "
+                f"integrator {self.integrator!r}" + (f" with step {self.step:g} s" if self.step else "")
             )
         if self.inverse not in ("E", "solve"):
             raise InputError(f"expected inverse 'E' or 'solve', received {self.inverse!r}")
         iv = self.interval
-        if self.integrator == "rk4" and self.step > iv * (1 + 1e-12):
+        if self.method == "rk4" and self.rk4_step > iv * (1 + 1e-12):
             what = "sample period" if self.sample_period is not None else "output step"
             raise InputError(
-                f"expected an RK4 step <= the {what} ({iv:g} s), received step {self.step:g} s; "
+                f"expected an RK4 step <= the {what} ({iv:g} s), received step {self.rk4_step:g} s; "
                 f"use a smaller step or a longer {what}"
             )
         ratio = self.tf / iv
@@ -369,6 +406,22 @@ class SimOptions:
         return float(self.sample_period) if self.sample_period is not None else float(self.output_step)
 
     @property
+    def method(self) -> str:
+        """The integrator actually used (``auto`` resolved, see the class docstring).
+
+        >>> SimOptions().method, SimOptions(step=0.01).method, SimOptions(switch="sgn").method
+        ('dopri5', 'rk4', 'rk4')
+        """
+        if self.integrator != "auto":
+            return self.integrator
+        return "rk4" if (self.step is not None or self.switch == "sgn") else "dopri5"
+
+    @property
+    def rk4_step(self) -> float:
+        """The RK4 step (``step``, else :data:`DEFAULT_STEP`)."""
+        return float(self.step) if self.step is not None else DEFAULT_STEP
+
+    @property
     def substeps(self) -> int:
         """RK4 sub-steps per output interval (``ceil(interval/step)``)."""
-        return max(1, math.ceil(self.interval / self.step - 1e-9))
+        return max(1, math.ceil(self.interval / self.rk4_step - 1e-9))

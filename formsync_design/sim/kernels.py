@@ -9,22 +9,24 @@ repository), named ``<function>_<digest>.so`` where the digest covers the
 generated C source, the specification key, the flags, the CasADi version and
 the host.
 
-Compilation: with a C compiler (``gcc``/``cc``) the RK4 kernels are compiled;
-without one they run in CasADi's virtual machine (slower) and a
-:class:`RuntimeWarning` says so once.  ``FORMSYNC_NO_COMPILE=1`` selects the
-virtual machine on purpose.  A compiler that exists but fails raises
-:class:`~formsync_design.errors.CompilerError` (exit status 3).
+Everything is built from :func:`agent_functions`, the closed loop of one spacecraft
+(the derived model and the specification's controller through the bridge): the
+formation-level functions of :class:`Kernel` (CasADi's VM, CVODES, the RK4 ``chunk``
+kernels) call it per spacecraft, and the compiled whole-horizon kernel
+(:mod:`formsync_design.sim.native`) loops over it in C.
+
+Compilation (:mod:`formsync_design.sim.ccompile`): with a C compiler ``get_kernel(...,
+compile=True)`` compiles the ``chunk`` kernels; without one they run in CasADi's
+virtual machine (slower) and a :class:`RuntimeWarning` says so once.
+``FORMSYNC_NO_COMPILE=1`` selects the virtual machine on purpose.  A compiler that
+exists but fails raises :class:`~formsync_design.errors.CompilerError` (exit status 3).
 """
 
 from __future__ import annotations
 
-import hashlib
 import os
-import shutil
-import subprocess
 import tempfile
 import time
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,6 +41,13 @@ from formsync_design.models.disturbances import (
     kernel_parameters,
 )
 from formsync_design.sim.bridge import build_controller, controller_gain_names, model_function
+from formsync_design.sim.ccompile import (
+    build_shared,
+    c_compiler,
+    cache_dir,
+    compile_enabled,
+    warn_no_compiler,
+)
 from formsync_design.sim.formation import Formation, SimOptions
 from formsync_design.sim.metrics import metrics_expr
 from formsync_design.spec.loader import Spec, load_spec
@@ -56,6 +65,8 @@ __all__ = [
     "param_layout",
     "gain_size",
     "compile_function",
+    "agent_functions",
+    "NTRIG",
 ]
 
 
@@ -129,7 +140,9 @@ class Kernel:
     """CasADi functions of one formation size / controller variant (internal).
 
     ``ctrl(x, t, p) -> u`` (3N torques, limited), ``plant(x, u, t, p) -> xdot``,
-    ``rhs(x, t, p) -> xdot`` (continuous closed loop), ``metrics(x) -> (Omega_m, Q_m)``,
+    ``rhs(x, t, p) -> (xdot, u)`` (continuous closed loop), ``evaluate(x, t, p) -> (xdot,
+    u, tau, uraw)`` (with the switching argument and the torque before the limit),
+    ``metrics(x) -> (Omega_m, Q_m)``,
     ``chunk(xa, h, p) -> (XA, U, MINQ0, MET)`` - ``K`` output intervals of ``M`` RK4
     sub-steps each, ``xa = (x, t)``; ``mc_chunk(xa, h, p) -> (XA_end, S)`` with
     per-interval summaries ``S = (Omega_m, Q_m, min q0, max|u|, max norm error)``.
@@ -151,68 +164,126 @@ class Kernel:
     compiled: bool = False
     compile_seconds: float = 0.0
     sources: dict = field(default_factory=dict)
+    evaluate: ca.Function | None = None
+    layout: dict = field(default_factory=dict)
 
 
-def _build_symbolic(
-    n: int, switch: str, inverse: str, spec: Spec
-) -> tuple[ca.Function, ca.Function, ca.Function, ca.Function]:
-    lay = param_layout(n, gain_size(spec))
-    x = ca.SX.sym("x", 7 * n)
-    u_in = ca.SX.sym("u", 3 * n)
-    t = ca.SX.sym("t")
-    p = ca.SX.sym("p", lay["_size"].stop)
-    gp = p[lay["gains"]]
+#: Entries of the time-only disturbance vector of :func:`agent_functions` (``fsk_trig``).
+NTRIG = 16
+
+
+def _trig_vector(trig: dict) -> Any:
+    return ca.vertcat(trig["s1"], trig["c1"], trig["s2"], trig["c2"], trig["RI"], trig["k_gg"])
+
+
+def _trig_dict(v: Any) -> dict:
+    return {"s1": v[0:3], "c1": v[3:6], "s2": v[6:9], "c2": v[9:12], "RI": v[12:15], "k_gg": v[15]}
+
+
+_AGENTS: dict[tuple[Any, ...], tuple[ca.Function, ca.Function, ca.Function, ca.Function]] = {}
+
+
+def agent_functions(spec: Spec, switch: str, inverse: str
+                    ) -> tuple[ca.Function, ca.Function, ca.Function, ca.Function]:
+    """The closed loop of one spacecraft, the single definition every kernel is built from.
+
+    ``fsk_trig(t, freq, orbit) -> trig`` (:data:`NTRIG` time-only disturbance terms, once
+    per evaluation for the whole formation); ``fsk_agent(qb, w, s, trig, gains, K_v, phi,
+    umax, J, Jinv, harm, gg) -> (dqb, dw, u, tau, uraw)`` with ``qb = (q, q0)``, the body
+    rate ``w``, ``s = sum_j L_ij q_j``, the design's controller gains (:func:`gain_size`
+    entries), the limited torque ``u``, the switching argument ``tau`` (zeros for a design
+    without a switching term) and the torque before the limit ``uraw``; ``fsk_plant(qb, w, u, trig, J, Jinv, harm, gg) ->
+    (dqb, dw)`` under a given (held) torque; ``fsk_ctrl`` (the inputs of ``fsk_agent``)
+    ``-> (u, tau, uraw)`` the controller alone.  ``J``, ``Jinv``: 9 entries, column-major;
+    ``harm``: 18 (:func:`~formsync_design.models.disturbances.kernel_parameters`).
+
+    >>> trig, agent, plant, ctrl = agent_functions(load_spec(None), "sat", "E")
+    >>> agent.name_out(), plant.n_in()
+    (['dqb', 'dw', 'u', 'tau', 'uraw'], 8)
+    """
+    key = (spec.key, switch, inverse)
+    hit = _AGENTS.get(key)
+    if hit is not None:
+        return hit
+    ng = gain_size(spec)
+    qb, w, s = ca.SX.sym("qb", 4), ca.SX.sym("w", 3), ca.SX.sym("s", 3)
+    trig_v = ca.SX.sym("trig", NTRIG)
+    gp, kv, phi = ca.SX.sym("gains", ng), ca.SX.sym("K_v"), ca.SX.sym("phi")
+    umax, J9, Ji9 = ca.SX.sym("umax", 3), ca.SX.sym("J", 9), ca.SX.sym("Jinv", 9)
+    harm, gg, u_in = ca.SX.sym("harm", 18), ca.SX.sym("gg"), ca.SX.sym("u", 3)
     gargs, k = [], 0
     for gname in controller_gain_names(spec):
         width = 3 if str(spec.decl.gain(gname).kind) == "diag" else 1
         gargs.append(gp[k : k + width])
         k += width
-    Kv = p[lay["K_v"]]
-    phi = p[lay["phi"]]
-    umax = p[lay["umax"]]
-    Jall = p[lay["J"]]
-    Jinv_all = p[lay["Jinv"]]
+    q, q0 = qb[:3], qb[3]
+    J, Jinv = ca.reshape(J9, 3, 3), ca.reshape(Ji9, 3, 3)
+    E = model_function()(q, q0, ca.SX.zeros(3), J)[0]  # E depends on (q, q0) only
+    qd = ca.mtimes(E, w)
+    out = build_controller(spec, switch=switch, inverse=inverse).function(
+        q, q0, qd, J, s, *gargs, kv, phi)
+    u = ca.fmin(umax, ca.fmax(-umax, out[0]))
+    trig = _trig_dict(trig_v)
+    ud = disturbance_torque(trig, q, q0, J, harm, gg)
+    dqb = ca.vertcat(qd, -0.5 * ca.dot(q, w))  # eq. (1)
+
+    def dw(torque: Any) -> Any:  # eq. (2)
+        return ca.mtimes(Jinv, -ca.cross(w, ca.mtimes(J, w)) + torque + ud)
+
+    opts = {"cse": True}
+    agent = ca.Function("fsk_agent", [qb, w, s, trig_v, gp, kv, phi, umax, J9, Ji9, harm, gg],
+                        [dqb, dw(u), u, out[1], out[0]],
+                        ["qb", "w", "s", "trig", "gains", "K_v", "phi", "umax", "J", "Jinv", "harm", "gg"],
+                        ["dqb", "dw", "u", "tau", "uraw"], opts)
+    plant = ca.Function("fsk_plant", [qb, w, u_in, trig_v, J9, Ji9, harm, gg], [dqb, dw(u_in)],
+                        ["qb", "w", "u", "trig", "J", "Jinv", "harm", "gg"], ["dqb", "dw"], opts)
+    ctrl = ca.Function("fsk_ctrl", [qb, w, s, trig_v, gp, kv, phi, umax, J9, Ji9, harm, gg],
+                       [u, out[1], out[0]],
+                       ["qb", "w", "s", "trig", "gains", "K_v", "phi", "umax", "J", "Jinv", "harm", "gg"],
+                       ["u", "tau", "uraw"], opts)
+    t, freq, orbit = ca.SX.sym("t"), ca.SX.sym("freq", 6), ca.SX.sym("orbit", 4)
+    trig_fn = ca.Function("fsk_trig", [t, freq, orbit],
+                          [_trig_vector(disturbance_trig(t, freq, orbit))],
+                          ["t", "freq", "orbit"], ["trig"], opts)
+    _AGENTS[key] = (trig_fn, agent, plant, ctrl)
+    return _AGENTS[key]
+
+
+def _build_symbolic(
+    n: int, switch: str, inverse: str, spec: Spec
+) -> tuple[ca.Function, ca.Function, ca.Function, ca.Function, ca.Function]:
+    """The formation's functions, from :func:`agent_functions` called per spacecraft
+    (inlined in the SX graph) and the dense Laplacian product ``S = Q L^T``."""
+    lay = param_layout(n, gain_size(spec))
+    x = ca.SX.sym("x", 7 * n)
+    u_in = ca.SX.sym("u", 3 * n)
+    t = ca.SX.sym("t")
+    p = ca.SX.sym("p", lay["_size"].stop)
+    trig_fn, agent, plant_fn, _ = agent_functions(spec, switch, inverse)
+    gp, Kv, phi, umax = p[lay["gains"]], p[lay["K_v"]], p[lay["phi"]], p[lay["umax"]]
+    Jall, Jinv_all, harm, gg = p[lay["J"]], p[lay["Jinv"]], p[lay["harm"]], p[lay["gg"]]
     L = ca.reshape(p[lay["L"]], n, n)
-    harm = p[lay["harm"]]
-    freq = p[lay["freq"]]
-    gg = p[lay["gg"]]
-    orbit = p[lay["orbit"]]
-    mf = model_function()
-    ctrl_fn = build_controller(spec, switch=switch, inverse=inverse).function
-    q = [x[4 * i : 4 * i + 3] for i in range(n)]
-    q0 = [x[4 * i + 3] for i in range(n)]
+    trig = trig_fn(t, p[lay["freq"]], p[lay["orbit"]])  # time-only terms, once for the formation
+    qb = [x[4 * i : 4 * i + 4] for i in range(n)]
     w = [x[4 * n + 3 * i : 4 * n + 3 * i + 3] for i in range(n)]
-    J = [ca.reshape(Jall[9 * i : 9 * i + 9], 3, 3) for i in range(n)]
-    Jinv = [ca.reshape(Jinv_all[9 * i : 9 * i + 9], 3, 3) for i in range(n)]
-    zero3 = ca.SX.zeros(3)
-    E = [mf(q[i], q0[i], zero3, J[i])[0] for i in range(n)]  # E depends on (q, q0) only
-    qd = [ca.mtimes(E[i], w[i]) for i in range(n)]
-    Qmat = ca.horzcat(*q)  # 3 x n
-    S = ca.mtimes(Qmat, L.T)  # column i = sum_j L_ij q_j = s_i
-    us = []
-    for i in range(n):
-        out = ctrl_fn(q[i], q0[i], qd[i], J[i], S[:, i], *gargs, Kv[i], phi)
-        ui = out[0]
-        lim = umax[3 * i : 3 * i + 3]
-        us.append(ca.fmin(lim, ca.fmax(-lim, ui)))
-    u = ca.vertcat(*us)
+    S = ca.mtimes(ca.horzcat(*[qb[i][:3] for i in range(n)]), L.T)  # column i = s_i
+    per = [(Jall[9 * i : 9 * i + 9], Jinv_all[9 * i : 9 * i + 9], harm[18 * i : 18 * i + 18])
+           for i in range(n)]
+    outs = [agent(qb[i], w[i], S[:, i], trig, gp, Kv[i], phi, umax[3 * i : 3 * i + 3], *per[i], gg)
+            for i in range(n)]
+    u = ca.vertcat(*[o[2] for o in outs])
+    xdot = ca.vertcat(*[o[0] for o in outs], *[o[1] for o in outs])
     ctrl = ca.Function("fs_ctrl", [x, t, p], [u], ["x", "t", "p"], ["u"])
-
-    trig = disturbance_trig(t, freq, orbit)  # time-only terms, once for the formation
-
-    def plant_expr(uv: ca.SX) -> ca.SX:
-        dq, dw = [], []
-        for i in range(n):
-            ud = disturbance_torque(trig, q[i], q0[i], J[i], harm[18 * i : 18 * i + 18], gg)
-            dq.append(ca.vertcat(qd[i], -0.5 * ca.dot(q[i], w[i])))  # eq. (1)
-            Jw = ca.mtimes(J[i], w[i])
-            dw.append(ca.mtimes(Jinv[i], -ca.cross(w[i], Jw) + uv[3 * i : 3 * i + 3] + ud))  # eq. (2)
-        return ca.vertcat(*dq, *dw)
-
-    plant = ca.Function("fs_plant", [x, u_in, t, p], [plant_expr(u_in)], ["x", "u", "t", "p"], ["xdot"])
-    rhs = ca.Function("fs_rhs", [x, t, p], [plant_expr(u), u], ["x", "t", "p"], ["xdot", "u"])
+    pl = [plant_fn(qb[i], w[i], u_in[3 * i : 3 * i + 3], trig, *per[i], gg) for i in range(n)]
+    xdot_u = ca.vertcat(*[o[0] for o in pl], *[o[1] for o in pl])
+    plant = ca.Function("fs_plant", [x, u_in, t, p], [xdot_u], ["x", "u", "t", "p"], ["xdot"])
+    rhs = ca.Function("fs_rhs", [x, t, p], [xdot, u], ["x", "t", "p"], ["xdot", "u"])
+    tau = ca.vertcat(*[o[3] for o in outs])
+    uraw = ca.vertcat(*[o[4] for o in outs])
+    evaluate = ca.Function("fs_evaluate", [x, t, p], [xdot, u, tau, uraw], ["x", "t", "p"],
+                           ["xdot", "u", "tau", "uraw"])
     metrics = ca.Function("fs_metrics", [x], [metrics_expr(x, n)], ["x"], ["m"])
-    return ctrl, plant, rhs, metrics
+    return ctrl, plant, rhs, metrics, evaluate
 
 
 #: Output intervals per call of the compiled kernel.
@@ -223,7 +294,7 @@ UNROLL_MAX = 10
 
 
 def _build_kernel(n: int, switch: str, zoh: bool, M: int, K: int, inverse: str, spec: Spec) -> Kernel:
-    ctrl, plant, rhs, metrics = _build_symbolic(n, switch, inverse, spec)
+    ctrl, plant, rhs, metrics, evaluate = _build_symbolic(n, switch, inverse, spec)
     nx = 7 * n
     npar = plant.size1_in(3)
     # one RK4 sub-step (MX calling the SX right-hand side once per stage, so the C code
@@ -280,66 +351,16 @@ def _build_kernel(n: int, switch: str, zoh: bool, M: int, K: int, inverse: str, 
     p2 = ca.MX.sym("p", npar)
     XA2, Ssum = mc_acc(xa2, h2, p2)
     mc_chunk = ca.Function("fs_mc_chunk", [xa2, h2, p2], [XA2[:, -1], Ssum], ["xa", "h", "p"], ["xa_end", "s"])
-    return Kernel(n, switch, zoh, M, K, inverse, spec.key, ctrl, plant, rhs, metrics, chunk, mc_chunk)
-
-
-def cache_dir() -> Path:
-    """User cache directory of compiled kernels (never inside the repository).
-
-    ``$FORMSYNC_CACHE_DIR``, else ``$XDG_CACHE_HOME/formsync-design``, else
-    ``~/.cache/formsync-design``.
-
-    >>> cache_dir().name != ""
-    True
-    """
-    env = os.environ.get("FORMSYNC_CACHE_DIR")
-    if env:
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "formsync-design"
-
-
-def compile_enabled() -> bool:
-    """False when ``FORMSYNC_NO_COMPILE`` is set to a true value (``1``, ``yes``, ``true``).
-
-    >>> isinstance(compile_enabled(), bool)
-    True
-    """
-    return os.environ.get("FORMSYNC_NO_COMPILE", "").strip().lower() not in ("1", "yes", "true", "on")
-
-
-#: gcc flags of the kernels.  ``-march=native`` (27% faster than plain ``-O2`` here) makes
-#: the objects machine-specific, so the cache key includes the host and its CPU.
-_CFLAGS = ["-O3", "-march=native", "-fPIC", "-shared"]
-
-
-def _host_tag() -> str:
-    import platform
-
-    cpu = ""
-    try:
-        with open("/proc/cpuinfo") as fh:
-            cpu = next((ln for ln in fh if ln.startswith("model name")), "")
-    except OSError:  # pragma: no cover - not Linux
-        pass
-    return f"{platform.node()}|{platform.machine()}|{cpu.strip()}"
-
-
-def _c_compiler() -> str | None:
-    return os.environ.get("FORMSYNC_CC") or shutil.which("gcc") or shutil.which("cc")
+    return Kernel(n, switch, zoh, M, K, inverse, spec.key, ctrl, plant, rhs, metrics, chunk, mc_chunk,
+                  evaluate=evaluate, layout=param_layout(n, gain_size(spec)))
 
 
 def _compile(fn: ca.Function, spec_key: str) -> tuple[ca.Function, bool]:
     """C code generation + the C compiler, cached on disk by the generated source and
     the specification key; without a compiler, the CasADi VM (with a warning)."""
-    cc = _c_compiler()
+    cc = c_compiler()
     if cc is None:
-        warnings.warn(
-            "no C compiler (gcc/cc) found: simulating in the CasADi virtual machine, which is "
-            "slower; install gcc, or set FORMSYNC_NO_COMPILE=1 to silence this",
-            RuntimeWarning,
-            stacklevel=3,
-        )
+        warn_no_compiler(stacklevel=4)
         return fn, False
     name = fn.name()
     with tempfile.TemporaryDirectory() as td:
@@ -347,33 +368,7 @@ def _compile(fn: ca.Function, spec_key: str) -> tuple[ca.Function, bool]:
         cg.add(fn)
         cg.generate(td + os.sep)
         src = Path(td, f"{name}.c").read_text()
-    material = "\n".join([src, spec_key, " ".join(_CFLAGS), str(getattr(ca, "__version__", "")), _host_tag()])
-    key = hashlib.sha256(material.encode()).hexdigest()[:20]
-    d = cache_dir() / "kernels"
-    so = d / f"{name}_{key}.so"
-    if not so.is_file():
-        try:
-            d.mkdir(parents=True, exist_ok=True)
-            with tempfile.TemporaryDirectory(dir=d) as td:
-                c = Path(td, f"{name}.c")
-                c.write_text(src)
-                tmp_so = Path(td, so.name)
-                r = subprocess.run(
-                    [cc, *_CFLAGS, str(c), "-o", str(tmp_so), "-lm"], capture_output=True, text=True
-                )
-                if r.returncode != 0:
-                    said = " ".join((r.stderr or r.stdout or "").split())[-300:]
-                    raise CompilerError(
-                        f"compiling the simulation kernel {name} with {cc} failed (exit "
-                        f"{r.returncode}: {said or 'no output'}); fix or install gcc, or set "
-                        "FORMSYNC_NO_COMPILE=1 to simulate in the CasADi virtual machine"
-                    )
-                os.replace(tmp_so, so)  # atomic: concurrent processes never see half a file
-        except OSError as e:
-            raise CompilerError(
-                f"building the simulation kernel {name} in {d} failed ({e.strerror or e}); set "
-                "FORMSYNC_CACHE_DIR to a writable folder, or FORMSYNC_NO_COMPILE=1"
-            ) from None
+    so = build_shared(name, src, spec_key, cc)
     try:
         return ca.external(name, str(so)), True
     except RuntimeError as e:

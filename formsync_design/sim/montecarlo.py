@@ -10,16 +10,19 @@ rates (each component uniform in ``[-max_rate, max_rate]``) and - with
 ``phases=True`` - random phases of every oscillating disturbance factor and of
 the orbit.  Inertias, graph and disturbance model come from the case.
 
-All runs are integrated together by the compiled RK4 kernel of
-:mod:`formsync_design.sim.simulator` (its ``mc_chunk``), mapped over the batch
-with CasADi's thread map; only per-interval summaries (``Omega_m``, ``Q_m``,
-minimum ``q0`` (over every sub-step), peak ``|u|`` (sampled at the output
-grid), quaternion norm drift) come back.  Defaults
-differ from ``simulate`` for speed: ``step = 0.1`` s, ``output_step = 0.5`` s
-and ``norm_tol = 1e-5``.  Measured by ``benchmarks/bench_simulate.py`` on 20
-runs of the paper's case against a 0.01 s step: identical convergence times on
-the 0.5 s grid, final ``Q_m`` within 0.9 %, final ``Omega_m`` within 1.2e-5
-(relative); the final state agrees with a tight reference to 5e-6.
+All runs are integrated in batches by the compiled whole-horizon kernel
+(:mod:`formsync_design.sim.native`, one call per batch, the runs spread over
+threads) with the same integrator and events as :func:`simulate`; each run is
+reduced in the kernel to its summary (convergence time on the output grid, final
+``Omega_m`` and ``Q_m``, minimum ``q0`` over every step, peak ``|u|`` on the output
+grid, quaternion norm drift, event time), so a batched run gives exactly the record
+of a single simulation of its seed (tested).  Defaults (:data:`DEFAULT_OPTIONS`)
+differ from ``simulate`` for speed: DOPRI5 at ``rtol = 1e-6``, ``atol = 1e-10`` on an
+``output_step = 0.5`` s grid, ``norm_tol = 1e-5``.  Measured by
+``benchmarks/bench_simulate.py`` on 20 runs of the paper's case against rtol 1e-11:
+identical statuses and convergence times on the 0.5 s grid, final ``Q_m`` within
+7e-5 and final ``Omega_m`` within 4e-5 (relative), about 5 ms of CPU per run.  Without
+a C compiler the runs go one at a time through the driver's Python mirror.
 
 A run that does not converge (``not-converged``, ``singular`` - some
 ``q0`` reached ``q0_floor`` -, ``diverged`` - NaN/inf -, or ``inaccurate`` -
@@ -37,18 +40,22 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import casadi as ca
 import numpy as np
 
-from formsync_design.errors import InputError
+from formsync_design.errors import InputError, SimulationError
 from formsync_design.gains import GainBox, GainRange, json_number
+from formsync_design.sim.adaptive import run_vm
 from formsync_design.sim.formation import Formation, Gains, SimOptions
-from formsync_design.sim.kernels import CHUNK, get_kernel, pack_params
-from formsync_design.sim.metrics import convergence_time, metrics_expr
+from formsync_design.sim.kernels import get_kernel, pack_params
+from formsync_design.sim.metrics import convergence_time
+from formsync_design.sim.native import get_native
+from formsync_design.sim.native_c import SUMMARY
+from formsync_design.sim.simulator import driver_config, simulate
 from formsync_design.spec.declarations import GainKind
 from formsync_design.spec.loader import Spec, load_spec
 
 __all__ = [
+    "DEFAULT_OPTIONS",
     "GainBox",
     "MC_GAINS",
     "MAX_RUNS",
@@ -70,9 +77,14 @@ __all__ = [
 MC_GAINS = ("K_o", "K_q", "beta", "K_v")
 
 #: Largest number of runs of one campaign: every sampled formation is kept in memory
-#: (about 3 kB each for N = 8) and each run of the paper's case takes ~10 ms of CPU
-#: with the compiled kernel, so 100 000 runs are ~300 MB and ~20 CPU-minutes.
+#: (about 3 kB each for N = 8) and each run of the paper's case takes ~5 ms of CPU
+#: with the compiled kernel, so 100 000 runs are ~300 MB and ~10 CPU-minutes.
 MAX_RUNS = 100_000
+
+
+#: Options of a Monte-Carlo run when none are given: DOPRI5 at rtol 1e-6 / atol 1e-10 on a
+#: 0.5 s output grid (module docstring: the accuracy this buys, measured).
+DEFAULT_OPTIONS = SimOptions(output_step=0.5, rtol=1e-6, atol=1e-10, norm_tol=1e-5)
 
 
 class RunStatus(enum.StrEnum):
@@ -172,7 +184,7 @@ class MonteCarloSettings:
         if self.runs > MAX_RUNS:
             raise InputError(
                 f"expected at most {MAX_RUNS} runs per campaign (each sampled formation is kept in "
-                f"memory, ~3 kB and ~10 ms of CPU per run for N = 8), received {self.runs}; split "
+                f"memory, ~3 kB and ~5 ms of CPU per run for N = 8), received {self.runs}; split "
                 "the campaign over several seeds"
             )
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
@@ -334,7 +346,11 @@ class MonteCarloResult:
             "options": {
                 "tf": self.options.tf, "switch": self.options.switch, "phi": self.options.phi,
                 "torque_limit": self.options.torque_limit, "sample_period": self.options.sample_period,
-                "step": self.options.step, "output_step": self.options.interval,
+                "integrator": self.options.method,
+                "step": self.options.rk4_step if self.options.method == "rk4" else None,
+                "rtol": self.options.rtol if self.options.method != "rk4" else None,
+                "atol": self.options.atol if self.options.method != "rk4" else None,
+                "output_step": self.options.interval,
                 "q_tol": self.options.q_tol, "omega_tol": self.options.omega_tol,
             },
             "failures": [r.to_dict() for r in self.failures],
@@ -481,9 +497,9 @@ def run_montecarlo(
     sp_spec = load_spec(spec)
     bx = mc_box(box, sp_spec) if box is not None else point_box(base.gains, sp_spec)
     st = settings if settings is not None else MonteCarloSettings()
-    opt = options if options is not None else SimOptions(step=0.1, output_step=0.5, norm_tol=1e-5)
-    if opt.integrator != "rk4":
-        raise InputError(f"expected the rk4 integrator for Monte-Carlo runs, received {opt.integrator!r}")
+    opt = options if options is not None else DEFAULT_OPTIONS
+    if opt.method == "cvodes":
+        raise InputError(f"expected the rk4 or dopri5 integrator for Monte-Carlo runs, received {opt.integrator!r}")
     nthreads = int(threads) if threads is not None else (os.cpu_count() or 1)
     if nthreads < 1:
         raise InputError(f"expected threads >= 1, received {threads}")
@@ -493,34 +509,26 @@ def run_montecarlo(
     Ktot = round(opt.tf / opt.interval)
     if Ktot < 1 or abs(Ktot * opt.interval - opt.tf) > 1e-9 * max(1.0, opt.tf):
         raise InputError(f"expected tf to be a multiple of the output interval {opt.interval:g} s, received {opt.tf:g}")
-    M = opt.substeps
-    h = opt.interval / M
-    Kc = CHUNK  # fixed, so one compiled kernel serves every horizon (extra intervals are dropped)
-    kern = get_kernel(
-        n, opt.switch, opt.sample_period is not None, M, Kc, opt.inverse, opt.compile, spec=sp_spec
-    )
+    t_build = time.perf_counter()
+    nk = get_native(sp_spec, opt.switch, opt.inverse, opt.compile)
+    kern = None if nk is not None else get_kernel(
+        n, opt.switch, opt.sample_period is not None, 1, 1, opt.inverse, False, spec=sp_spec)
+    build = time.perf_counter() - t_build
+    cfg = driver_config(opt, sp_spec)
     seeds = _run_seeds(st)
     forms = [sample_formation(base, bx, st, int(s), sp_spec) for s in seeds]
-    t_grid = np.arange(Ktot + 1) * opt.interval
     runs: list[MonteCarloRun] = []
     t0 = time.perf_counter()
     for b0 in range(0, st.runs, batch):
         fb = forms[b0 : b0 + batch]
-        B = len(fb)
-        XA = np.column_stack([np.concatenate([f.initial_state(), [0.0]]) for f in fb])
-        P = np.column_stack([pack_params(f, opt, sp_spec) for f in fb])
-        F = kern.mc_chunk.map(B, "thread", nthreads) if B > 1 else kern.mc_chunk
-        S_parts = []
-        done = 0
-        while done < Ktot:
-            XA_, S_ = F(XA, h, P)
-            XA = XA_.full()
-            S_parts.append(S_.full().reshape(5, B, Kc)[:, :, : min(Kc, Ktot - done)])
-            done += Kc
-        S = np.concatenate(S_parts, axis=2)  # (5, B, Ktot)
+        P = np.stack([pack_params(f, opt, sp_spec) for f in fb])
+        X0 = np.stack([f.initial_state() for f in fb])
+        if nk is not None:
+            S = nk.batch(n, P, cfg, X0, Ktot, nthreads)
+        else:  # no compiler: the driver's Python mirror, one run at a time
+            S = np.stack([_reduce(run_vm(kern, n, P[j], cfg, X0[j], 0.0, Ktot), opt) for j in range(len(fb))])
         for j, f in enumerate(fb):
-            runs.append(_summarize_run(b0 + j, int(seeds[b0 + j]), f, S[:, j, :], t_grid, opt,
-                                       bx.names))
+            runs.append(_summarize_run(b0 + j, int(seeds[b0 + j]), f, S[j], opt, bx.names, sp_spec))
     wall = time.perf_counter() - t0
     counts = {s: sum(r.status == s for r in runs) for s in RUN_STATUSES}
     ct = np.array([r.convergence_time for r in runs if r.convergence_time is not None])
@@ -531,39 +539,59 @@ def run_montecarlo(
     )
     cert = certify_sampled_box(base, bx, sp_spec) if certify else {"status": "skipped"}
     return MonteCarloResult(
-        tuple(runs), bx, st, opt, counts, ct_stats, wall, kern.compile_seconds, cert, sp_spec.key
+        tuple(runs), bx, st, opt, counts, ct_stats, wall, build, cert, sp_spec.key
     )
 
 
-def _summarize_run(index: int, seed: int, f: Formation, S: np.ndarray, t: np.ndarray, opt: SimOptions,
-                   names: tuple[str, ...]) -> MonteCarloRun:
-    om, qm, minq, umax, nerr = S
-    f0 = f.attitudes[:, 3].min()
-    minq_all = float(min(f0, np.nanmin(minq))) if np.isfinite(minq).any() else float("nan")
-    sing = np.flatnonzero(minq <= opt.q0_floor)
-    bad = np.flatnonzero(~(np.isfinite(om) & np.isfinite(qm) & np.isfinite(umax)))
-    event = None
-    ctime = None
-    if sing.size and (not bad.size or sing[0] <= bad[0]):
-        status, event = RunStatus.SINGULAR, float(t[sing[0] + 1])
-    elif bad.size:
-        status, event = RunStatus.DIVERGED, float(t[bad[0] + 1])
-    elif np.nanmax(nerr) > opt.norm_tol:
-        status = RunStatus.INACCURATE
-    else:
-        x0 = f.initial_state()
-        # metric at t = 0 from the initial state (numpy, same definition as the kernel's)
-        om_all = np.concatenate([[np.nan], om])
-        qm_all = np.concatenate([[np.nan], qm])
-        om_all[0], qm_all[0] = _metrics0(x0, f.n)
-        ctime = convergence_time(t, om_all, qm_all, opt.q_tol, opt.omega_tol)
+def _reduce(out: Any, opt: SimOptions) -> np.ndarray:
+    """The batch summary (:data:`~formsync_design.sim.native_c.SUMMARY`) of one run of the
+    Python mirror (what the compiled batch reduces in C)."""
+    info = out.info
+    t = np.arange(out.X.shape[0]) * opt.interval
+    om, qm = out.MET[:, 0], out.MET[:, 1]
+    ct = convergence_time(t, om, qm, opt.q_tol, opt.omega_tol) if info["status"] == 0 else None
+    vals = {
+        "status": info["status"], "tevent": info["tevent"], "sc": info["sc"],
+        "conv_time": math.nan if ct is None else ct, "final_om": om[-1], "final_qm": qm[-1],
+        "min_q0": float(np.min(out.MINQ)), "peak_u": float(np.max(np.abs(out.U))) if out.U.size else 0.0,
+        "normerr": info["normerr"], "steps": info["steps"], "rejected": info["rejected"],
+        "nfev": info["nfev"], "kdone": info["kdone"], "tfail": info["tfail"],
+        "q0fail": info["q0fail"], "reason": info["reason"],
+    }
+    return np.array([float(vals[k]) for k in SUMMARY])
+
+
+def _summarize_run(index: int, seed: int, f: Formation, S: np.ndarray, opt: SimOptions,
+                   names: tuple[str, ...], spec: Spec) -> MonteCarloRun:
+    """One run's record from its summary; a run the driver stopped on a failure (non-finite
+    state, step-size underflow, norm drift) is replayed with :func:`simulate`, which
+    decides it exactly as a single simulation does (the ``q0 -> 0`` singularity or not)."""
+    s = dict(zip(SUMMARY, (float(v) for v in S), strict=True))
+    status_code = int(s["status"])
+    event = ctime = None
+    fin = lambda v: float(v) if math.isfinite(v) else float("nan")  # noqa: E731
+    final_q, final_om, minq = fin(s["final_qm"]), fin(s["final_om"]), fin(s["min_q0"])
+    peak, nerr = fin(s["peak_u"]), fin(s["normerr"])
+    if status_code == 0:
+        ctime = None if math.isnan(s["conv_time"]) else s["conv_time"]
         status = RunStatus.CONVERGED if ctime is not None else RunStatus.NOT_CONVERGED
-    fin = lambda a: float(a[-1]) if np.isfinite(a[-1]) else float("nan")  # noqa: E731
+    elif status_code == 1:
+        status, event = RunStatus.SINGULAR, s["tevent"]
+    else:
+        try:
+            r = simulate(f, opt, spec=spec)
+        except SimulationError:
+            status = RunStatus.INACCURATE if status_code == 3 else RunStatus.DIVERGED
+            event = None if status_code == 3 else s["tfail"]
+        else:
+            status, event = RunStatus.SINGULAR, r.singular_time
+            final_q, final_om = r.final_q_m, r.final_omega_m
+            minq, peak = float(r.min_q0.min()), float(r.peak_torque.max())
+            nerr = float(r.stats["max_norm_error"])
     return MonteCarloRun(
         index=index, seed=seed, gains=_run_gains(f.gains, names),
-        status=status, convergence_time=ctime, final_q_m=fin(qm), final_omega_m=fin(om),
-        min_q0=minq_all, peak_torque=float(np.nanmax(umax)) if np.isfinite(umax).any() else float("nan"),
-        norm_error=float(np.nanmax(nerr)) if np.isfinite(nerr).any() else float("nan"), event_time=event,
+        status=status, convergence_time=ctime, final_q_m=final_q, final_omega_m=final_om,
+        min_q0=minq, peak_torque=peak, norm_error=nerr, event_time=event,
     )
 
 
@@ -572,16 +600,3 @@ def _run_gains(g: Gains, names: tuple[str, ...]) -> tuple[tuple[str, Any], ...]:
     ``g`` is the switching gain: every spacecraft has the same sampled ``K_v``)."""
     have = g.as_dict()
     return tuple((n, have[n]) if n in have else (n, g.K_v[0]) for n in names)
-
-
-_M0: dict = {}
-
-
-def _metrics0(x0: np.ndarray, n: int) -> tuple[float, float]:
-    fn = _M0.get(n)
-    if fn is None:
-        x = ca.SX.sym("x", 7 * n)
-        fn = _M0[n] = ca.Function("m0", [x], [metrics_expr(x, n)])
-    m = fn(x0).full().ravel()
-    return float(m[0]), float(m[1])
-

@@ -20,15 +20,16 @@ part first, scalar ``q0`` last, as in the model's ``state_symbols``) then
 ``3N`` body rates (rad/s, body frame w.r.t. inertial).  :func:`state_names`
 gives the names.  The full quaternion is integrated (``q0`` is a state, not
 ``sqrt(1 - |q|^2)``), so a crossing ``q0 -> 0`` - where ``Q = E^{-1}`` is
-singular and (4) undefined - is *seen*: every sub-step's ``q0`` is checked
+singular and (4) undefined - is *seen*: every (sub-)step's ``q0`` is checked
 against ``q0_floor`` (default 0.02) and the run stops with status
-``"singular"`` naming the spacecraft and the (linearly interpolated) time.
-Near ``q0 = 0`` the body rate ``|omega| ~ 2|q'|/q0`` grows without bound, so
-when the compiled fixed step blows up first, the interval is re-integrated
-with ``h/10`` and ``h/100`` (CasADi VM) to reach the floor; a blow-up that
-persists right after some ``q0 < 0.1`` is still reported as ``"singular"``
-(the message gives the smallest ``q0`` reached), any other NaN/inf raises
-:class:`SimulationError` naming the time.  Trajectories end at the event.
+``"singular"`` naming the spacecraft and the time, located on the step's
+interpolant to ``event_tol`` (default 1e-9 s).  Near ``q0 = 0`` the body rate
+``|omega| ~ 2|q'|/q0`` grows without bound, so when the fixed RK4 step blows up
+first, the interval is re-integrated with ``h/10`` and ``h/100`` to reach the
+floor (DOPRI5 shrinks its step by itself); a blow-up that persists right after
+some ``q0 < 0.1`` is still reported as ``"singular"`` (the message gives the
+smallest ``q0`` reached), any other NaN/inf raises :class:`SimulationError`
+naming the time.  Trajectories end at the event.
 
 Quaternion norm policy: no renormalisation.  The kinematics preserve
 ``|q_bar| = 1`` exactly, so its numerical drift measures integration error;
@@ -40,31 +41,45 @@ mapping can make.
 
 Integrators
 -----------
-``"rk4"`` (default): classical fixed-step Runge-Kutta 4 with step
-``step`` (default 0.05 s; on the paper's case the final state then agrees
-with a CVODES rtol 1e-12 reference to 3e-7 and the norm drift is 1e-7),
-compiled to C with CasADi code generation and gcc ``-O3 -march=native``,
-cached in the user cache dir (``$FORMSYNC_CACHE_DIR``, else
-``$XDG_CACHE_HOME/formsync-design`` or ``~/.cache/formsync-design``; keyed
-by the specification's content key ``spec.key``, the generated source, flags,
-CasADi version and host - the in-memory cache by ``spec.key`` and the sizes, so a
-variant controller never reuses another's kernel); the first build of a kernel
-takes 5-10 s, later ones load it.  Without a C compiler the same kernel runs in
-CasADi's virtual machine with a :class:`RuntimeWarning`; ``compile=False`` or
-``FORMSYNC_NO_COMPILE=1`` choose the virtual machine silently; a compiler that
-fails raises :class:`~formsync_design.errors.CompilerError`
-(:mod:`formsync_design.sim.kernels`).
-``"cvodes"``: CasADi's adaptive SUNDIALS CVODES (BDF) with ``rtol``/``atol``
-(defaults 1e-8/1e-10), for reference runs; continuous control only.
+All but CVODES run in the compiled whole-horizon kernel of
+:mod:`formsync_design.sim.native`: one call integrates the whole horizon,
+locates the events and returns the output grid; one shared object per
+specification, switch and ``inverse`` serves every formation size and graph.
+It is compiled with gcc ``-O3 -march=native`` and cached in the user cache dir
+(``$FORMSYNC_CACHE_DIR``, else ``$XDG_CACHE_HOME/formsync-design`` or
+``~/.cache/formsync-design``; keyed by the generated source, the specification's
+content key ``spec.key``, flags, CasADi version and host, so a variant controller
+never reuses another's kernel); the first build takes a few seconds, later runs
+load it.  Without a C compiler the same algorithms run in Python over CasADi's
+virtual machine (:mod:`formsync_design.sim.adaptive`) with a
+:class:`RuntimeWarning`; ``compile=False`` or ``FORMSYNC_NO_COMPILE=1`` choose it
+silently; a compiler that fails raises :class:`~formsync_design.errors.CompilerError`.
+
+``"auto"`` (default) is ``"dopri5"``, or ``"rk4"`` when a ``step`` is given or the
+switch is ``sgn``.  ``"dopri5"``: Dormand-Prince 5(4) (Hairer's DOPRI5, dense
+output) at ``rtol``/``atol`` (defaults 1e-8/1e-12, chosen by the error budget of the
+README: every quantity the verification judges within 1e-5 relative of a tight
+reference); every step ends at the next kink of the closed loop (a switching
+argument crossing the boundary layer ``|tau| = phi``, a torque crossing its limit),
+located on the dense output, so no step straddles one - on the paper's case the
+final state then agrees with a CVODES rtol 1e-12 reference to 1e-10.  ``"rk4"``:
+classical fixed-step Runge-Kutta 4 with ``step`` (default 0.05 s; final state to
+3e-7 on the paper's case); crossings are counted at step ends and the first and
+the last located on the cubic Hermite interpolant.  ``"cvodes"``: CasADi's adaptive
+SUNDIALS CVODES (BDF) with ``rtol``/``atol``, for reference runs; continuous
+control only.  ``stats["events"]`` gives the count and the first and last located
+time of the switching and torque-limit crossings.
 ``sgn`` is simulated as the discontinuous law it is: with a fixed step the
 switching term chatters at the step rate, so the relative rate stalls at a
 level proportional to the step (paper's case: ``Omega_m`` ~ 4.5e-4 rad/s with
 ``h = 0.05`` s, 8.7e-5 with 0.01 s) - what a digital implementation at that
-rate would do; use ``sat``/``tanh`` for smooth runs.
+rate would do; ``dopri5`` refuses it (it would chase the sliding mode); use
+``sat``/``tanh`` for smooth runs.
 
 Sampled control: with ``sample_period = Ts`` the torque is computed from the
 state at ``t_k = k Ts`` and held constant (zero-order hold) while the plant is
-integrated with sub-steps ``<= step``; the output grid is then the sample grid.
+integrated (RK4 sub-steps ``<= step``, or DOPRI5 on each hold interval); the
+output grid is then the sample grid.
 """
 
 from __future__ import annotations
@@ -78,6 +93,7 @@ import casadi as ca
 import numpy as np
 
 from formsync_design.errors import InputError, SimulationError
+from formsync_design.sim.adaptive import run_vm
 from formsync_design.sim.formation import (
     INTEGRATORS,
     MAX_GRID_POINTS,
@@ -91,7 +107,9 @@ from formsync_design.sim.formation import (
     unpack_state,
 )
 from formsync_design.sim.kernels import CHUNK, Kernel, cache_dir, get_kernel, pack_params
-from formsync_design.sim.metrics import convergence_time, formation_metrics
+from formsync_design.sim.metrics import convergence_time, formation_metrics, linear_metrics
+from formsync_design.sim.native import METHODS, SWITCH_EVENTS, get_native
+from formsync_design.sim.native_c import CFG
 from formsync_design.sim.result import SimResult
 from formsync_design.spec.loader import Spec, load_spec
 
@@ -114,6 +132,8 @@ __all__ = [
     "Kernel",
     "get_kernel",
     "CHUNK",
+    "driver_config",
+    "SINGULAR_BLOWUP_Q0",
 ]
 
 
@@ -163,9 +183,9 @@ def simulate(
     if not isinstance(opt, SimOptions):
         raise InputError(f"expected SimOptions, received a {type(opt).__name__}")
     sp_spec = load_spec(spec)
-    if opt.integrator == "cvodes":
+    if opt.method == "cvodes":
         return _simulate_cvodes(formation, opt, sp_spec)
-    return _simulate_rk4(formation, opt, sp_spec)
+    return _simulate_driver(formation, opt, sp_spec)
 
 
 def _grid_count(opt: SimOptions) -> int:
@@ -179,87 +199,86 @@ def _grid_count(opt: SimOptions) -> int:
     return max(1, int(Kr))
 
 
-def _simulate_rk4(f: Formation, opt: SimOptions, spec: Spec) -> SimResult:
-    n = f.n
-    nx = 7 * n
-    Ktot = _grid_count(opt)
-    M = opt.substeps
-    h = opt.interval / M
-    Kc = CHUNK  # fixed, so one compiled kernel serves every horizon (extra intervals are dropped)
-    kern = get_kernel(
-        n, opt.switch, opt.sample_period is not None, M, Kc, opt.inverse, opt.compile, spec=spec
-    )
-    p = pack_params(f, opt, spec)
-    xa = np.concatenate([f.initial_state(), [0.0]])
-    Xs = [xa[:nx][None, :]]
-    Us, MQ = [], []
-    Ms = [kern.metrics(xa[:nx]).full().T]
-    t0 = time.perf_counter()
-    done = 0
-    stop = None
-    while done < Ktot:
-        XA, U, MINQ, MET = (a.full().T for a in kern.chunk(xa, h, p))
-        take = min(Kc, Ktot - done)
-        XA, U, MINQ, MET = XA[:take], U[:take], MINQ[:take], MET[:take]
-        # singularity first (a finding), then non-finite values (an error); CasADi's
-        # fmin ignores NaN, so a blow-up shows in XA/U, not in MINQ
-        sing = np.flatnonzero((MINQ <= opt.q0_floor).any(axis=1))
-        with np.errstate(all="ignore"):
-            drift = np.abs(np.linalg.norm(XA[:, : 4 * n].reshape(-1, n, 4), axis=2) - 1).max(axis=1)
-        bad = np.flatnonzero(~np.isfinite(XA).all(axis=1) | ~np.isfinite(U).all(axis=1) | ~(drift <= opt.norm_tol))
-        if sing.size or bad.size:
-            k = int(min(sing[0] if sing.size else Ktot, bad[0] if bad.size else Ktot))
-            Xs.append(XA[:k, :nx])
-            Us.append(U[: k + 1])
-            MQ.append(MINQ[:k])
-            Ms.append(MET[:k])
-            stop = True
-            done += k
-            break
-        Xs.append(XA[:, :nx])
-        Us.append(U)
-        MQ.append(MINQ)
-        Ms.append(MET)
-        xa = XA[-1]
-        done += take
-    wall = time.perf_counter() - t0
-    X = np.vstack(Xs)
-    t = np.arange(X.shape[0]) * opt.interval
-    sing_sc = sing_t = None
-    if stop is not None:
-        # the interval starting at the last kept grid point holds the event
-        left = max(1, Ktot - done)
-        sing_sc, sing_t, q0_last = _locate_event(
-            kern, X[-1], float(t[-1]), h, M, p, opt.q0_floor, opt.norm_tol, min(10, left)
-        )
-        if sing_sc is None:
-            raise SimulationError(
-                f"expected finite states with quaternion norm drift <= {opt.norm_tol:g}, received "
-                f"NaN/inf or a larger drift at t = {sing_t:.4f} s (smallest q0 just before: "
-                f"{q0_last:.3g}, not near the q0 singularity); reduce the step"
-            )
-        U = np.vstack(Us)[: X.shape[0]]
-    else:
-        # torque at tf (under ZOH: the value the hold would apply next)
-        ulast = kern.ctrl(X[-1], t[-1], p).full().ravel()
-        U = np.vstack([*Us, ulast[None, :]])
-    minq = np.min(np.vstack([f.attitudes[:, 3][None, :], *MQ]), axis=0)
-    if sing_sc is not None:
-        minq[sing_sc - 1] = min(minq[sing_sc - 1], q0_last)
-    steps = done * M
-    evals = steps * 4
-    stats = {
-        "integrator": "rk4",
-        "compiled": kern.compiled,
-        "step": h,
-        "substeps_per_interval": M,
-        "steps": steps,
-        "rhs_evaluations": evals,
-        "controller_evaluations": evals if opt.sample_period is None else done,
-        "wall_seconds": wall,
-        "build_seconds": kern.compile_seconds,
+def driver_config(opt: SimOptions, spec: Spec) -> np.ndarray:
+    """The configuration vector of the whole-horizon driver for ``opt``
+    (:data:`~formsync_design.sim.native_c.CFG`)."""
+    method = opt.method
+    swkind = SWITCH_EVENTS[opt.switch] if spec.decl.switching is not None else 0
+    vals = {
+        "method": METHODS[method], "interval": opt.interval, "substeps": opt.substeps,
+        "rtol": opt.rtol, "atol": opt.atol,
+        "hmax": opt.max_step if opt.max_step is not None else opt.tf,
+        "floor": opt.q0_floor, "normtol": opt.norm_tol, "zoh": opt.sample_period is not None,
+        "evtol": opt.event_tol, "qtol": opt.q_tol, "wtol": opt.omega_tol,
+        "maxsteps": max(1e6, 1000.0 * _grid_count(opt)), "h0": 0.0, "swkind": swkind, "kinkstop": 1.0,
     }
-    return _finish(f, opt, kern, t, X, U, minq, sing_sc, sing_t, stats, np.vstack(Ms))
+    return np.array([float(vals[k]) for k in CFG])
+
+
+def _runner(f: Formation, opt: SimOptions, spec: Spec, p: np.ndarray) -> tuple[Any, bool, float]:
+    """``run(x0, t0, K, cfg)`` of the compiled driver, else of its Python mirror on CasADi's
+    VM; whether compiled; the build seconds."""
+    n = f.n
+    t0 = time.perf_counter()
+    nk = get_native(spec, opt.switch, opt.inverse, opt.compile)
+    if nk is not None:
+        def run(x0: np.ndarray, t: float, K: int, cfg: np.ndarray) -> Any:
+            return nk.run(n, p, cfg, x0, t, K)
+        return run, True, time.perf_counter() - t0
+    kern = get_kernel(n, opt.switch, opt.sample_period is not None, 1, 1, opt.inverse, False, spec=spec)
+
+    def run_py(x0: np.ndarray, t: float, K: int, cfg: np.ndarray) -> Any:
+        return run_vm(kern, n, p, cfg, x0, t, K)
+    return run_py, False, time.perf_counter() - t0
+
+
+def _events(ev: dict[str, float], tol: float) -> dict[str, Any]:
+    def one(name: str) -> dict[str, Any]:
+        first, last = ev[f"{name}_first"], ev[f"{name}_last"]
+        return {"count": int(ev[f"{name}_count"]),
+                "first": None if math.isnan(first) else first,
+                "last": None if math.isnan(last) else last}
+
+    return {"tolerance": tol, "switching": one("switch"), "torque_limit": one("limit")}
+
+
+def _simulate_driver(f: Formation, opt: SimOptions, spec: Spec) -> SimResult:
+    """RK4 or DOPRI5 over the whole horizon in one call of the driver."""
+    Ktot = _grid_count(opt)
+    method = opt.method
+    p = pack_params(f, opt, spec)
+    cfg = driver_config(opt, spec)
+    run, compiled, build = _runner(f, opt, spec, p)
+    t0 = time.perf_counter()
+    out = run(f.initial_state(), 0.0, Ktot, cfg)
+    wall = time.perf_counter() - t0
+    info = out.info
+    X, U, MET, minq = out.X, out.U, out.MET, np.minimum(out.MINQ, f.attitudes[:, 3])
+    kdone = int(info["kdone"])
+    sing_sc = sing_t = None
+    status = int(info["status"])
+    if status == 1:
+        sing_sc, sing_t = int(info["sc"]), float(info["tevent"])
+    elif status in (2, 3):
+        sing_sc, sing_t, q0_last = _classify_failure(run, cfg, opt, X, info, Ktot, kdone)
+        minq[sing_sc - 1] = min(minq[sing_sc - 1], q0_last)
+    t = np.arange(X.shape[0]) * opt.interval
+    steps = int(info["steps"])
+    nfev, nctrl = int(info["nfev"]), int(info["nctrl"])
+    stats: dict[str, Any] = {"integrator": method, "compiled": compiled}
+    if method == "rk4":
+        stats.update(step=opt.interval / opt.substeps, substeps_per_interval=opt.substeps)
+    else:
+        stats.update(rtol=opt.rtol, atol=opt.atol, rejected_steps=int(info["rejected"]))
+    stats.update({
+        "steps": steps,
+        "rhs_evaluations": nfev,
+        "controller_evaluations": nctrl if opt.sample_period is not None else nfev + nctrl,
+        "wall_seconds": wall,
+        "build_seconds": build,
+        "events": _events(out.events, opt.event_tol),
+    })
+    return _finish(f, opt, spec.key, t, X, U, minq, sing_sc, sing_t, stats, MET)
 
 
 #: A blow-up (NaN/inf) right after some ``q0`` fell below this value is attributed to the
@@ -268,74 +287,62 @@ def _simulate_rk4(f: Formation, opt: SimOptions, spec: Spec) -> SimResult:
 SINGULAR_BLOWUP_Q0 = 0.1
 
 
-def _locate_event(
-    kern: Kernel, x: np.ndarray, t0: float, h: float, M: int, p: np.ndarray, floor: float,
-    norm_tol: float = 1e-6, intervals: int = 10,
-) -> tuple[int | None, float, float]:
-    """Re-run from ``x`` at ``t0``, the start of the output interval that holds an event,
-    for up to ``intervals`` output intervals (CasADi VM), with the step ``h`` and, if the
-    state blows up first, with ``h/10`` and ``h/100``:
-    near ``q0 = 0`` the body rate ``|omega| ~ 2|q'|/q0`` grows without bound and a
-    fixed step loses accuracy before ``q0`` reaches ``floor``.
+def _classify_failure(run: Any, cfg: np.ndarray, opt: SimOptions, X: np.ndarray, info: dict,
+                      Ktot: int, kdone: int) -> tuple[int, float, float]:  # noqa: C901
+    """A run stopped by a non-finite state, a step-size underflow or norm drift:
+    ``(spacecraft, time, smallest q0)`` when it is the ``q0 -> 0`` singularity, else a
+    :class:`~formsync_design.errors.SimulationError`.
 
-    Returns ``(spacecraft (1-based) or None, time, smallest q0 before the event)``:
-    a spacecraft when some ``q0`` reached ``floor`` (time linearly interpolated), or
-    when even ``h/100`` blows up (NaN/inf or norm drift above ``norm_tol``) right
-    after some ``q0 < SINGULAR_BLOWUP_Q0``; ``None`` for a blow-up away from the
-    singularity or a coarse-step failure that the finer steps do not reproduce
-    (time = start of the failing sub-step)."""
-    n = kern.n
-    iq = [4 * i + 3 for i in range(n)]
-    u0 = kern.ctrl(x, t0, p)
-
-    def f(xx: Any, tt: float) -> np.ndarray:
-        if kern.zoh:
-            return kern.plant(xx, u0, tt, p).full().ravel()
-        return kern.rhs(xx, tt, p)[0].full().ravel()
-
-    result: tuple[int | None, float, float] = (None, t0, float(np.min(np.asarray(x)[iq])))
-    drift0 = float(np.abs(np.linalg.norm(np.asarray(x)[: 4 * n].reshape(n, 4), axis=1) - 1).max())
-    allowed = norm_tol + drift0  # drift already accumulated before the interval is not its fault
-    for refine in (1, 10, 100):
-        hh = h / refine
-        xk, tk = np.array(x, dtype=float), t0
-        blew = False
-        for _ in range(M * refine * intervals):
-            with np.errstate(all="ignore"):
-                k1 = f(xk, tk)
-                k2 = f(xk + hh / 2 * k1, tk + hh / 2)
-                k3 = f(xk + hh / 2 * k2, tk + hh / 2)
-                k4 = f(xk + hh * k3, tk + hh)
-                xn = xk + hh / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-                drift = np.abs(np.linalg.norm(xn[: 4 * n].reshape(n, 4), axis=1) - 1).max()
-            q0a, q0b = xk[iq], xn[iq]
-            hit = np.isfinite(q0b) & (q0b <= floor)
-            if hit.any():
-                best_i, best_t = 0, math.inf
-                for i in np.flatnonzero(hit):
-                    a, b = q0a[i], q0b[i]
-                    frac = (a - floor) / (a - b) if a != b else 1.0
-                    tc = tk + hh * min(max(frac, 0.0), 1.0)
-                    if tc < best_t:
-                        best_i, best_t = int(i), tc
-                return best_i + 1, float(best_t), float(floor)
-            if not (np.all(np.isfinite(xn)) and drift <= allowed):
-                imin = int(np.argmin(q0a))
-                sc = imin + 1 if q0a[imin] < SINGULAR_BLOWUP_Q0 else None
-                result = (sc, float(tk), float(q0a[imin]))
-                blew = True
-                break
-            xk, tk = xn, tk + hh
-        if not blew:
-            # the finer step passes: the coarse step itself was inadequate
-            return None, float(t0), float(np.min(np.asarray(x)[iq]))
-    return result
+    RK4: re-run from the last output point before the failure (at most 10 intervals)
+    with the step divided by 10 and 100: near ``q0 = 0`` the rate ``|omega| ~ 2|q'|/q0``
+    grows without bound and a fixed step loses accuracy before ``q0`` reaches the floor.
+    A finer step reaching the floor locates the event; one that passes means the coarse
+    step was inadequate (an error naming the time); if even ``h/100`` blows up right
+    after some ``q0 < SINGULAR_BLOWUP_Q0``, that spacecraft is singular there.
+    DOPRI5: a step-size underflow or non-finite state after some ``q0 <
+    SINGULAR_BLOWUP_Q0`` is the singularity; norm drift is an error (tighten rtol)."""
+    tfail, q0f, sc = float(info["tfail"]), float(info["q0fail"]), int(info["sc"])
+    reason = {1: "NaN/inf", 2: "a step-size underflow", 3: "too many steps"}.get(int(info["reason"]),
+                                                                                  "norm drift")
+    if opt.method != "rk4":
+        if int(info["status"]) == 2 and int(info["reason"]) != 3 and q0f < SINGULAR_BLOWUP_Q0:
+            return sc, tfail, q0f
+        raise SimulationError(
+            f"expected the adaptive integrator to reach tf = {opt.tf:g} s, received {reason} at "
+            f"t = {tfail:.4f} s (smallest q0 {q0f:.3g}, not near the q0 singularity); tighten "
+            "rtol/atol or set a max_step"
+        )
+    n = X.shape[1] // 7
+    x0 = X[kdone]
+    t0 = kdone * opt.interval
+    drift0 = float(np.abs(np.linalg.norm(x0[: 4 * n].reshape(n, 4), axis=1) - 1).max())
+    result: tuple[int | None, float, float] = (sc if q0f < SINGULAR_BLOWUP_Q0 else None, tfail, q0f)
+    c = cfg.copy()
+    c[CFG.index("normtol")] = opt.norm_tol + drift0  # drift before the interval is not its fault
+    for refine in (10, 100):
+        c[CFG.index("substeps")] = opt.substeps * refine
+        o = run(x0, t0, min(10, max(1, Ktot - kdone)), c)
+        st = int(o.info["status"])
+        if st == 1:
+            return int(o.info["sc"]), float(o.info["tevent"]), opt.q0_floor
+        if st == 0:  # the finer step passes: the coarse step itself was inadequate
+            result = (None, t0, float(np.min(x0[3 : 4 * n : 4])))
+            break
+        q0r = float(o.info["q0fail"])
+        result = (int(o.info["sc"]) if q0r < SINGULAR_BLOWUP_Q0 else None, float(o.info["tfail"]), q0r)
+    if result[0] is None:
+        raise SimulationError(
+            f"expected finite states with quaternion norm drift <= {opt.norm_tol:g}, received "
+            f"NaN/inf or a larger drift at t = {result[1]:.4f} s (smallest q0 just before: "
+            f"{result[2]:.3g}, not near the q0 singularity); reduce the step"
+        )
+    return result[0], result[1], result[2]
 
 
 def _finish(
     f: Formation,
     opt: SimOptions,
-    kern: Kernel,
+    spec_key: str,
     t: np.ndarray,
     X: np.ndarray,
     U: np.ndarray,
@@ -347,7 +354,7 @@ def _finish(
 ) -> SimResult:
     n = f.n
     if metrics is None:
-        om, qm = formation_metrics(kern, X)
+        om, qm = linear_metrics(X, n)
     else:
         om, qm = np.ascontiguousarray(metrics[:, 0]), np.ascontiguousarray(metrics[:, 1])
     quats, rates = unpack_state(X, n)
@@ -390,7 +397,7 @@ def _finish(
         stats=stats,
         options=opt,
         n=n,
-        spec_key=kern.spec_key,
+        spec_key=spec_key,
         names=tuple(state_names(n)),
     )
 
@@ -407,7 +414,8 @@ def _simulate_cvodes(f: Formation, opt: SimOptions, spec: Spec) -> SimResult:
     grid = np.arange(1, Ktot + 1) * opt.interval
     integ = ca.integrator(
         "fs_cvodes", "cvodes", dae, 0.0, grid,
-        {"abstol": opt.atol, "reltol": opt.rtol, "max_num_steps": 10**7, "print_stats": False},
+        {"abstol": opt.atol, "reltol": opt.rtol, "max_num_steps": 10**7, "print_stats": False,
+         **({"max_step_size": opt.max_step} if opt.max_step is not None else {})},
     )
     t0 = time.perf_counter()
     try:
@@ -443,4 +451,4 @@ def _simulate_cvodes(f: Formation, opt: SimOptions, spec: Spec) -> SimResult:
         "build_seconds": kern.compile_seconds,
     }
     minq = np.min(q0s[: max(1, X.shape[0])], axis=0)
-    return _finish(f, opt, kern, tg, X, U, minq, sing_sc, sing_t, stats)
+    return _finish(f, opt, kern.spec_key, tg, X, U, minq, sing_sc, sing_t, stats)

@@ -1,0 +1,138 @@
+"""The C compiler and the on-disk cache of compiled simulation kernels.
+
+Every compiled object lives in :func:`cache_dir` ``/kernels`` (never inside the
+repository), named ``<name>_<digest>.so`` where the digest covers the C source, the
+caller's key material (the specification's content key), the flags, the CasADi
+version and the host (``-march=native`` makes an object machine-specific).  Objects
+are written atomically, so concurrent processes never load half a file.
+
+Compiler: ``$FORMSYNC_CC``, else ``gcc``, else ``cc``; none found is reported by
+:func:`c_compiler` returning None (callers fall back to CasADi's virtual machine with
+a warning, :func:`warn_no_compiler`); ``FORMSYNC_NO_COMPILE=1`` selects the virtual
+machine on purpose (:func:`compile_enabled`).  A compiler that exists but fails raises
+:class:`~formsync_design.errors.CompilerError` (exit status 3).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+import warnings
+from pathlib import Path
+
+import casadi as ca
+
+from formsync_design.errors import CompilerError
+
+__all__ = [
+    "CFLAGS",
+    "cache_dir",
+    "compile_enabled",
+    "c_compiler",
+    "host_tag",
+    "build_shared",
+    "warn_no_compiler",
+]
+
+#: gcc flags of the kernels.  ``-march=native`` (27% faster than plain ``-O2`` here) makes
+#: the objects machine-specific, so the cache key includes the host and its CPU.
+CFLAGS = ("-O3", "-march=native", "-fPIC", "-shared")
+
+
+def cache_dir() -> Path:
+    """User cache directory of compiled kernels (never inside the repository).
+
+    ``$FORMSYNC_CACHE_DIR``, else ``$XDG_CACHE_HOME/formsync-design``, else
+    ``~/.cache/formsync-design``.
+
+    >>> cache_dir().name != ""
+    True
+    """
+    env = os.environ.get("FORMSYNC_CACHE_DIR")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "formsync-design"
+
+
+def compile_enabled() -> bool:
+    """False when ``FORMSYNC_NO_COMPILE`` is set to a true value (``1``, ``yes``, ``true``).
+
+    >>> isinstance(compile_enabled(), bool)
+    True
+    """
+    return os.environ.get("FORMSYNC_NO_COMPILE", "").strip().lower() not in ("1", "yes", "true", "on")
+
+
+def host_tag() -> str:
+    """Host name, machine and CPU model (part of every cache key).
+
+    >>> "|" in host_tag()
+    True
+    """
+    import platform
+
+    cpu = ""
+    try:
+        with open("/proc/cpuinfo") as fh:
+            cpu = next((ln for ln in fh if ln.startswith("model name")), "")
+    except OSError:  # pragma: no cover - not Linux
+        pass
+    return f"{platform.node()}|{platform.machine()}|{cpu.strip()}"
+
+
+def c_compiler() -> str | None:
+    """``$FORMSYNC_CC``, else ``gcc``/``cc`` on the path, else None."""
+    return os.environ.get("FORMSYNC_CC") or shutil.which("gcc") or shutil.which("cc")
+
+
+def warn_no_compiler(stacklevel: int = 3) -> None:
+    """The one warning for a missing C compiler (the virtual machine is used instead)."""
+    warnings.warn(
+        "no C compiler (gcc/cc) found: simulating in the CasADi virtual machine, which is "
+        "slower; install gcc, or set FORMSYNC_NO_COMPILE=1 to silence this",
+        RuntimeWarning,
+        stacklevel=stacklevel,
+    )
+
+
+def build_shared(name: str, src: str, key: str, cc: str, flags: tuple[str, ...] = CFLAGS,
+                 libs: tuple[str, ...] = ("-lm",)) -> Path:
+    """Compile ``src`` to ``cache_dir()/kernels/<name>_<digest>.so`` unless it is cached.
+
+    ``key`` is extra material of the digest (the specification's content key).
+    Raises :class:`~formsync_design.errors.CompilerError` when the compiler fails or
+    the cache folder is not writable.
+    """
+    material = "\n".join([src, key, " ".join(flags), " ".join(libs),
+                          str(getattr(ca, "__version__", "")), host_tag()])
+    digest = hashlib.sha256(material.encode()).hexdigest()[:20]
+    d = cache_dir() / "kernels"
+    so = d / f"{name}_{digest}.so"
+    if so.is_file():
+        return so
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryDirectory(dir=d) as td:
+            c = Path(td, f"{name}.c")
+            c.write_text(src)
+            tmp_so = Path(td, so.name)
+            r = subprocess.run([cc, *flags, str(c), "-o", str(tmp_so), *libs],
+                               capture_output=True, text=True)
+            if r.returncode != 0:
+                said = " ".join((r.stderr or r.stdout or "").split())[-300:]
+                raise CompilerError(
+                    f"compiling the simulation kernel {name} with {cc} failed (exit "
+                    f"{r.returncode}: {said or 'no output'}); fix or install gcc, or set "
+                    "FORMSYNC_NO_COMPILE=1 to simulate in the CasADi virtual machine"
+                )
+            os.replace(tmp_so, so)  # atomic: concurrent processes never see half a file
+    except OSError as e:
+        raise CompilerError(
+            f"building the simulation kernel {name} in {d} failed ({e.strerror or e}); set "
+            "FORMSYNC_CACHE_DIR to a writable folder, or FORMSYNC_NO_COMPILE=1"
+        ) from None
+    return so
