@@ -214,8 +214,8 @@ def _certify_paper(graph: Any, box: GainBox, given: GainBox | None, spec: Any, m
     sp_ = resolve_spec(spec)
     conds = derive_conditions(graph, sp_)
     full = {r.name: r for r in (*box.ranges, *(given.ranges if given is not None else ()))}
-    mult = {n: r for n in sp_.decl.multipliers
-            if n not in full and (r := sp_.decl.gain(n).range) is not None}
+    mult = {n: rng for n in sp_.decl.multipliers
+            if n not in full and (rng := sp_.decl.gain(n).range) is not None}
     if mult:
         r = certify_with_multipliers(conds, full, mult, margin=margin, use_sdp=use_sdp)
     else:

@@ -208,9 +208,10 @@ class SearchedLMI:
             return f"solver_error: {exc}", None
         st = str(self.problem.status)
         self.t_value = float(self.t.value) if self.t.value is not None else float("nan")
-        if st not in ("optimal", "optimal_inaccurate") or any(c.value is None for c in self.c):
+        values = [c.value for c in self.c]
+        if st not in ("optimal", "optimal_inaccurate") or any(v is None for v in values):
             return st, None
-        return st, [[float(x) for x in c.value] for c in self.c]
+        return st, [[float(x) for x in np.asarray(v)] for v in values]
 
 
 def certify_searched(mm: ModeModel, spec_: LaplacianSpectrum, box: GainBox,

@@ -288,9 +288,9 @@ def _run_cells(args: argparse.Namespace, spec: Any, box: Any, margin: Any, req: 
     ctrl, given = split_box(mm, box)
     fixed = list(given.ranges) if given is not None else []
     axes = []
-    for r in ctrl:
-        k = 1 if r.is_point else res
-        axes.append([(r.lo + (r.hi - r.lo) * Fraction(i, k), r.lo + (r.hi - r.lo) * Fraction(i + 1, k))
+    for gr in ctrl:
+        k = 1 if gr.is_point else res
+        axes.append([(gr.lo + (gr.hi - gr.lo) * Fraction(i, k), gr.lo + (gr.hi - gr.lo) * Fraction(i + 1, k))
                      for i in range(k)])
     ncell = 1
     for ax in axes:
@@ -304,7 +304,7 @@ def _run_cells(args: argparse.Namespace, spec: Any, box: Any, margin: Any, req: 
         nreq = dataclasses.replace(greq, delay=None)  # the delay is decided per cell below
         cells, counts = [], {"certified": 0, "refuted": 0, "undecided": 0, "error": 0}
         for combo in itertools.product(*axes):
-            cell = GainBox((*(GainBox.parse({r.name: c}, (r.name,)).ranges[0] for r, c in zip(ctrl, combo)),
+            cell = GainBox((*(GainBox.parse({gr.name: c}, (gr.name,)).ranges[0] for gr, c in zip(ctrl, combo)),
                             *fixed))
             r = certify_requirements(g, cell, args.certificate, nreq, spec=spec, margin=margin,
                                      spectrum=sp_, use_sdp=False)
