@@ -369,21 +369,24 @@ def _qdot(quat: np.ndarray, om: np.ndarray) -> np.ndarray:
 
 def simulate_mismatch(graph: Any, gains: Any, J_true: np.ndarray, J_hat: np.ndarray, attitudes: np.ndarray,
                       rates: np.ndarray, *, tf: float = 40.0, step: float = 0.01,
-                      output_step: float = 0.1, spec: Any = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                      output_step: float = 0.1, spec: Any = None,
+                      topology: Any = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """RK4 simulation: plant with ``J_true``, the design's controller (``K_v = 0``) with ``J_hat``,
     at a gain point of its controller gains (the derived ``a = c_qd q' + c_s s``).
 
+    ``topology``: optional ``t -> Laplacian`` (switching links), called at the start of every
+    RK4 step and held over it (switch on the step grid for full accuracy).
     Returns ``(t, quaternions (T, N, 4), rates (T, N, 3))``.  Vectorized over spacecraft.
     """
     from formsync_design.analysis.modes import mode_model
 
     g = make_graph(graph)
     cqd, cs = (float(x) for x in mode_model(spec).coefficients(gains))
-    lap = g.laplacian.astype(float)
     Jt, Jh = np.asarray(J_true, float), np.asarray(J_hat, float)
     Jt_inv = np.linalg.inv(Jt)
 
     def rhs(quat: np.ndarray, om: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        lap = cur[0]
         q, q0 = quat[:, :3], quat[:, 3]
         qd = _qdot(quat, om)
         a = cqd * qd + cs * (lap @ q)
@@ -405,8 +408,11 @@ def simulate_mismatch(graph: Any, gains: Any, J_true: np.ndarray, J_hat: np.ndar
     sub = max(1, int(math.ceil(output_step / step)))
     h = output_step / sub
     ts, qs, ws = [0.0], [quat.copy()], [om.copy()]
+    cur = [g.laplacian.astype(float)]
     for k in range(nout):
-        for _ in range(sub):
+        for j in range(sub):
+            if topology is not None:
+                cur[0] = np.asarray(topology(k * output_step + j * h), dtype=float)
             k1 = rhs(quat, om)
             k2 = rhs(quat + h / 2 * k1[0], om + h / 2 * k1[1])
             k3 = rhs(quat + h / 2 * k2[0], om + h / 2 * k2[1])
