@@ -168,3 +168,36 @@ def test_bound_is_monotone_in_the_initial_set_and_the_cell() -> None:
     c = peak_torque_bound("ring:6", {"K_o": (1.5, 1.7), "K_q": (0.35, 0.45), "beta": 0.3}, J0,
                           Fraction(1, 10), Fraction(1, 100))
     assert a.peak < b.peak and a.peak < c.peak
+
+
+@pytest.mark.slow
+def test_monte_carlo_no_certified_cell_violates_its_torque_promise() -> None:
+    """Seeded Monte-Carlo: random graphs, random cells of either design, random inertias, 6 runs
+    per cell (random gains inside the cell, initial states from corners, interior and antipodal
+    configurations of the set): every simulated peak torque and attitude stays below the
+    cell's certified bound."""
+    from tests.test_analysis_certificates import _random_graph
+
+    rng = np.random.default_rng(15015)
+    checked = 0
+    for trial in range(8):
+        g = _random_graph(rng, int(rng.integers(4, 8)))
+        spec = "pd_consensus" if trial % 2 else None
+        names = ("k_p", "k_d") if spec else ("K_o", "K_q", "beta")
+        lo = {"K_o": 0.5, "K_q": 0.1, "beta": 0.05, "k_p": 0.1, "k_d": 0.5}
+        cell = {n: (x := lo[n] * float(rng.uniform(1, 4)), x * float(rng.uniform(1.05, 1.5))) for n in names}
+        J = np.diag(rng.uniform(30, 80, 3))
+        r0, w0 = float(rng.uniform(0.02, 0.2)), float(rng.uniform(0, 0.05))
+        tb = peak_torque_bound(g, cell, J, r0, w0, spec=spec)
+        if tb.status.value != "certified":
+            continue
+        for run in range(6):
+            gains = {k: float(a + (b - a) * rng.random()) for k, (a, b) in cell.items()}
+            att, w = _initial(rng, g.n, r0, w0, run % 3)
+            res = _sim(g, gains, np.array([J] * g.n), att, w, spec=spec, tf=40.0)
+            peak = np.linalg.norm(res.u.reshape(len(res.t), g.n, 3), axis=2).max(axis=0)
+            assert np.all(peak <= np.array(tb.bound)), (trial, run, peak, tb.bound)
+            q = unpack_state(res.x, g.n)[0][..., :3]
+            assert np.linalg.norm(q, axis=2).max() <= tb.q_max
+            checked += 1
+    assert checked >= 30

@@ -361,10 +361,20 @@ def _skew_n(v: np.ndarray) -> np.ndarray:
     return s
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of ``(N, 3)`` arrays (``np.cross`` without its axis handling).
+
+    >>> _cross(np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]])).tolist()
+    [[0.0, 0.0, 1.0]]
+    """
+    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
+
+
 def _qdot(quat: np.ndarray, om: np.ndarray) -> np.ndarray:
     """``q' = (q0 I + q^x) omega / 2`` for stacked ``(N, 4)``, ``(N, 3)``."""
     q, q0 = quat[:, :3], quat[:, 3:4]
-    return 0.5 * (q0 * om + np.cross(q, om))
+    return 0.5 * (q0 * om + _cross(q, om))
 
 
 def simulate_mismatch(graph: Any, gains: Any, J_true: np.ndarray, J_hat: np.ndarray, attitudes: np.ndarray,
@@ -398,9 +408,9 @@ def simulate_mismatch(graph: Any, gains: Any, J_true: np.ndarray, J_hat: np.ndar
                   + (np.einsum("ni,nj->nij", qd, q) + np.einsum("ni,nj->nij", q, qd)) / q0[:, None, None]
                   - qq * (q0d / q0**2)[:, None, None])
         wdot_cmd = np.einsum("nij,nj->ni", Q, a) + np.einsum("nij,nj->ni", Qd, qd)
-        u = np.einsum("nij,nj->ni", Jh, wdot_cmd) + np.cross(om, np.einsum("nij,nj->ni", Jh, om))
-        wdot = np.einsum("nij,nj->ni", Jt_inv, u - np.cross(om, np.einsum("nij,nj->ni", Jt, om)))
-        v = np.concatenate([q0[:, None] * om + np.cross(q, om), -np.einsum("ni,ni->n", q, om)[:, None]], axis=1)
+        u = np.einsum("nij,nj->ni", Jh, wdot_cmd) + _cross(om, np.einsum("nij,nj->ni", Jh, om))
+        wdot = np.einsum("nij,nj->ni", Jt_inv, u - _cross(om, np.einsum("nij,nj->ni", Jt, om)))
+        v = np.concatenate([q0[:, None] * om + _cross(q, om), -np.einsum("ni,ni->n", q, om)[:, None]], axis=1)
         return 0.5 * v, wdot
 
     quat, om = np.asarray(attitudes, float).copy(), np.asarray(rates, float).copy()
