@@ -223,3 +223,36 @@ def test_pd_inertia_certificate_holds_for_monte_carlo_inertias() -> None:
         xi = np.sqrt((qt**2).sum(axis=(1, 2)) + (qd**2).sum(axis=(1, 2)))
         assert np.all(xi <= c.xi0 * np.exp(-c.rate * t) * (1 + 1e-9))
         assert np.linalg.norm(qv, axis=2).max() <= c.q_max
+
+
+def test_pd_nonlinear_simulation_settles_within_the_certified_time() -> None:
+    """The full nonlinear PD formation (CasADi simulator, no disturbance): the disagreement of
+    (q, q') is within the certified envelope sqrt(kappa) |x0| exp(-alpha t) and its simulated
+    decay rate is not slower than the certified alpha (exact class: the design's own V)."""
+    from formsync_design.analysis.performance import settling_time
+    from formsync_design.models.disturbances import no_disturbance
+    from formsync_design.sim.formation import Formation, Gains, SimOptions, unpack_state
+    from formsync_design.sim.simulator import simulate
+
+    graph = make_graph("ring:4")
+    dec = certified_decay_rate(graph, {"k_p": 0.4, "k_d": 1.6}, "exact", spec=PD)
+    rng = np.random.default_rng(8)
+    qv = rng.uniform(-0.2, 0.2, size=(4, 3))
+    att = np.hstack([qv, np.sqrt(1 - (qv**2).sum(axis=1))[:, None]])
+    rates = rng.uniform(-0.02, 0.02, size=(4, 3))
+    f = Formation(graph, np.array([np.diag([20.0, 25.0, 30.0])] * 4), att, rates, Gains(k_p=0.4, k_d=1.6),
+                  no_disturbance(4))
+    res = simulate(f, SimOptions(tf=50.0, step=0.01, output_step=0.05, compile=False), spec=PD)
+    quat, om = unpack_state(res.x, 4)
+    q = quat[..., :3]
+    qd = 0.5 * (quat[..., 3:4] * om + np.cross(q, om))
+    proj = np.eye(4) - np.ones((4, 4)) / 4
+    dq, dqd = np.einsum("mn,tna->tma", proj, q), np.einsum("mn,tna->tma", proj, qd)
+    dis = np.sqrt((dq**2).sum(axis=(1, 2)) + (dqd**2).sum(axis=(1, 2)))
+    t = res.t
+    assert np.all(dis <= math.sqrt(dec.kappa) * dis[0] * np.exp(-float(dec.alpha) * t) * (1 + 1e-6))
+    T = settling_time(dec.alpha, dec.kappa, float(dis[0]), 1e-3)
+    assert T < t[-1] and dis[t >= T].max() <= 1e-3
+    tail = (t > 5) & (t < 40)
+    slope = -np.polyfit(t[tail], np.log(dis[tail]), 1)[0]
+    assert slope >= float(dec.alpha) * 0.999, (slope, float(dec.alpha))
