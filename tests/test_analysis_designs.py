@@ -107,6 +107,11 @@ def test_pd_exact_certificate_is_the_hand_condition() -> None:
 def test_pd_nesting_on_random_graphs_and_boxes() -> None:
     """(a) => (b) => (c) => (d) for the PD baseline; (d) always certified (all positive gains);
     certified V's checked with dense matrices at random interior points."""
+    from formsync_design.analysis.modecheck import EXACT_GRID_POINTS
+    from formsync_design.certify.multipliers import GRID_POINTS, multiplier_grid
+
+    rng_eps = mode_model(PD).multiplier_ranges[0]  # paper's grid within exact's: (a) => (b) by construction
+    assert set(multiplier_grid(rng_eps, GRID_POINTS)) <= set(multiplier_grid(rng_eps, EXACT_GRID_POINTS))
     rng = np.random.default_rng(771)
     seen = {c: 0 for c in ORDER}
     for trial in range(4):
