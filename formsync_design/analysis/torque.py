@@ -36,7 +36,10 @@ each ``alpha_k x0^2 + gamma_k y0^2`` with ``alpha_k, gamma_k`` sums of positive 
 ``m_i^2 + m_i``), and ``sum_k h_k x_k0^2 <= max_k (h_k / lambda_k^c) X_c`` with
 ``X_0 = N r0^2`` and ``X_1 = min(4 |E|, lambda_max N) r0^2 >= q^T L q`` (likewise ``Y_c`` with
 ``v0 = w0 / 2 >= |q_i'(0)|``).  Every combination of ``a``, ``c`` and ``theta`` (a small grid)
-is a valid bound; the smallest is kept: this is the search over the Lyapunov weighting.
+is a valid bound; the smallest is kept: this is the search over the Lyapunov weighting.  By
+superposition (the loop is linear) the responses to the initial attitudes (``y0 = 0``:
+``a^2 <= b^2 x0^2``) and to the initial rates (``x0 = 0``: ``a^2 <= (b + d^2) y0^2``) may also be
+bounded separately, each with its own weighting, and added; the smaller bound is kept.
 The consensus mode obeys ``q_bar'' = c_qd q_bar'``: ``|q_bar'(t)| <= v0``,
 ``|q_bar(t)| <= r0 + v0 / d_lo`` (or through ``(1 + theta) x0^2 + (1 + 1/theta) y0^2 / d^2``
 together with the other modes).  Everything up to the final square roots is exact rational
@@ -152,13 +155,31 @@ def _box(mm: Any, gains: Any) -> GainBox:
     return split_box(mm, dict(zip(mm.names, gains)))[0]
 
 
-def _combined(which: str, deg: int, n: int, clusters: Any, k: Any, d: Any, xs: tuple[Fraction, Fraction],
-              ys: tuple[Fraction, Fraction]) -> Fraction:
-    """Smallest bound of ``|sum_k u_k(i) o_k(t)|^2`` over the weightings (module docstring)."""
-    best: Fraction | None = None
+_SPLIT: dict[str, tuple[Terms, Terms]] = {
+    # superposition: the response to (x0, 0) and to (0, y0) separately (a(0) = -b x0, resp. -d y0)
+    "x": ([(Fraction(1), 0, 0, 0)], [(Fraction(1), -1, 0, -1)]),
+    "y": ([(Fraction(1), 1, 0, 1)], [(Fraction(1), 0, 0, 0)]),
+    "a": ([(Fraction(1), 2, 0, 2)], [(Fraction(1), 1, 0, 1), (Fraction(1), 0, 2, 0)]),
+}
+
+
+def _best(terms: Terms, deg: int, n: int, clusters: Any, k: Any, d: Any, sums: tuple[Fraction, Fraction]) -> Fraction:
+    """Smallest ``S_a(i) max_k h_k / lambda_k^(a + c) * sums[c]`` over the weightings ``a``, ``c``."""
     svals = (1 - Fraction(1, n), Fraction(deg), Fraction(deg * deg + deg))
+    return min(svals[a] * max(_sup(terms, a + c, k, d, (cl.lo, cl.hi)) for cl in clusters) * sums[c]
+               for a in (0, 1, 2) for c in (0, 1))
+
+
+def _combined(which: str, deg: int, n: int, clusters: Any, k: Any, d: Any, xs: tuple[Fraction, Fraction],
+              ys: tuple[Fraction, Fraction]) -> float:
+    """Bound of ``|sum_k u_k(i) o_k(t)|`` (rounded up) over the weightings (module docstring): the
+    joint bound ``sqrt(S (sum alpha x0^2 + sum gamma y0^2) / w)``, or by superposition the sum of
+    the bounds of the responses to the initial attitudes and to the initial rates, each with its
+    own weighting; the smaller."""
+    best: Fraction | None = None
     for theta in (THETAS if which == "a" else THETAS[:1]):
         al, ga = _mode_terms(theta)[which]
+        svals = (1 - Fraction(1, n), Fraction(deg), Fraction(deg * deg + deg))
         for a in (0, 1, 2):
             for cx in (0, 1):
                 for cy in (0, 1):
@@ -168,7 +189,9 @@ def _combined(which: str, deg: int, n: int, clusters: Any, k: Any, d: Any, xs: t
                     if best is None or val < best:
                         best = val
     assert best is not None
-    return best
+    ax, gy = _SPLIT[which]
+    split = (_sqrt_up(_best(ax, deg, n, clusters, k, d, xs)) + _sqrt_up(_best(gy, deg, n, clusters, k, d, ys))) * _UP
+    return min(_sqrt_up(best), split)
 
 
 def _sqrt_up(x: Fraction) -> float:
@@ -219,10 +242,10 @@ def peak_torque_bound(graph: Any, gains: Any, inertias: Any, r0: Any, w0: Any, *
     e_dis = {m: _combined("x", m, n, clusters, k, d, xs, ys) for m in degs}
     y_dis = {m: _combined("y", m, n, clusters, k, d, xs, ys) for m in degs}
     a_dis = {m: _combined("a", m, n, clusters, k, d, xs, ys) for m in degs}
-    q_i = {m: min(float(r0f + v0 / d[0]) * _UP + _sqrt_up(e_dis[m]), _sqrt_up(full_q)) * _UP for m in degs}
+    q_i = {m: min(float(r0f + v0 / d[0]) * _UP + e_dis[m], _sqrt_up(full_q)) * _UP for m in degs}
     full_qd = k[1] * xs[1] + n * v0**2
-    qd_i = {m: min(float(v0) * _UP + _sqrt_up(y_dis[m]), _sqrt_up(full_qd)) * _UP for m in degs}
-    acc_i = {m: (float(d[1] * v0) * _UP + _sqrt_up(a_dis[m])) * _UP for m in degs}
+    qd_i = {m: min(float(v0) * _UP + y_dis[m], _sqrt_up(full_qd)) * _UP for m in degs}
+    acc_i = {m: (float(d[1] * v0) * _UP + a_dis[m]) * _UP for m in degs}
     r_max = max(q_i.values())
     if r_max >= 1:
         return replace(nope, q_max=r_max, reason=f"the attitude bound |q_i(t)| <= {r_max:.4g} does not exclude "
