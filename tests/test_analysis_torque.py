@@ -76,7 +76,8 @@ def test_controller_structure_matches_simulator_torque() -> None:
 
 
 def test_mode_energies_never_increase() -> None:
-    """The per-mode inequalities of the bound against exact matrix exponentials of the mode."""
+    """The per-mode inequalities of the bound against exact matrix exponentials of the mode
+    (including the sigma bound |x| <= |y0| / d of the response to an initial rate)."""
     rng = np.random.default_rng(7)
     for _ in range(40):
         d, b = rng.uniform(0.05, 4), rng.uniform(0.01, 6)
@@ -89,6 +90,8 @@ def test_mode_energies_never_increase() -> None:
             assert x * x <= x0 * x0 + y0 * y0 / b + 1e-9
             assert y * y <= b * x0 * x0 + y0 * y0 + 1e-9
             assert a * a <= b * y0 * y0 + a0 * a0 + 1e-9
+            xs, _ = expm(A * t) @ [0.0, y0]   # the response to the initial rate alone
+            assert abs(xs) <= abs(y0) / d + 1e-9
 
 
 CELLS = [

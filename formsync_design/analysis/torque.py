@@ -39,7 +39,10 @@ each ``alpha_k x0^2 + gamma_k y0^2`` with ``alpha_k, gamma_k`` sums of positive 
 is a valid bound; the smallest is kept: this is the search over the Lyapunov weighting.  By
 superposition (the loop is linear) the responses to the initial attitudes (``y0 = 0``:
 ``a^2 <= b^2 x0^2``) and to the initial rates (``x0 = 0``: ``a^2 <= (b + d^2) y0^2``) may also be
-bounded separately, each with its own weighting, and added; the smaller bound is kept.
+bounded separately, each with its own weighting, and added; the smaller bound is kept.  From
+``(0, y0)`` the mode's attitude also obeys ``|x(t)| <= |y0| / d``: ``sigma = d x + y`` has
+``sigma' = -b x``, so ``sigma^2 + b x^2`` never increases, ``|sigma| <= |y0|``, and
+``x' = -d x + sigma`` (tight for overdamped modes, where ``y0^2 / b`` is not).
 The consensus mode obeys ``q_bar'' = c_qd q_bar'``: ``|q_bar'(t)| <= v0``,
 ``|q_bar(t)| <= r0 + v0 / d_lo`` (or through ``(1 + theta) x0^2 + (1 + 1/theta) y0^2 / d^2``
 together with the other modes).  Everything up to the final square roots is exact rational
@@ -155,19 +158,23 @@ def _box(mm: Any, gains: Any) -> GainBox:
     return split_box(mm, dict(zip(mm.names, gains)))[0]
 
 
-_SPLIT: dict[str, tuple[Terms, Terms]] = {
-    # superposition: the response to (x0, 0) and to (0, y0) separately (a(0) = -b x0, resp. -d y0)
-    "x": ([(Fraction(1), 0, 0, 0)], [(Fraction(1), -1, 0, -1)]),
-    "y": ([(Fraction(1), 1, 0, 1)], [(Fraction(1), 0, 0, 0)]),
-    "a": ([(Fraction(1), 2, 0, 2)], [(Fraction(1), 1, 0, 1), (Fraction(1), 0, 2, 0)]),
+_SPLIT: dict[str, tuple[list[Terms], list[Terms]]] = {
+    # superposition: the response to (x0, 0) and to (0, y0) separately (a(0) = -b x0, resp. -d y0);
+    # each a list of alternative per-mode bounds (the smallest is taken per eigenvalue cluster):
+    # from (0, y0) also |x(t)| <= sup |sigma| / d with sigma = d x + y, sigma' = -b x, sigma^2 <= y0^2
+    "x": ([[(Fraction(1), 0, 0, 0)]], [[(Fraction(1), -1, 0, -1)], [(Fraction(1), 0, -2, 0)]]),
+    "y": ([[(Fraction(1), 1, 0, 1)]], [[(Fraction(1), 0, 0, 0)]]),
+    "a": ([[(Fraction(1), 2, 0, 2)]], [[(Fraction(1), 1, 0, 1), (Fraction(1), 0, 2, 0)]]),
 }
 
 
-def _best(terms: Terms, deg: int, n: int, clusters: Any, k: Any, d: Any, sums: tuple[Fraction, Fraction]) -> Fraction:
-    """Smallest ``S_a(i) max_k h_k / lambda_k^(a + c) * sums[c]`` over the weightings ``a``, ``c``."""
+def _best(alts: list[Terms], deg: int, n: int, clusters: Any, k: Any, d: Any,
+          sums: tuple[Fraction, Fraction]) -> Fraction:
+    """Smallest ``S_a(i) max_k h_k / lambda_k^(a + c) * sums[c]`` over the weightings ``a``, ``c``
+    (``h_k``: per cluster the smallest of the alternative bounds)."""
     svals = (1 - Fraction(1, n), Fraction(deg), Fraction(deg * deg + deg))
-    return min(svals[a] * max(_sup(terms, a + c, k, d, (cl.lo, cl.hi)) for cl in clusters) * sums[c]
-               for a in (0, 1, 2) for c in (0, 1))
+    return min(svals[a] * max(min(_sup(t, a + c, k, d, (cl.lo, cl.hi)) for t in alts) for cl in clusters)
+               * sums[c] for a in (0, 1, 2) for c in (0, 1))
 
 
 def _combined(which: str, deg: int, n: int, clusters: Any, k: Any, d: Any, xs: tuple[Fraction, Fraction],
@@ -239,10 +246,13 @@ def peak_torque_bound(graph: Any, gains: Any, inertias: Any, r0: Any, w0: Any, *
     lam2 = sp_.lambda_2_lo
     full_q = min((1 + t) * n * r0f**2 + max((1 + 1 / t) / d[0] ** 2, 1 / (k[0] * lam2)) * n * v0**2
                  for t in THETAS)
+    # by superposition: every mode (the consensus one too) from (x0, 0) keeps |x| <= |x0|, from
+    # (0, y0) keeps |x| <= |y0| / d (the sigma bound above)
+    split_q = (_sqrt_up(n * r0f**2) + _sqrt_up(n * v0**2 / d[0] ** 2)) * _UP
     e_dis = {m: _combined("x", m, n, clusters, k, d, xs, ys) for m in degs}
     y_dis = {m: _combined("y", m, n, clusters, k, d, xs, ys) for m in degs}
     a_dis = {m: _combined("a", m, n, clusters, k, d, xs, ys) for m in degs}
-    q_i = {m: min(float(r0f + v0 / d[0]) * _UP + e_dis[m], _sqrt_up(full_q)) * _UP for m in degs}
+    q_i = {m: min(float(r0f + v0 / d[0]) * _UP + e_dis[m], _sqrt_up(full_q), split_q) * _UP for m in degs}
     full_qd = k[1] * xs[1] + n * v0**2
     qd_i = {m: min(float(v0) * _UP + y_dis[m], _sqrt_up(full_qd)) * _UP for m in degs}
     acc_i = {m: (float(d[1] * v0) * _UP + a_dis[m]) * _UP for m in degs}
