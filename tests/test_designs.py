@@ -498,5 +498,8 @@ def test_cli_design_for_the_pd_design_holds_the_multiplier_in_the_box():
     lo, hi = doc["largest_certified_box"]["eps"]
     assert lo == hi == doc["gains"]["eps"]  # one Lyapunov candidate for the whole box
     assert doc["box_certificate"]["status"] == "certified"
-    r = _formsync("design", "--design", PD, "--graph", "star:6", "--min-delay", "0.1")
-    assert r.returncode == 2 and "k_p, k_d, eps" in r.stderr
+    # the constrained design takes the PD design's own gains (issue 15: any design)
+    r = _formsync("design", "--design", PD, "--graph", "star:6", "--min-delay", "0.1", "--grid", "2",
+                  "--format", "json")
+    assert r.returncode == 0, r.stderr
+    assert set(json.loads(r.stdout)["gains"]) == {"k_p", "k_d"}

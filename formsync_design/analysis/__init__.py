@@ -1,4 +1,6 @@
-"""Certificates that answer design questions (issue 15).
+"""Certificates that answer design questions (issue 15), for any design whose closed loop the
+engine derives (in its own controller gains: liang2016's ``K_o, K_q, beta``, pd_consensus's
+``k_p, k_d``; pass ``spec=``).
 
 * :func:`certify` - one of four certificates (``paper``, ``exact``, ``searched``,
   ``spectral``) on a gain box (:mod:`.certificates`);
@@ -9,7 +11,8 @@
 * :func:`design_with_constraints` - gains maximising the certified decay rate (:mod:`.design`);
 * :func:`certify_requirements` - a certificate plus decay/settle/delay/torque/graph-set
   requirements on a box (:mod:`.requirements`, used by the CLI);
-* :func:`peak_torque_bound` - certified peak torque from an initial set (:mod:`.torque`);
+* :func:`peak_torque_bound`, :func:`torque_limit_check` - certified peak torque from an initial
+  set, at a gain point or over a whole gain box (:mod:`.torque`);
 * :func:`certify_dwell_time` - dwell time over a graph set without a common ``V`` (:mod:`.dwell`);
 * :func:`certify_inertia_uncertainty`, :func:`simulate_mismatch` - inertia mismatch (:mod:`.inertia`);
 * :func:`laplacian_spectrum` - rigorous eigenvalue enclosures (:mod:`.spectrum`);
@@ -57,7 +60,12 @@ from formsync_design.analysis.switching import (
     graphs_minus_links,
     simulate_switching,
 )
-from formsync_design.analysis.torque import TorqueBound, peak_torque_bound
+from formsync_design.analysis.torque import (
+    TorqueBound,
+    TorqueCheck,
+    peak_torque_bound,
+    torque_limit_check,
+)
 
 __all__ = [
     "Certificate",
@@ -90,7 +98,9 @@ __all__ = [
     "RequirementResult",
     "certify_requirements",
     "TorqueBound",
+    "TorqueCheck",
     "peak_torque_bound",
+    "torque_limit_check",
     "DwellTime",
     "certify_dwell_time",
     "InertiaBox",

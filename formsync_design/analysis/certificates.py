@@ -1,21 +1,26 @@
-"""Four certificates of a gain box ``(K_o, K_q, beta)``, one comparison.
+"""Four certificates of a gain box of any design, one comparison.
 
-For a design whose closed loop the engine derives (default: Liang et al. 2016),
-:func:`certify` decides a gain box with one of
+For a design whose closed loop the engine derives (default: Liang et al. 2016, whose box
+is ``(K_o, K_q, beta)``; the PD baseline's is ``(k_p, k_d)``), :func:`certify` decides a
+gain box of the design's controller gains with one of
 
 ``paper``
     the paper's per-spacecraft sufficient test (each ``Theta_i > 0`` and
     ``Pi > 0``), by :func:`formsync_design.certify.engine.certify_box` on
     :func:`formsync_design.derive.conditions.derive_conditions` (today's test).
 ``exact``
-    the paper's *own* Lyapunov function ``V = sum_i V_i`` on the whole graph:
+    the specification's *own* Lyapunov function ``V = sum_i V_i`` on the whole graph:
     ``V > 0`` on the disagreement subspace and ``V' < 0`` along the nominal
     loop, decided per Laplacian mode (:mod:`.modes`): ``P_k > 0`` and
     ``A_k^T P_k + P_k A_k < 0`` for every eigenvalue ``lambda_k > 0``.  Both
     matrices are multi-affine in the gains (checked symbolically), so for fixed
     ``x`` the quadratic form is multi-affine and its extremes over the box are
-    at the vertices: checking the vertices is exact.
-``searched``
+    at the vertices: checking the vertices is exact.  A multiplier of the candidate
+    (the PD baseline's ``eps``) is used as given, or else chosen from a geometric grid
+    over its declared range (:func:`.modecheck.multiplier_candidates`, containing the
+    ``paper`` certificate's grid); a value that fails refutes that candidate only
+    (``undecided``), unless the loop itself is unstable at a vertex.
+``searched`` (:mod:`.searched`)
     a searched quadratic ``V`` with the switching structure: per mode
     ``P_k = [[p_k(g), rho_s lambda], [rho_s lambda, rho_qd]]`` (the gradient in
     ``q_i'`` is the controller's switching argument, so ``-K_v arg^T sgn(arg)``
@@ -34,7 +39,9 @@ For a design whose closed loop the engine derives (default: Liang et al. 2016),
     = 2 (beta lambda_max - K_o) vec^T D vec`` for the top eigenvector), so the
     remaining gap to ``spectral`` needs a non-quadratic function or a
     boundary-layer ultimate-bound argument that does not rely on the switching
-    term being dissipative.
+    term being dissipative.  A design without a switching term (``c_sigma = 0``) has no
+    structure to keep: its class is every quadratic ``V`` per mode (free ``p`` and ``r``),
+    the natural specialisation.
 ``spectral``
     the true stability region of the nominal linear loop: every
     ``det(s I - A_k)`` (derived) Hurwitz, by the Routh-Hurwitz conditions
@@ -48,125 +55,61 @@ Every verdict is exact rational arithmetic over rigorous eigenvalue enclosures
 from __future__ import annotations
 
 import time
-from fractions import Fraction
-from functools import lru_cache
 from typing import Any
 
-import numpy as np
-import sympy as sp
-
-from formsync_design.analysis.modes import (
-    LAMBDA,
-    P_FREE,
-    ModeModel,
-    mode_model,
-    poly_coeffs_in_lambda,
-    poly_mul,
+from formsync_design.analysis.modecheck import (
+    GAINS,
+    box_poly_range,
+    check_pd_2x2,
+    check_pd_coeffs,
+    entry_coeffs,
+    gain_subs,
+    hurwitz_conditions,
+    lam_dict,
+    multi_affine,
+    multiplier_candidates,
+    split_box,
+    vertex_dict,
 )
+from formsync_design.analysis.modes import ModeModel, mode_model
 from formsync_design.analysis.results import Certificate, CertificateResult, Verdict
-from formsync_design.analysis.spectrum import (
-    LaplacianSpectrum,
-    SpectrumCluster,
-    laplacian_spectrum,
-    poly_range,
+from formsync_design.analysis.searched import (
+    SearchedLMI,
+    certify_searched,
+    lp_coeffs,
+    monomial_value,
+    monomials,
+    with_p,
 )
+from formsync_design.analysis.spectrum import LaplacianSpectrum, laplacian_spectrum
 from formsync_design.errors import InputError
 from formsync_design.gains import GainBox
 from formsync_design.graphs import make_graph
 
 __all__ = ["GAINS", "certify", "check_pd_2x2", "hurwitz_conditions", "box_poly_range", "SearchedLMI",
            "check_pd_coeffs", "entry_coeffs", "lp_coeffs", "with_p", "monomials", "monomial_value",
-           "gain_subs"]
-
-GAINS = ("K_o", "K_q", "beta")
-
-
-def gain_subs(mm: ModeModel, vertex: tuple[Fraction, ...]) -> dict:
-    return dict(zip(mm.gains, vertex))
-
-
-def _psub(a: list[Fraction], b: list[Fraction]) -> list[Fraction]:
-    n = max(len(a), len(b))
-    return [(a[i] if i < len(a) else Fraction(0)) - (b[i] if i < len(b) else Fraction(0)) for i in range(n)]
-
-
-def check_pd_coeffs(
-    m11: list[Fraction], m12: list[Fraction], m22: list[Fraction], cluster: SpectrumCluster
-) -> tuple[int, str, tuple[Fraction, Fraction]]:
-    """Decide ``[[m11, m12], [m12, m22]](lambda) > 0`` over the cluster's enclosure.
-
-    Entries are exact coefficient lists in ascending powers of ``lambda``.
-    Returns ``(+1 | -1 | 0, which, range)``: ``+1`` certified (``m11 > 0`` and
-    ``det > 0`` over the whole enclosure), ``-1`` refuted (one of them ``<= 0``
-    over the whole enclosure, hence at the true eigenvalue), ``0`` undecided;
-    ``which`` names the deciding quantity and ``range`` its exact enclosure.
-
-    >>> from formsync_design.analysis.spectrum import SpectrumCluster
-    >>> c = SpectrumCluster(Fraction(2), Fraction(2), 1)
-    >>> one, lam = [Fraction(1)], [Fraction(0), Fraction(1)]
-    >>> check_pd_coeffs(lam, one, one, c)
-    (1, 'det', (Fraction(1, 1), Fraction(1, 1)))
-    >>> check_pd_coeffs(one, lam, one, c)[0]
-    -1
-    """
-    r11 = poly_range(m11, cluster.lo, cluster.hi)
-    det = poly_range(_psub(poly_mul(m11, m22), poly_mul(m12, m12)), cluster.lo, cluster.hi)
-    if r11[1] <= 0:
-        return -1, "M11", r11
-    if det[1] <= 0:
-        return -1, "det", det
-    if r11[0] > 0 and det[0] > 0:
-        return 1, "det", det
-    return 0, "det" if det[0] <= 0 else "M11", det if det[0] <= 0 else r11
-
-
-def entry_coeffs(expr: sp.Expr, sub: dict) -> list[Fraction]:
-    """Coefficients in ``lambda`` of an entry at rational gains (cached: grid cells share vertices)."""
-    return list(_entry_coeffs_cached(sp.sympify(expr), tuple(sub.items())))
-
-
-@lru_cache(maxsize=65536)
-def _entry_coeffs_cached(expr: sp.Expr, items: tuple) -> tuple[Fraction, ...]:
-    return tuple(poly_coeffs_in_lambda(expr, dict(items)))
-
-
-def check_pd_2x2(m: sp.Matrix, subs: dict, cluster: SpectrumCluster) -> tuple[int, str, tuple[Fraction, Fraction]]:
-    """:func:`check_pd_coeffs` for a symbolic 2x2 matrix in ``lambda`` at rational gains ``subs``.
-
-    >>> from formsync_design.analysis.spectrum import SpectrumCluster
-    >>> c = SpectrumCluster(Fraction(2), Fraction(2), 1)
-    >>> check_pd_2x2(sp.Matrix([[LAMBDA, 1], [1, 1]]), {}, c)[0]
-    1
-    """
-    return check_pd_coeffs(entry_coeffs(m[0, 0], subs), entry_coeffs(m[0, 1], subs),
-                           entry_coeffs(m[1, 1], subs), cluster)
-
-
-def _multi_affine(mats: list[sp.Matrix], gains: tuple[sp.Symbol, ...]) -> bool:
-    return all(sp.degree(e, g) <= 1 for mat in mats for e in mat for g in gains if e != 0)
-
-
-def _lam(c: SpectrumCluster) -> dict[str, Any]:
-    return {"lo": c.lo, "hi": c.hi, "multiplicity": c.multiplicity}
-
-
-def _vertex_dict(v: tuple[Fraction, ...]) -> dict[str, Fraction]:
-    return dict(zip(GAINS, v))
+           "gain_subs", "exact_candidates", "certify_exact_with"]
 
 
 # ---------------------------------------------------------------------------
-# (b) exact: the paper's V on the whole graph
+# (b) exact: the specification's V on the whole graph
 # ---------------------------------------------------------------------------
-def _certify_exact(mm: ModeModel, spec_: LaplacianSpectrum, box: GainBox) -> tuple[Verdict, str, Any, dict]:
+def certify_exact_with(mm: ModeModel, spec_: LaplacianSpectrum, box: GainBox,
+                       mult: dict) -> tuple[Verdict, str, Any, dict]:
+    """The exact certificate with the multipliers ``mult`` (``{symbol: GainRange}``, a range
+    is a box dimension of the check)."""
     p = mm.p_paper
     f = mm.vdot(p)
-    if not _multi_affine([p, f], mm.gains):
+    syms = (*mm.gains, *mult)
+    names = (*mm.names, *(s.name for s in mult))
+    full = GainBox((*box.ranges, *mult.values())) if mult else box
+    if not multi_affine([p, f], syms):
         return (Verdict.UNDECIDED, "the Lyapunov matrices are not multi-affine in the gains; "
                 "vertex checks would not be exact", None, {})
     checks = 0
     undecided = None
-    for v in box.vertices():
-        sub = gain_subs(mm, v)
+    for v in full.vertices():
+        sub = dict(zip(syms, v))
         polys = [(name, [entry_coeffs(mat[i, j], sub) for i, j in ((0, 0), (0, 1), (1, 1))])
                  for name, mat in (("V > 0", p), ("V' < 0", -f))]
         for c in spec_.clusters:
@@ -174,9 +117,9 @@ def _certify_exact(mm: ModeModel, spec_: LaplacianSpectrum, box: GainBox) -> tup
                 st, which, rng = check_pd_coeffs(ent[0], ent[1], ent[2], c)
                 checks += 1
                 if st < 0:
-                    w = {"gains": _vertex_dict(v), "lambda": _lam(c), "condition": name,
+                    w = {"gains": vertex_dict(names, v), "lambda": lam_dict(c), "condition": name,
                          "quantity": which, "upper_bound": rng[1]}
-                    return (Verdict.REFUTED, f"the paper's V fails {name} at a vertex for the mode "
+                    return (Verdict.REFUTED, f"the specification's V fails {name} at a vertex for the mode "
                             f"lambda in [{float(c.lo):g}, {float(c.hi):g}]", w, {"checks": checks})
                 if st == 0 and undecided is None:
                     undecided = (v, c, name)
@@ -184,235 +127,55 @@ def _certify_exact(mm: ModeModel, spec_: LaplacianSpectrum, box: GainBox) -> tup
         v, c, name = undecided
         return (Verdict.UNDECIDED, f"{name} could not be decided over the eigenvalue enclosure "
                 f"[{float(c.lo):g}, {float(c.hi):g}]", None, {"checks": checks})
-    return (Verdict.CERTIFIED, "the paper's V > 0 and V' < 0 on the disagreement subspace at every "
-            "vertex and mode (multi-affine in the gains: exact for the box)", None, {"checks": checks})
+    ev: dict[str, Any] = {"checks": checks}
+    if mult:
+        ev["multipliers"] = {s.name: (r.lo if r.is_point else [r.lo, r.hi]) for s, r in mult.items()}
+    return (Verdict.CERTIFIED, "the specification's V > 0 and V' < 0 on the disagreement subspace at every "
+            "vertex and mode (multi-affine in the gains: exact for the box)", None, ev)
 
 
-# ---------------------------------------------------------------------------
-# (c) searched: vertex LMIs + exact re-check, or an exact dual certificate
-# ---------------------------------------------------------------------------
-def monomials(box: GainBox) -> list[tuple[int, ...]]:
-    """Exponent vectors of the multi-affine monomials over the box's free axes."""
-    free = [not r.is_point for r in box.ranges]
-    out: list[tuple[int, ...]] = [()]
-    for fr in free:
-        out = [e + (0,) for e in out] + ([e + (1,) for e in out] if fr else [])
-    return out
+def exact_candidates(mm: ModeModel, given: GainBox | None) -> list[dict]:
+    """The multiplier values the exact certificate tries, in order (``[{}]`` without multipliers)."""
+    return multiplier_candidates(mm, given)
 
 
-def monomial_value(e: tuple[int, ...], v: tuple[Any, ...]) -> Any:
-    r: Any = 1
-    for k, x in zip(e, v):
-        if k:
-            r = r * x
-    return r
-
-
-def _class_dual(mm: ModeModel, spec_: LaplacianSpectrum, box: GainBox) -> dict | None:
-    """An exact diagonal dual certificate refuting the searched class, if one exists."""
-    f = mm.vdot(mm.p_class)
-    fixed = [i for i in range(2) if not f[i, i].has(P_FREE)]
-    pqd = mm.p_class[1, 1]
-    for v in box.vertices():
-        sub = gain_subs(mm, v)
-        for c in spec_.clusters:
-            lo22 = poly_range(poly_coeffs_in_lambda(pqd, sub), c.lo, c.hi)
-            if lo22[1] <= 0:
-                return {"gains": _vertex_dict(v), "lambda": _lam(c), "condition": "P_22 > 0",
-                        "Z": "W = e_2 e_2^T", "value_upper_bound": lo22[1]}
-            for i in fixed:
-                lo, _ = poly_range(poly_coeffs_in_lambda(f[i, i], sub), c.lo, c.hi)
-                if lo >= 0:
-                    return {"gains": _vertex_dict(v), "lambda": _lam(c), "condition": "V' < 0",
-                            "Z": f"e_{i + 1} e_{i + 1}^T", "F_entry": str(f[i, i]),
-                            "value_lower_bound": lo}
-    return None
-
-
-class SearchedLMI:
-    """The vertex LMIs of the searched class for one box, built once (cvxpy DPP).
-
-    Unknowns: coefficients ``c_e`` of ``p(g) = lambda * sum_e c_e g^e`` (the
-    multi-affine monomials of the box's free gains).  :meth:`solve` maximises
-    ``t`` subject to, at every vertex, ``T P T >= t I`` and ``-T F T >= t I``
-    with ``T = diag(1/lambda, 1)`` (a congruence, for conditioning), for one
-    eigenvalue.  The answer is a *hint*: :func:`certify` rounds it and
-    re-checks it exactly.
-    """
-
-    def __init__(self, mm: ModeModel, box: GainBox) -> None:
-        import cvxpy as cp
-
-        self.monos = monomials(box)
-        self.vertices = box.vertices()
-        f = mm.vdot(mm.p_class)
-        mats = [mm.p_class.subs(P_FREE, 0), mm.p_class.diff(P_FREE), f.subs(P_FREE, 0), f.diff(P_FREE)]
-        self._fns = [sp.lambdify((LAMBDA, *mm.gains), m, "numpy") for m in mats]
-        self.c = cp.Variable(len(self.monos))
-        self.t = cp.Variable()
-        self.params: list[list[Any]] = []
-        cons = [self.t <= 1, cp.abs(self.c) <= 1e4]
-        for v in self.vertices:
-            ps = [cp.Parameter((2, 2), symmetric=True) for _ in range(4)]
-            self.params.append(ps)
-            pv = sum(self.c[j] * float(monomial_value(e, v)) for j, e in enumerate(self.monos))
-            cons += [ps[0] + pv * ps[1] - self.t * np.eye(2) >> 0,
-                     -(ps[2] + pv * ps[3]) - self.t * np.eye(2) >> 0]
-        self.problem = cp.Problem(cp.Maximize(self.t), cons)
-
-    def solve(self, lam: float, alpha: float = 0.0) -> tuple[str, list[float] | None]:
-        """Solve for one eigenvalue: ``(cvxpy status, coefficients or None)``.
-
-        ``alpha > 0`` asks for the decay rate ``V' <= -2 alpha V``; the status
-        is then ``"optimal"`` with ``t > 0`` only when that rate is feasible
-        (:attr:`t` holds the optimum).
-        """
-        import cvxpy as cp
-
-        from formsync_design.certify.engine import CLARABEL_OPTIONS
-
-        tm = np.diag([1.0 / lam, 1.0])
-        for v, ps in zip(self.vertices, self.params):
-            g = [float(x) for x in v]
-            ms = []
-            for k, fn in enumerate(self._fns):
-                m = tm @ np.array(fn(lam, *g), dtype=float) @ tm
-                if k in (1, 3):
-                    m = m * lam  # p = lambda * sum c_e g^e
-                ms.append((m + m.T) / 2)
-            ms[2] = ms[2] + 2 * alpha * ms[0]  # F + 2 alpha P (decay rate)
-            ms[3] = ms[3] + 2 * alpha * ms[1]
-            for par, m in zip(ps, ms):
-                par.value = m
-        try:
-            self.problem.solve(solver=cp.CLARABEL, **CLARABEL_OPTIONS)
-        except (cp.error.SolverError, ValueError) as exc:  # pragma: no cover - solver failure
-            return f"solver_error: {exc}", None
-        st = str(self.problem.status)
-        self.t_value = float(self.t.value) if self.t.value is not None else float("nan")
-        if st not in ("optimal", "optimal_inaccurate") or self.c.value is None:
-            return st, None
-        return st, [float(x) for x in self.c.value]
-
-
-def lp_coeffs(expr: sp.Expr, sub: dict) -> dict[tuple[int, int], Fraction]:
-    """Exact coefficients of an entry in ``(lambda, P_FREE)`` at rational gains."""
-    return dict(_lp_coeffs_cached(sp.sympify(expr), tuple(sub.items())))
-
-
-@lru_cache(maxsize=65536)
-def _lp_coeffs_cached(expr: sp.Expr, items: tuple) -> tuple:
-    sub = dict(items)
-    e = sp.expand(sp.sympify(expr).xreplace({k: sp.Rational(v.numerator, v.denominator) for k, v in sub.items()}))
-    if e == 0:
-        return ()
-    return tuple(((int(i), int(j)), Fraction(int(sp.Rational(c).p), int(sp.Rational(c).q)))
-                 for (i, j), c in sp.Poly(e, LAMBDA, P_FREE).terms())
-
-
-def with_p(d: dict[tuple[int, int], Fraction], pi: Fraction) -> list[Fraction]:
-    """Coefficients in ``lambda`` after ``P_FREE = lambda * pi``."""
-    deg = max((i + j for i, j in d), default=0)
-    out = [Fraction(0)] * (deg + 1)
-    for (i, j), c in d.items():
-        out[i + j] += c * pi**j
-    return out
-
-
-def _certify_searched(mm: ModeModel, spec_: LaplacianSpectrum, box: GainBox,
-                      seed_with_paper: bool = True) -> tuple[Verdict, str, Any, dict]:
-    if not _multi_affine([mm.a, mm.p_class.subs(P_FREE, 0)], mm.gains):
-        return Verdict.UNDECIDED, "the closed loop is not multi-affine in the gains", None, {}
-    dual = _class_dual(mm, spec_, box)
-    if dual is not None:
-        return (Verdict.REFUTED, "an exact dual certificate shows that no quadratic V with the "
-                "switching structure exists at a vertex of the box", dual, {"dual": True})
-    if seed_with_paper and mm.aligned:
-        st, _, _, ev = _certify_exact(mm, spec_, box)
+def _certify_exact(mm: ModeModel, spec_: LaplacianSpectrum, box: GainBox,
+                   given: GainBox | None) -> tuple[Verdict, str, Any, dict]:
+    cands = exact_candidates(mm, given)
+    searched = [s.name for s in mm.multipliers if given is None or s.name not in given.names]
+    if not searched:
+        st, reason, w, ev = certify_exact_with(mm, spec_, box, cands[0])
+        if st is Verdict.REFUTED and mm.multipliers:
+            reason += (f" (with the given multiplier {', '.join(s.name for s in mm.multipliers)}: "
+                       "refutes that candidate only)")
+        return st, reason, w, ev
+    last: tuple[Verdict, str, Any, dict] | None = None
+    checks = 0
+    for cand in cands:
+        st, reason, w, ev = certify_exact_with(mm, spec_, box, cand)
+        checks += int(ev.get("checks", 0))
         if st is Verdict.CERTIFIED:
-            return (Verdict.CERTIFIED, "the specification's own V is a member of the class and passes "
-                    "the exact re-check (no search needed)", None, {"member": "paper V", **ev})
-    monos = monomials(box)
-    statuses: dict[str, int] = {}
-    coeffs_out = []
-    f = mm.vdot(mm.p_class)
-    lmi = SearchedLMI(mm, box)
-    ents = {v: [(name, [lp_coeffs(mat[i, j], gain_subs(mm, v)) for i, j in ((0, 0), (0, 1), (1, 1))])
-                for name, mat in (("V > 0", mm.p_class), ("V' < 0", -f))] for v in box.vertices()}
-    for c in spec_.clusters:
-        status, coeffs = lmi.solve(c.mid)
-        statuses[status] = statuses.get(status, 0) + 1
-        if coeffs is None:
-            return (Verdict.UNDECIDED, f"the LMI solve for the mode lambda ~ {c.mid:g} ended "
-                    f"'{status}' and no dual certificate was found", None, {"solver": statuses})
-        q = [Fraction(x).limit_denominator(10**8) for x in coeffs]
-        coeffs_out.append({"lambda": _lam(c), "coefficients": q})
-        for v in box.vertices():
-            pv = sum((qj * monomial_value(e, v) for qj, e in zip(q, monos)), Fraction(0))
-            for name, ent in ents[v]:
-                ok, _, _ = check_pd_coeffs(with_p(ent[0], pv), with_p(ent[1], pv), with_p(ent[2], pv), c)
-                if ok <= 0:
-                    return (Verdict.UNDECIDED, f"the searched V (rounded) fails the exact re-check of "
-                            f"{name} for the mode lambda ~ {c.mid:g}; no dual certificate either",
-                            None, {"solver": statuses})
-    return (Verdict.CERTIFIED, "a quadratic V with the switching structure, multi-affine in the gains, "
-            "passes the exact re-check at every vertex and mode", None,
-            {"solver": statuses, "p_over_lambda": coeffs_out if len(coeffs_out) <= 8 else coeffs_out[:8],
-             "monomials": ["*".join(g for g, k in zip(GAINS, e) if k) or "1" for e in monos]})
+            chosen = ", ".join(f"{s.name} = {float(r.lo):g}" for s, r in cand.items() if s.name in searched)
+            return (st, f"{reason}; multiplier {chosen} (grid value, {len(cands)} on the grid)", None,
+                    {**ev, "checks": checks})
+        last = (st, reason, w, ev)
+    assert last is not None
+    from formsync_design.analysis.searched import unstable_vertex
+
+    bad = unstable_vertex(mm, spec_, box)
+    if bad is not None:
+        return (Verdict.REFUTED, "the nominal loop is not asymptotically stable at a vertex: no Lyapunov "
+                "function exists there, whatever the multiplier", bad, {"checks": checks})
+    rng = "; ".join(f"{s.name} in {r}" for s, r in zip(mm.multipliers, mm.multiplier_ranges)
+                    if s.name in searched)
+    return (Verdict.UNDECIDED, f"no multiplier value tried certifies the box ({rng}, {len(cands)} grid "
+            f"values; last: {last[1]}); a failing value refutes that candidate only", None,
+            {"checks": checks})
 
 
 # ---------------------------------------------------------------------------
 # (d) spectral: Routh-Hurwitz per mode
 # ---------------------------------------------------------------------------
-def hurwitz_conditions(charpoly: tuple[sp.Expr, ...]) -> list[sp.Expr]:
-    """Routh-Hurwitz conditions (all ``> 0``) of a real polynomial, leading coefficient first.
-
-    The coefficients and the leading principal minors of the Hurwitz matrix.
-
-    >>> s = sp.Symbol("a")
-    >>> hurwitz_conditions((1, 2 * s, 3))
-    [1, 2*a, 3, 6*a]
-    """
-    a = list(charpoly)
-    n = len(a) - 1
-    h = sp.zeros(n, n)
-    for i in range(n):
-        for j in range(n):
-            k = 2 * (j + 1) - (i + 1)
-            if 0 <= k <= n:
-                h[i, j] = a[k]
-    minors = [sp.expand(h[:k, :k].det()) for k in range(1, n + 1)]
-    out: list[sp.Expr] = []
-    for e in [*a, *minors]:
-        e = sp.expand(e)
-        if e not in out:
-            out.append(e)
-    return out
-
-
-def box_poly_range(expr: sp.Expr, mm: ModeModel, box: GainBox, c: SpectrumCluster) -> tuple[Fraction, Fraction]:
-    """Exact enclosure of a polynomial in the gains and ``lambda`` over the box and enclosure.
-
-    All variables are non-negative, so each monomial is monotone in each.
-    """
-    gens = (*mm.gains, LAMBDA)
-    lo_v = [r.lo for r in box.ranges] + [c.lo]
-    hi_v = [r.hi for r in box.ranges] + [c.hi]
-    poly = sp.Poly(sp.expand(expr), *gens)
-    a = b = Fraction(0)
-    for exps, coef in poly.terms():
-        q = Fraction(int(sp.Rational(coef).p), int(sp.Rational(coef).q))
-        m0 = m1 = Fraction(1)
-        for e, l_, h_ in zip(exps, lo_v, hi_v):
-            m0 *= l_**e
-            m1 *= h_**e
-        if q > 0:
-            a, b = a + q * m0, b + q * m1
-        else:
-            a, b = a + q * m1, b + q * m0
-    return a, b
-
-
 def _certify_spectral(mm: ModeModel, spec_: LaplacianSpectrum, box: GainBox) -> tuple[Verdict, str, Any, dict]:
     conds = hurwitz_conditions(mm.charpoly)
     undecided = None
@@ -422,10 +185,10 @@ def _certify_spectral(mm: ModeModel, spec_: LaplacianSpectrum, box: GainBox) -> 
             if lo > 0:
                 continue
             for v in box.vertices():
-                pt = GainBox.parse(dict(zip(GAINS, v)), GAINS)
+                pt = GainBox.parse(dict(zip(mm.names, v)), mm.names)
                 _, hi = box_poly_range(e, mm, pt, c)
                 if hi <= 0:
-                    w = {"gains": _vertex_dict(v), "lambda": _lam(c), "condition": f"{e} > 0",
+                    w = {"gains": vertex_dict(mm.names, v), "lambda": lam_dict(c), "condition": f"{e} > 0",
                          "upper_bound": hi}
                     return (Verdict.REFUTED, "a Routh-Hurwitz condition of the nominal loop fails at a "
                             "vertex: the linear loop is not asymptotically stable there", w, {})
@@ -441,12 +204,22 @@ def _certify_spectral(mm: ModeModel, spec_: LaplacianSpectrum, box: GainBox) -> 
 # ---------------------------------------------------------------------------
 # (a) paper + dispatcher
 # ---------------------------------------------------------------------------
-def _certify_paper(graph: Any, box: GainBox, spec: Any, margin: Any,
+def _certify_paper(graph: Any, box: GainBox, given: GainBox | None, spec: Any, margin: Any,
                    use_sdp: bool = True) -> tuple[Verdict, str, Any, dict]:
     from formsync_design.certify.engine import certify_box
+    from formsync_design.certify.multipliers import certify_with_multipliers
+    from formsync_design.derive.closed_loop import resolve_spec
     from formsync_design.derive.conditions import derive_conditions
 
-    r = certify_box(derive_conditions(graph, spec), box, margin=margin, use_sdp=use_sdp)
+    sp_ = resolve_spec(spec)
+    conds = derive_conditions(graph, sp_)
+    full = {r.name: r for r in (*box.ranges, *(given.ranges if given is not None else ()))}
+    mult = {n: rng for n in sp_.decl.multipliers
+            if n not in full and (rng := sp_.decl.gain(n).range) is not None}
+    if mult:
+        r = certify_with_multipliers(conds, full, mult, margin=margin, use_sdp=use_sdp)
+    else:
+        r = certify_box(conds, GainBox.parse(full, tuple(conds.gains)), margin=margin, use_sdp=use_sdp)
     status = {"certified": Verdict.CERTIFIED, "refuted": Verdict.REFUTED,
               "undecided": Verdict.UNDECIDED}.get(str(r.status), Verdict.ERROR)
     w = None
@@ -459,12 +232,14 @@ def _certify_paper(graph: Any, box: GainBox, spec: Any, margin: Any,
 def certify(graph: Any, box: Any, certificate: str | Certificate = Certificate.PAPER, *,
             spec: Any = None, margin: Any = 0, spectrum: LaplacianSpectrum | None = None,
             use_sdp: bool = True, seed_with_paper: bool = True) -> CertificateResult:
-    """Decide a gain box ``(K_o, K_q, beta)`` with one of the four certificates.
+    """Decide a gain box of the design's controller gains with one of the four certificates.
 
     Parameters
     ----------
     graph : Graph or graph spec (``"ring:8"``)
-    box : GainBox or anything :meth:`GainBox.parse` accepts with names ``K_o, K_q, beta``
+    box : GainBox or anything :meth:`GainBox.parse` accepts, over the design's controller
+        gains (liang2016: ``K_o, K_q, beta``; pd_consensus: ``k_p, k_d``), optionally with a
+        multiplier of its candidate (``paper``/``exact`` only: then used as given)
     certificate : ``paper`` | ``exact`` | ``searched`` | ``spectral``
     spec : specification (default: the paper's)
     margin : number
@@ -475,8 +250,8 @@ def certify(graph: Any, box: Any, certificate: str | Certificate = Certificate.P
         ``paper``: take the engine's hints from the SDP (default) or LAPACK
         (same exact re-check; region maps use LAPACK for speed).
     seed_with_paper : bool
-        ``searched``: try the specification's own ``V`` (a member of the class
-        when it has the switching structure) before solving the LMIs.
+        ``searched``: try the specification's own ``V`` (when it is a member of the
+        class) before solving the LMIs.
 
     Returns
     -------
@@ -489,6 +264,9 @@ def certify(graph: Any, box: Any, certificate: str | Certificate = Certificate.P
     ['refuted', 'refuted', 'refuted', 'certified']
     >>> certify("ring:8", box, "exact").status.value
     'certified'
+    >>> pd = {"k_p": (0.5, 2), "k_d": (1, 3)}
+    >>> [certify("star:8", pd, c, spec="pd_consensus").status.value for c in ("exact", "searched", "spectral")]
+    ['certified', 'certified', 'certified']
     """
     t0 = time.perf_counter()
     try:
@@ -497,17 +275,22 @@ def certify(graph: Any, box: Any, certificate: str | Certificate = Certificate.P
         raise InputError(f"expected a certificate in {[c.value for c in Certificate]}, "
                          f"received {certificate!r}") from None
     g = make_graph(graph)
-    b = GainBox.parse(box, GAINS)
+    mm = mode_model(spec)
+    b, given = split_box(mm, box)
+    if given is not None and cert in (Certificate.SEARCHED, Certificate.SPECTRAL):
+        raise InputError(f"expected no multiplier ({', '.join(given.names)}) with the {cert} certificate "
+                         "(a multiplier is a parameter of the specification's candidate: paper and exact "
+                         f"only), received {given}")
     sp_ = spectrum if spectrum is not None else laplacian_spectrum(g)
     if cert is Certificate.PAPER:
-        status, reason, w, ev = _certify_paper(g, b, spec, margin, use_sdp)
+        status, reason, w, ev = _certify_paper(g, b, given, spec, margin, use_sdp)
+    elif cert is Certificate.EXACT:
+        status, reason, w, ev = _certify_exact(mm, sp_, b, given)
+    elif cert is Certificate.SEARCHED:
+        member = _certify_exact(mm, sp_, b, None) if (seed_with_paper and mm.aligned) else None
+        status, reason, w, ev = certify_searched(mm, sp_, b, member)
     else:
-        mm = mode_model(spec)
-        if cert is Certificate.EXACT:
-            status, reason, w, ev = _certify_exact(mm, sp_, b)
-        elif cert is Certificate.SEARCHED:
-            status, reason, w, ev = _certify_searched(mm, sp_, b, seed_with_paper)
-        else:
-            status, reason, w, ev = _certify_spectral(mm, sp_, b)
-    return CertificateResult(cert, status, g.name, g.n, b, reason, w, ev, sp_.method,
+        status, reason, w, ev = _certify_spectral(mm, sp_, b)
+    shown = GainBox((*b.ranges, *given.ranges)) if given is not None else b
+    return CertificateResult(cert, status, g.name, g.n, shown, reason, w, ev, sp_.method,
                              time.perf_counter() - t0)

@@ -48,13 +48,11 @@ import numpy as np
 from formsync_design.analysis.modes import mode_model
 from formsync_design.analysis.results import jsonify
 from formsync_design.analysis.spectrum import laplacian_spectrum
-from formsync_design.derive.closed_loop import derive_closed_loop
 from formsync_design.errors import InputError
-from formsync_design.gains import parse_number
 from formsync_design.graphs import make_graph
-from formsync_design.spec.loader import gain_symbols
 
-__all__ = ["DelayModel", "DelayMargin", "delay_margin", "mode_quasi_polynomial", "crossing_delays", "delay_section",
+__all__ = ["DelayModel", "DelayMargin", "delay_margin", "mode_quasi_polynomial", "coefficient_quasi_polynomial",
+           "coefficient_delay_margin", "crossing_delays", "delay_section",
            "simulate_delayed_loop", "simulate_dde"]
 
 
@@ -71,7 +69,7 @@ class DelayMargin:
 
     graph: str
     model: DelayModel
-    gains: tuple[float, float, float]
+    gains: tuple[float, ...]
     margin: float
     critical_lambda: float | None
     crossing_frequency: float | None
@@ -85,17 +83,24 @@ class DelayMargin:
 
 def mode_quasi_polynomial(model: str, lam: float, gains: Any, degree: int | None = None,
                           spec: Any = None) -> tuple[np.ndarray, np.ndarray]:
-    """``(P_0, P_1)`` coefficient arrays (highest power first) of one mode's quasi-polynomial.
+    """``(P_0, P_1)`` coefficient arrays (highest power first) of one mode's quasi-polynomial,
+    at a gain point of the design's controller gains.
 
     ``degree`` is the (regular) graph's degree, needed for ``transmission``.
 
     >>> p0, p1 = mode_quasi_polynomial("processing", 2.0, (1.6, 0.4, 0.3))
     >>> p0.tolist(), p1.tolist()
     ([1.0, 1.6, 0.0], [0.8])
+    >>> [x.tolist() for x in mode_quasi_polynomial("processing", 2.0, (0.4, 1.6), spec="pd_consensus")]
+    [[1.0, 1.6, 0.0], [0.8]]
     """
-    cl = derive_closed_loop(spec)
-    sub = dict(zip(gain_symbols(), [float(x) for x in gains]))
-    cqd, cs = float(cl.c_qd.subs(sub)), float(cl.c_s.subs(sub))
+    cqd, cs = (float(x) for x in mode_model(spec).coefficients(gains))
+    return coefficient_quasi_polynomial(model, lam, cqd, cs, degree)
+
+
+def coefficient_quasi_polynomial(model: str, lam: float, cqd: float, cs: float,
+                                 degree: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`mode_quasi_polynomial` from the closed-loop coefficients ``c_qd``, ``c_s``."""
     m = DelayModel(str(model))
     # x'' = cqd x' + cs * (own part) x(t) + cs * (delayed part) x(t - tau)
     if m is DelayModel.PROCESSING:
@@ -159,7 +164,8 @@ def _hurwitz(p: np.ndarray) -> bool:
 
 
 def delay_margin(graph: Any, gains: Any, model: str = "processing", *, spec: Any = None) -> DelayMargin:
-    """Certified delay margin of the nominal loop at a gain point (minimum over modes).
+    """Certified delay margin of the nominal loop at a gain point of the design's controller
+    gains (minimum over modes).
 
     Examples
     --------
@@ -168,38 +174,55 @@ def delay_margin(graph: Any, gains: Any, model: str = "processing", *, spec: Any
     (1.2195, 4.0)
     >>> delay_margin("ring:8", (1.6, 0.4, 0.3), "transmission").margin
     inf
+    >>> round(delay_margin("ring:8", (0.4, 1.6), spec="pd_consensus").margin, 4)   # the same loop
+    1.2195
     """
     g = make_graph(graph)
     if str(model) not in {d.value for d in DelayModel}:
         raise InputError(f"expected a delay model processing|transmission, received {model}")
     m = DelayModel(str(model))
-    gl = [float(parse_number(x, n)) for x, n in zip(gains, ("K_o", "K_q", "beta"))]
-    if len(gl) != 3:
-        raise InputError(f"expected gains (K_o, K_q, beta), received {len(gl)} values")
-    gp = (gl[0], gl[1], gl[2])
+    mm = mode_model(spec)  # validates that the specification decouples per mode
+    cqd_f, cs_f = mm.coefficients(gains)
+    gp = tuple(float(x) for x in mm.subs(gains).values())
+    if m is DelayModel.TRANSMISSION and len(set(g.degrees)) != 1:
+        # no per-mode decoupling: sufficient Lyapunov-Krasovskii certificate (analysis.lk)
+        from formsync_design.analysis.lk import lk_delay_margin
+
+        cert = lk_delay_margin(g, gains, "transmission", spec=spec)
+        return DelayMargin(g.name, m, gp, cert.margin, None, None, "lyapunov-krasovskii")
+    margin, lam_c, om_c = coefficient_delay_margin(g, float(cqd_f), float(cs_f), m)
+    return DelayMargin(g.name, m, gp, margin, lam_c, om_c)
+
+
+def coefficient_delay_margin(graph: Any, cqd: float, cs: float,
+                             model: str = "processing") -> tuple[float, float | None, float | None]:
+    """``(margin, critical lambda, crossing frequency)`` of the loop ``q'' = c_qd q' + c_s s``
+    with ``s`` delayed per ``model`` (exact per mode; the transmission model needs a regular
+    graph).  ``0`` when the loop is not stable without delay.
+
+    >>> round(coefficient_delay_margin("ring:8", -1.6, -0.4)[0], 4)
+    1.2195
+    """
+    g = make_graph(graph)
+    m = DelayModel(str(model))
     deg = None
     if m is DelayModel.TRANSMISSION:
         if len(set(g.degrees)) != 1:
-            # no per-mode decoupling: sufficient Lyapunov-Krasovskii certificate (analysis.lk)
-            from formsync_design.analysis.lk import lk_delay_margin
-
-            cert = lk_delay_margin(g, gl, "transmission", spec=spec)
-            return DelayMargin(g.name, m, gp, cert.margin, None, None, "lyapunov-krasovskii")
+            raise InputError(f"expected a regular graph for the exact transmission-delay margin, received {g.name}")
         deg = g.degrees[0]
-    mode_model(spec)  # validates that the specification decouples per mode
     best, lam_c, om_c = math.inf, None, None
     for c in laplacian_spectrum(g).clusters:
         for lam in {float(c.lo), float(c.hi)}:
-            p0, p1 = mode_quasi_polynomial(m, lam, gp, deg, spec)
+            p0, p1 = coefficient_quasi_polynomial(m, lam, cqd, cs, deg)
             full = p0.copy()
             full[-len(p1):] += p1
             if not _hurwitz(full):
-                return DelayMargin(g.name, m, gp, 0.0, lam, None)
+                return 0.0, lam, None
             for om, tau in crossing_delays(p0, p1):
                 if tau < best:
                     best, lam_c, om_c = tau, lam, om
     margin = best * (1 - 1e-9) if math.isfinite(best) else math.inf
-    return DelayMargin(g.name, m, gp, margin, lam_c, om_c)
+    return margin, lam_c, om_c
 
 
 def simulate_dde(f: Any, history: Any, tau: float, h: float, tf: float, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -249,16 +272,16 @@ def simulate_dde(f: Any, history: Any, tau: float, h: float, tf: float, x0: np.n
 
 
 def simulate_delayed_loop(graph: Any, gains: Any, tau: float, model: str = "processing", *,
-                          tf: float = 60.0, h: float = 0.01, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Simulate the delayed nominal linear loop of the whole graph (one axis).
+                          tf: float = 60.0, h: float = 0.01, seed: int = 0,
+                          spec: Any = None) -> tuple[np.ndarray, np.ndarray]:
+    """Simulate the delayed nominal linear loop of the whole graph (one axis), at a gain point
+    of the design's controller gains.
 
     Returns ``(t, d)`` with ``d`` the norm of the disagreement of ``(q, q')``.
     Initial state: seeded random disagreement, constant pre-history.
     """
     g = make_graph(graph)
-    cl = derive_closed_loop()
-    sub = dict(zip(gain_symbols(), [float(x) for x in gains]))
-    cqd, cs = float(cl.c_qd.subs(sub)), float(cl.c_s.subs(sub))
+    cqd, cs = (float(x) for x in mode_model(spec).coefficients(gains))
     lap = g.laplacian.astype(float)
     deg = np.diag(lap)
     adj = np.diag(deg) - lap

@@ -24,14 +24,11 @@ from fractions import Fraction
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
-from formsync_design.analysis.certificates import GAINS
-from formsync_design.analysis.modes import mode_model, sym_to_fraction
+from formsync_design.analysis.modecheck import GAINS
+from formsync_design.analysis.modes import mode_model
 from formsync_design.analysis.results import Verdict, jsonify
-from formsync_design.derive.closed_loop import derive_closed_loop
 from formsync_design.errors import InputError
-from formsync_design.gains import parse_number
 from formsync_design.graphs import make_graph
 
 __all__ = ["DwellTime", "certify_dwell_time", "reduced_matrix", "lyapunov_exact", "is_pd_exact", "dwell_section"]
@@ -45,7 +42,7 @@ class DwellTime:
 
     status: Verdict
     graphs: tuple[str, ...]
-    gains: tuple[Fraction, Fraction, Fraction]
+    gains: tuple[Fraction, ...]
     decay: Fraction
     mu: Fraction
     dwell: float
@@ -53,7 +50,7 @@ class DwellTime:
 
     def to_dict(self) -> dict[str, Any]:
         return jsonify({"status": str(self.status), "graphs": list(self.graphs),
-                        "gains": dict(zip(GAINS, self.gains)), "lambda_0": self.decay, "mu": self.mu,
+                        "gains": list(self.gains), "lambda_0": self.decay, "mu": self.mu,
                         "dwell_time_s": self.dwell, "reason": self.reason})
 
 
@@ -149,32 +146,30 @@ def _float(m: FMatrix) -> np.ndarray:
 
 
 def certify_dwell_time(graphs: Any, gains: Any, *, spec: Any = None) -> DwellTime:
-    """Certified minimum dwell time over a graph set at a gain point.
+    """Certified minimum dwell time over a graph set at a gain point of the design's gains.
 
     Examples
     --------
     >>> d = certify_dwell_time(["star:4", "path:4"], (1.6, 0.4, 0.3))
     >>> d.status.value, 0 < d.dwell < 100, d.mu >= 1
     ('certified', True, True)
+    >>> certify_dwell_time(["star:4", "path:4"], (0.4, 1.6), spec="pd_consensus").dwell == d.dwell   # same loop
+    True
     """
     gs = [make_graph(x) for x in graphs]
     if not gs or len({g.n for g in gs}) != 1:
         raise InputError(f"expected a non-empty set of graphs with one N, received {[g.name for g in gs]}")
-    gp = tuple(Fraction(parse_number(x, n)) for x, n in zip(gains, GAINS))
-    if len(gp) != 3:
-        raise InputError(f"expected gains (K_o, K_q, beta), received {len(gp)} values")
+    mm = mode_model(spec)
+    gp = tuple(Fraction(int(v.p), int(v.q)) for v in mm.subs(gains).values())
     if gs[0].n > 40:
         raise InputError(f"expected at most 40 spacecraft for the dense dwell-time certificate, received {gs[0].n}")
-    cl = derive_closed_loop(spec)
-    sub = {s: sp.Rational(v.numerator, v.denominator) for s, v in zip(mode_model(spec).gains, gp)}
-    c_qd = sym_to_fraction(sp.sympify(cl.c_qd).subs(sub))
-    c_s = sym_to_fraction(sp.sympify(cl.c_s).subs(sub))
+    c_qd, c_s = mm.coefficients(gp)
     names = tuple(g.name for g in gs)
     ps = []
     for g in gs:
         p = lyapunov_exact(reduced_matrix(g, c_qd, c_s))
         if not is_pd_exact(p):
-            return DwellTime(Verdict.REFUTED, names, (gp[0], gp[1], gp[2]), Fraction(0), Fraction(0), math.inf,
+            return DwellTime(Verdict.REFUTED, names, gp, Fraction(0), Fraction(0), math.inf,
                              f"the nominal loop on {g.name} is not stable (no positive definite Lyapunov "
                              "solution): no dwell time helps")
         ps.append(p)
@@ -202,10 +197,10 @@ def certify_dwell_time(graphs: Any, gains: Any, *, spec: Any = None) -> DwellTim
             break
         mu *= Fraction(11, 10)
     else:  # pragma: no cover - a finite mu always exists for positive definite P_j
-        return DwellTime(Verdict.UNDECIDED, names, (gp[0], gp[1], gp[2]), lam0, mu, math.inf,
+        return DwellTime(Verdict.UNDECIDED, names, gp, lam0, mu, math.inf,
                          "no ratio mu passed the exact check")
     dwell = math.log(float(mu)) * (1 + 1e-12) / (2 * float(lam0)) if mu > 1 else 0.0
-    return DwellTime(Verdict.CERTIFIED, names, (gp[0], gp[1], gp[2]), lam0, mu, dwell,
+    return DwellTime(Verdict.CERTIFIED, names, gp, lam0, mu, dwell,
                      f"per-graph V_j (exact Lyapunov solutions) decay at 2 lambda_0 = {float(2 * lam0):.4g}/s "
                      f"and V_k <= {float(mu):.4g} V_j (exact): every switching with dwell time > "
                      f"{dwell:.4g} s is exponentially stable")

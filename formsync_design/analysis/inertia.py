@@ -69,14 +69,12 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from formsync_design.analysis.certificates import GAINS, certify
+from formsync_design.analysis.certificates import certify
 from formsync_design.analysis.modes import robust_decay_hint, robust_modes
 from formsync_design.analysis.results import Verdict, jsonify
 from formsync_design.analysis.spectrum import laplacian_spectrum
 from formsync_design.analysis.torque import controller_torque
-from formsync_design.derive.closed_loop import derive_closed_loop
 from formsync_design.errors import InputError
-from formsync_design.gains import parse_number
 from formsync_design.graphs import make_graph
 
 __all__ = ["InertiaBox", "InertiaCertificate", "certify_inertia_uncertainty", "largest_certified_initial_set",
@@ -127,7 +125,7 @@ class InertiaCertificate:
 
     status: Verdict
     graph: str
-    gains: tuple[Fraction, Fraction, Fraction]
+    gains: tuple[Fraction, ...]
     rel: float
     prod: float
     r0: float
@@ -140,7 +138,7 @@ class InertiaCertificate:
 
     def to_dict(self) -> dict[str, Any]:
         return jsonify({"status": str(self.status), "graph": self.graph,
-                        "gains": dict(zip(GAINS, self.gains)), "rel": self.rel, "prod_kg_m2": self.prod,
+                        "gains": list(self.gains), "rel": self.rel, "prod_kg_m2": self.prod,
                         "r0": self.r0, "w0_rad_s": self.w0, "delta": self.delta, "q_max": self.q_max,
                         "decay_rate": self.rate, "xi0": self.xi0, "reason": self.reason})
 
@@ -205,15 +203,18 @@ def certify_inertia_uncertainty(graph: Any, gains: Any, box: InertiaBox, r0: flo
     >>> c.status.value, c.q_max < 1, c.rate > 0
     ('certified', True, True)
     """
+    from formsync_design.analysis.modes import mode_model
+
     g = make_graph(graph)
-    gs = tuple(Fraction(parse_number(x, n)) for x, n in zip(gains, GAINS))
+    mm = mode_model(spec)
+    gs = tuple(Fraction(int(v.p), int(v.q)) for v in mm.subs(gains).values())
     if not (0 <= r0 < 1) or w0 < 0 or box.rel < 0 or box.prod < 0:
         raise InputError(f"expected 0 <= r0 < 1, w0 >= 0 and a non-negative box, received r0={r0:g}, "
                          f"w0={w0:g}, rel={box.rel:g}, prod={box.prod:g}")
     name = g.name
 
     def out(st: Verdict, delta: float, qm: float, rate: float, xi0: float, why: str) -> InertiaCertificate:
-        return InertiaCertificate(st, name, (gs[0], gs[1], gs[2]), box.rel, box.prod, r0, w0, delta, qm,
+        return InertiaCertificate(st, name, gs, box.rel, box.prod, r0, w0, delta, qm,
                                   rate, xi0, why)
 
     lmin = float(np.linalg.eigvalsh(np.asarray(box.nominal, dtype=float))[0]) / _UP
@@ -224,15 +225,10 @@ def certify_inertia_uncertainty(graph: Any, gains: Any, box: InertiaBox, r0: flo
                    "the uncertainty box contains singular inertias (|Delta| >= lambda_min(J_hat))")
     delta_g = d / (lmin - d) * _UP
     delta = min(delta_g, b_rel / (1 - b_rel) * _UP)
-    if certify(g, dict(zip(GAINS, gs)), "spectral", spec=spec).status is not Verdict.CERTIFIED:
+    if certify(g, dict(zip(mm.names, gs)), "spectral", spec=spec).status is not Verdict.CERTIFIED:
         return out(Verdict.UNDECIDED, delta, math.inf, 0.0, math.inf,
                    "the nominal loop is not proven stable at these gains")
-    cl = derive_closed_loop(spec)
-    from formsync_design.analysis.modes import mode_model, sym_to_fraction
-
-    gsub = dict(zip(mode_model(spec).gains, [sp.Rational(x.numerator, x.denominator) for x in gs]))
-    cqd = sym_to_fraction(sp.sympify(cl.c_qd).subs(gsub))
-    cs = sym_to_fraction(sp.sympify(cl.c_s).subs(gsub))
+    cqd, cs = mm.coefficients(gs)
     modes: list[tuple[Fraction, Fraction, int]] = [(Fraction(0), Fraction(0), 1)]
     modes += [(c.lo, c.hi, 2) for c in laplacian_spectrum(g).clusters]
     n = g.n
@@ -365,29 +361,45 @@ def _skew_n(v: np.ndarray) -> np.ndarray:
     return s
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of ``(N, 3)`` arrays (``np.cross`` without its axis handling).
+
+    >>> _cross(np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]])).tolist()
+    [[0.0, 0.0, 1.0]]
+    """
+    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
+
+
 def _qdot(quat: np.ndarray, om: np.ndarray) -> np.ndarray:
     """``q' = (q0 I + q^x) omega / 2`` for stacked ``(N, 4)``, ``(N, 3)``."""
     q, q0 = quat[:, :3], quat[:, 3:4]
-    return 0.5 * (q0 * om + np.cross(q, om))
+    return 0.5 * (q0 * om + _cross(q, om))
 
 
 def simulate_mismatch(graph: Any, gains: Any, J_true: np.ndarray, J_hat: np.ndarray, attitudes: np.ndarray,
                       rates: np.ndarray, *, tf: float = 40.0, step: float = 0.01,
-                      output_step: float = 0.1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """RK4 simulation: plant with ``J_true``, the paper's controller (``K_v = 0``) with ``J_hat``.
+                      output_step: float = 0.1, spec: Any = None,
+                      topology: Any = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """RK4 simulation: plant with ``J_true``, the design's controller (``K_v = 0``) with ``J_hat``,
+    at a gain point of its controller gains (the derived ``a = c_qd q' + c_s s``).
 
+    ``topology``: optional ``t -> Laplacian`` (switching links), called at the start of every
+    RK4 step and held over it (switch on the step grid for full accuracy).
     Returns ``(t, quaternions (T, N, 4), rates (T, N, 3))``.  Vectorized over spacecraft.
     """
+    from formsync_design.analysis.modes import mode_model
+
     g = make_graph(graph)
-    ko, kq = float(gains[0]), float(gains[1])
-    lap = g.laplacian.astype(float)
+    cqd, cs = (float(x) for x in mode_model(spec).coefficients(gains))
     Jt, Jh = np.asarray(J_true, float), np.asarray(J_hat, float)
     Jt_inv = np.linalg.inv(Jt)
 
     def rhs(quat: np.ndarray, om: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        lap = cur[0]
         q, q0 = quat[:, :3], quat[:, 3]
         qd = _qdot(quat, om)
-        a = -ko * qd - kq * (lap @ q)
+        a = cqd * qd + cs * (lap @ q)
         # commanded omega' = Q a + Q' q' (controller_torque's structure, vectorized)
         qq = np.einsum("ni,nj->nij", q, q)
         Q = 2 * (q0[:, None, None] * np.eye(3) - _skew_n(q) + qq / q0[:, None, None])
@@ -396,9 +408,9 @@ def simulate_mismatch(graph: Any, gains: Any, J_true: np.ndarray, J_hat: np.ndar
                   + (np.einsum("ni,nj->nij", qd, q) + np.einsum("ni,nj->nij", q, qd)) / q0[:, None, None]
                   - qq * (q0d / q0**2)[:, None, None])
         wdot_cmd = np.einsum("nij,nj->ni", Q, a) + np.einsum("nij,nj->ni", Qd, qd)
-        u = np.einsum("nij,nj->ni", Jh, wdot_cmd) + np.cross(om, np.einsum("nij,nj->ni", Jh, om))
-        wdot = np.einsum("nij,nj->ni", Jt_inv, u - np.cross(om, np.einsum("nij,nj->ni", Jt, om)))
-        v = np.concatenate([q0[:, None] * om + np.cross(q, om), -np.einsum("ni,ni->n", q, om)[:, None]], axis=1)
+        u = np.einsum("nij,nj->ni", Jh, wdot_cmd) + _cross(om, np.einsum("nij,nj->ni", Jh, om))
+        wdot = np.einsum("nij,nj->ni", Jt_inv, u - _cross(om, np.einsum("nij,nj->ni", Jt, om)))
+        v = np.concatenate([q0[:, None] * om + _cross(q, om), -np.einsum("ni,ni->n", q, om)[:, None]], axis=1)
         return 0.5 * v, wdot
 
     quat, om = np.asarray(attitudes, float).copy(), np.asarray(rates, float).copy()
@@ -406,8 +418,11 @@ def simulate_mismatch(graph: Any, gains: Any, J_true: np.ndarray, J_hat: np.ndar
     sub = max(1, int(math.ceil(output_step / step)))
     h = output_step / sub
     ts, qs, ws = [0.0], [quat.copy()], [om.copy()]
+    cur = [g.laplacian.astype(float)]
     for k in range(nout):
-        for _ in range(sub):
+        for j in range(sub):
+            if topology is not None:
+                cur[0] = np.asarray(topology(k * output_step + j * h), dtype=float)
             k1 = rhs(quat, om)
             k2 = rhs(quat + h / 2 * k1[0], om + h / 2 * k1[1])
             k3 = rhs(quat + h / 2 * k2[0], om + h / 2 * k2[1])

@@ -48,15 +48,11 @@ from fractions import Fraction
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from formsync_design.analysis.results import jsonify
 from formsync_design.certify.exact import exact_ldl
-from formsync_design.derive.closed_loop import derive_closed_loop
 from formsync_design.errors import InputError
-from formsync_design.gains import parse_number
 from formsync_design.graphs import make_graph
-from formsync_design.spec.loader import gain_symbols
 
 __all__ = ["LKStatus", "LKCertificate", "lk_delay_system", "lk_check_exact", "lk_delay_margin"]
 
@@ -76,7 +72,7 @@ class LKCertificate:
 
     graph: str
     model: str
-    gains: tuple[Fraction, Fraction, Fraction]
+    gains: tuple[Fraction, ...]
     status: LKStatus
     margin: float
     tested: tuple[tuple[float, bool], ...]
@@ -89,15 +85,9 @@ class LKCertificate:
 
 
 def _coefficients(gains: tuple[Fraction, ...], spec: Any) -> tuple[Fraction, Fraction]:
-    cl = derive_closed_loop(spec)
-    sub = {s: sp.Rational(g.numerator, g.denominator) for s, g in zip(gain_symbols(), gains)}
-    out = []
-    for expr in (cl.c_qd, cl.c_s):
-        val = sp.nsimplify(sp.simplify(expr.subs(sub)), rational=True)
-        if not val.is_Rational:
-            raise InputError(f"expected closed-loop coefficients rational in the gains, received {expr}")
-        out.append(Fraction(int(val.p), int(val.q)))
-    return out[0], out[1]
+    from formsync_design.analysis.modes import mode_model
+
+    return mode_model(spec).coefficients(gains)
 
 
 def lk_delay_system(graph: Any, gains: Any, model: str = "transmission", *,
@@ -110,10 +100,10 @@ def lk_delay_system(graph: Any, gains: Any, model: str = "transmission", *,
     >>> n, [[str(x) for x in row] for row in f]
     (2, [['0', '1', '-1'], ['-1', '-1', '0'], ['1', '0', '-1']])
     """
+    from formsync_design.analysis.modes import mode_model
+
     g = make_graph(graph)
-    gl = tuple(parse_number(x, nm) for x, nm in zip(gains, ("K_o", "K_q", "beta")))
-    if len(gl) != 3:
-        raise InputError(f"expected gains (K_o, K_q, beta), received {len(gl)} values")
+    gl = tuple(Fraction(int(v.p), int(v.q)) for v in mode_model(spec).subs(gains).values())
     if model not in ("transmission", "processing"):
         raise InputError(f"expected a delay model transmission|processing, received {model}")
     cqd, cs = _coefficients(gl, spec)
@@ -224,9 +214,11 @@ def lk_delay_margin(graph: Any, gains: Any, model: str = "transmission", *, spec
     >>> str(c.status), c.margin > 0
     ('certified', True)
     """
+    from formsync_design.analysis.modes import mode_model
+
     g = make_graph(graph)
     f, b, n = lk_delay_system(g, gains, model, spec=spec)
-    gl = tuple(parse_number(x, nm) for x, nm in zip(gains, ("K_o", "K_q", "beta")))
+    gl = tuple(Fraction(int(v.p), int(v.q)) for v in mode_model(spec).subs(gains).values())
     tested: list[tuple[float, bool]] = []
     lo, hi = 0.0, float(tau_max)
     if _try_delay(f, b, n, hi):
@@ -245,5 +237,5 @@ def lk_delay_margin(graph: Any, gains: Any, model: str = "transmission", *, spec
             if lo > 0 and (hi - lo) <= 1e-3 * hi:
                 break
     status = LKStatus.CERTIFIED if lo > 0 else LKStatus.NOT_CERTIFIED
-    return LKCertificate(g.name, model, (gl[0], gl[1], gl[2]), status, lo if lo > 0 else 0.0, tuple(tested))
+    return LKCertificate(g.name, model, gl, status, lo if lo > 0 else 0.0, tuple(tested))
 

@@ -32,7 +32,15 @@ switching term ``-K_v arg_i^T sgn(arg_i)`` is dissipative in ``V'`` exactly when
 this gradient is a positive multiple of ``arg_i`` (the paper's proof relies on
 it).  The *searched* class keeps it: ``P_k = [[p, kappa rho_s lambda],
 [kappa rho_s lambda, kappa rho_qd]]`` with free ``p`` (``kappa = 1``; ``V`` is
-defined up to a positive factor).
+defined up to a positive factor).  A design without a switching term (``c_sigma = 0``,
+e.g. the PD baseline) has no such constraint: its class is the natural
+specialisation, every quadratic ``V`` of the mode, ``P_k = [[p, r], [r, 1]]`` with free
+``p`` and ``r`` (:attr:`ModeModel.free`).
+
+Any design: everything here is in the design's own controller gains
+(:attr:`ModeModel.gains`, e.g. ``(K_o, K_q, beta)`` or ``(k_p, k_d)``); a multiplier of
+its Lyapunov candidate (``eps`` of the PD baseline) stays a symbol of
+:attr:`ModeModel.p_paper` (:attr:`ModeModel.multipliers`), chosen by the certificate.
 
 Small-gain perturbed modes (:func:`robust_modes`, used by
 :mod:`~formsync_design.analysis.inertia`): when the commanded acceleration ``a`` reaches
@@ -56,16 +64,17 @@ import sympy as sp
 
 from formsync_design.derive.closed_loop import derive_closed_loop, resolve_spec, spec_cache_key
 from formsync_design.derive.templates import derive_local_template
-from formsync_design.errors import DerivationError
-from formsync_design.spec.loader import gain_symbols
+from formsync_design.errors import DerivationError, InputError
 
-__all__ = ["LAMBDA", "P_FREE", "ModeModel", "mode_model", "poly_coeffs_in_lambda", "sym_to_fraction",
+__all__ = ["LAMBDA", "P_FREE", "R_FREE", "ModeModel", "mode_model", "poly_coeffs_in_lambda", "sym_to_fraction",
            "RobustModes", "robust_decay_hint", "robust_modes", "poly_mul"]
 
 #: The Laplacian eigenvalue symbol of the mode reduction.
 LAMBDA = sp.Symbol("lambda", positive=True)
 #: The free (1,1) entry of the searched class.
 P_FREE = sp.Symbol("p")
+#: The free (1,2) entry of the searched class of a design without a switching term.
+R_FREE = sp.Symbol("r")
 
 
 @dataclass(frozen=True)
@@ -76,17 +85,31 @@ class ModeModel:
     ----------
     spec_name : str
     gains : tuple of sympy.Symbol
-        ``(K_o, K_q, beta)``.
+        The design's controller gains (the box dimensions), e.g. ``(K_o, K_q, beta)``.
+    names : tuple of str
+        Their names.
+    multipliers : tuple of sympy.Symbol
+        Multipliers of the Lyapunov candidate (symbols of ``p_paper`` only).
+    multiplier_ranges : tuple of GainRange
+        Their declared ranges (what a certificate may choose from).
+    c_qd, c_s : sympy.Expr
+        The derived closed-loop coefficients ``q'' = c_qd q' + c_s s + ...``.
+    switching : bool
+        Whether the closed loop has a switching term (``c_sigma != 0``).
     a : sympy.Matrix
         ``A_k`` (2x2) in ``LAMBDA`` and the gains.
     p_paper : sympy.Matrix
         ``P_k`` of the specification's own ``V``.
     p_class : sympy.Matrix
-        ``P_k`` of the searched class (free ``P_FREE``).
+        ``P_k`` of the searched class (free symbols :attr:`free`).
+    free : tuple of sympy.Symbol
+        The free entries of ``p_class``: ``(P_FREE,)`` with a switching term, else
+        ``(P_FREE, R_FREE)``; each is ``lambda`` times a multi-affine function of the gains.
     rho : (sympy.Expr, sympy.Expr)
         Switching-argument coefficients ``(rho_qd, rho_s)``.
     aligned : bool
-        Whether the specification's ``V`` already has the switching structure.
+        Whether the specification's ``V`` is a member of the searched class (with a
+        switching term: it already has the switching structure).
     charpoly : tuple of sympy.Expr
         Coefficients ``(1, a_1, a_2)`` of ``det(s I - A_k)``.
     """
@@ -99,10 +122,45 @@ class ModeModel:
     rho: tuple[sp.Expr, sp.Expr]
     aligned: bool
     charpoly: tuple[sp.Expr, ...]
+    names: tuple[str, ...] = ()
+    multipliers: tuple[sp.Symbol, ...] = ()
+    multiplier_ranges: tuple[Any, ...] = ()
+    c_qd: sp.Expr = sp.Integer(0)
+    c_s: sp.Expr = sp.Integer(0)
+    switching: bool = True
+    free: tuple[sp.Symbol, ...] = (P_FREE,)
 
     def vdot(self, p: sp.Matrix) -> sp.Matrix:
         """``A_k^T P + P A_k`` (the per-mode ``V'`` matrix), expanded."""
         return (self.a.T * p + p * self.a).applyfunc(sp.expand)
+
+    def subs(self, values: Any) -> dict:
+        """``{gain symbol: exact value}`` of a gain point (a sequence in :attr:`names` order).
+
+        >>> mode_model().subs((2, 1, "0.1"))
+        {K_o: 2, K_q: 1, beta: 1/10}
+        """
+        from formsync_design.gains import parse_number
+
+        vals = list(values)
+        if len(vals) != len(self.names):
+            raise InputError(f"expected gains ({', '.join(self.names)}) of design {self.spec_name}, "
+                             f"received {len(vals)} values")
+        out = {}
+        for g, n, v in zip(self.gains, self.names, vals):
+            q = v if isinstance(v, Fraction) else parse_number(v, n)
+            out[g] = sp.Rational(q.numerator, q.denominator)
+        return out
+
+    def coefficients(self, values: Any) -> tuple[Fraction, Fraction]:
+        """Exact ``(c_qd, c_s)`` at a gain point.
+
+        >>> mode_model().coefficients((2, 1, "0.1"))
+        (Fraction(-2, 1), Fraction(-1, 1))
+        """
+        sub = self.subs(values)
+        return (sym_to_fraction(sp.expand(sp.sympify(self.c_qd).xreplace(sub))),
+                sym_to_fraction(sp.expand(sp.sympify(self.c_s).xreplace(sub))))
 
 
 def _theta_entries(m: int, spec: Any) -> tuple[sp.Expr, sp.Expr, sp.Expr, sp.Expr]:
@@ -138,28 +196,54 @@ def _mode_model(key: str) -> ModeModel:
         [[sp.expand(2 * (th11 - th12) * lam + th12 * lam**2), sp.expand(th01 * lam)],
          [sp.expand(th01 * lam), th00]]
     )
+    decl = spec.decl
+    names = tuple(decl.controller_gains)
+    gains = tuple(decl.gain(n).symbol for n in names)
+    mults = tuple(decl.gain(n).symbol for n in decl.multipliers)
+    mranges = tuple(decl.gain(n).range for n in decl.multipliers)
+    switching = sp.expand(cl.c_sigma) != 0 and cl.switch_argument is not None
     qd = sp.Matrix(sp.symbols("x1 x2 x3"))
     s = sp.Matrix(sp.symbols("y1 y2 y3"))
-    arg = cl.switch_argument_explicit(qd, s)
-    if arg is None:
-        rho = (sp.Integer(1), sp.Integer(0))
-    else:
+    if switching:
+        arg = cl.switch_argument_explicit(qd, s)
+        assert arg is not None
         rho = (sp.expand(arg[0].coeff(qd[0])), sp.expand(arg[0].coeff(s[0])))
         if (arg - (rho[0] * qd + rho[1] * s)).applyfunc(sp.expand) != sp.zeros(3, 1):
             raise DerivationError(f"expected a switching argument linear in q' and s, received {arg.T}")
-    aligned = sp.simplify(th00 * rho[1] - th01 * rho[0]) == 0
-    p_class = sp.Matrix([[P_FREE, sp.expand(rho[1] * lam)], [sp.expand(rho[1] * lam), rho[0]]])
+        aligned = sp.simplify(th00 * rho[1] - th01 * rho[0]) == 0
+        p_class = sp.Matrix([[P_FREE, sp.expand(rho[1] * lam)], [sp.expand(rho[1] * lam), rho[0]]])
+        free: tuple[sp.Symbol, ...] = (P_FREE,)
+    else:
+        rho = (sp.Integer(1), sp.Integer(0))
+        p_class = sp.Matrix([[P_FREE, R_FREE], [R_FREE, 1]])
+        free = (P_FREE, R_FREE)
+        # a member when V_22 is a positive constant and V_11, V_12 are lambda times
+        # polynomials in the gains and multipliers (the class's parameterization)
+        d = sp.expand(th00)
+        aligned = bool(d.is_number and d > 0) and all(
+            sp.expand(p_paper[0, k] / lam).free_symbols <= set(gains) | set(mults) for k in (0, 1))
     s_ = sp.Symbol("s")
     cp = sp.Poly((s_ * sp.eye(2) - a).det(), s_).all_coeffs()
+    extra = (a.free_symbols | p_paper.free_symbols) - set(gains) - set(mults) - {lam}
+    if extra:
+        raise DerivationError(f"expected the mode model of {spec.name} in its gains "
+                              f"{', '.join(names)} only, received {sorted(map(str, extra))}")
     return ModeModel(
         spec_name=spec.name,
-        gains=gain_symbols(),
+        gains=gains,
         a=a,
         p_paper=p_paper,
         p_class=p_class,
         rho=rho,
         aligned=bool(aligned),
         charpoly=tuple(sp.expand(c) for c in cp),
+        names=names,
+        multipliers=mults,
+        multiplier_ranges=mranges,
+        c_qd=sp.expand(cl.c_qd),
+        c_s=sp.expand(cl.c_s),
+        switching=bool(switching),
+        free=free,
     )
 
 
@@ -177,6 +261,9 @@ def mode_model(spec: Any = None) -> ModeModel:
     (1, K_o, K_q*lambda)
     >>> mm.aligned, mm.rho
     (True, (1, beta))
+    >>> pd = mode_model("pd_consensus")
+    >>> pd.names, pd.multipliers, pd.switching, pd.charpoly
+    (('k_p', 'k_d'), (eps,), False, (1, k_d, k_p*lambda))
     """
     return _mode_model(spec_cache_key(resolve_spec(spec)))
 

@@ -39,21 +39,18 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from formsync_design.analysis.certificates import (
+from formsync_design.analysis.certificates import certify, certify_exact_with, exact_candidates
+from formsync_design.analysis.modecheck import (
     GAINS,
-    SearchedLMI,
-    certify,
     check_pd_coeffs,
     entry_coeffs,
     gain_subs,
-    lp_coeffs,
-    monomial_value,
-    monomials,
-    with_p,
+    split_box,
 )
-from formsync_design.analysis.modes import LAMBDA, P_FREE, mode_model
+from formsync_design.analysis.modes import LAMBDA, ModeModel, mode_model
 from formsync_design.analysis.results import Certificate, Verdict, jsonify
-from formsync_design.analysis.spectrum import laplacian_spectrum
+from formsync_design.analysis.searched import SearchedLMI, free_values, lp_coeffs, monomials, with_p
+from formsync_design.analysis.spectrum import LaplacianSpectrum, laplacian_spectrum
 from formsync_design.errors import InputError
 from formsync_design.gains import GainBox, json_number
 from formsync_design.graphs import make_graph
@@ -121,66 +118,113 @@ def _kappa(p_num: list[np.ndarray]) -> float:
     return k
 
 
+_LAMBDIFIED: dict[tuple, tuple[Any, Any, ModeModel]] = {}
+
+
+def _paper_functions(mm: ModeModel, syms: tuple) -> tuple[Any, Any]:
+    key = (id(mm), syms)
+    if key not in _LAMBDIFIED:  # mode models are cached, so the id is stable (the model is kept)
+        p, f = mm.p_paper, mm.vdot(mm.p_paper)
+        _LAMBDIFIED[key] = (sp.lambdify((LAMBDA, *syms), p, "numpy"),
+                            sp.lambdify((LAMBDA, *syms), f, "numpy"), mm)
+    fp, ff, _ = _LAMBDIFIED[key]
+    return fp, ff
+
+
+def _exact_rate_preview(mm: ModeModel, sp_: LaplacianSpectrum, box: GainBox, mult: dict) -> tuple[float, list]:
+    """Floating-point best rate of the specification's V at the vertices (a hint) and the
+    vertex matrices ``P`` (for ``kappa``)."""
+    syms = (*mm.gains, *mult)
+    full = GainBox((*box.ranges, *mult.values())) if mult else box
+    fp, ff = _paper_functions(mm, tuple(syms))
+    rates, pnum = [], []
+    for v in full.vertices():
+        gv = [float(x) for x in v]
+        for c in sp_.clusters:
+            pn = np.array(fp(c.mid, *gv), dtype=float)
+            fn = np.array(ff(c.mid, *gv), dtype=float)
+            pnum.append(pn)
+            w = np.linalg.eigvalsh((pn + pn.T) / 2)
+            if w[0] <= 0:
+                return -math.inf, pnum
+            li = np.linalg.inv(np.linalg.cholesky(pn))
+            rates.append(float(np.linalg.eigvalsh(li @ (-fn) @ li.T).min()) / 2)
+    return min(rates), pnum
+
+
+def _exact_rate(mm: ModeModel, sp_: LaplacianSpectrum, box: GainBox, mult: dict,
+                alpha0: float) -> Fraction | None:
+    """Round ``alpha0`` down and re-check ``-(F + 2 alpha P) > 0`` exactly (halving until it passes)."""
+    syms = (*mm.gains, *mult)
+    full = GainBox((*box.ranges, *mult.values())) if mult else box
+    p, f = mm.p_paper, mm.vdot(mm.p_paper)
+    ij = ((0, 0), (0, 1), (1, 1))
+    mats = {v: ([entry_coeffs(p[i, j], dict(zip(syms, v))) for i, j in ij],
+                [entry_coeffs(f[i, j], dict(zip(syms, v))) for i, j in ij]) for v in full.vertices()}
+    alpha = Fraction(alpha0 * (1 - 1e-6)).limit_denominator(10**9)
+    for _ in range(30):
+        if _check_rate(mats, alpha, sp_.clusters):
+            return alpha
+        alpha /= 2
+    return None
+
+
 def certified_decay_rate(graph: Any, box: Any, certificate: str = "exact", *, spec: Any = None,
                          bisections: int = 24) -> DecayResult:
-    """The largest decay rate ``alpha`` (``V' <= -2 alpha V``) certified on a box.
+    """The largest decay rate ``alpha`` (``V' <= -2 alpha V``) certified on a box of the
+    design's gains (``exact``: the specification's ``V``, a multiplier not given chosen
+    for the best rate among the grid values that certify; ``searched``: the class).
 
     Examples
     --------
     >>> r = certified_decay_rate("ring:8", {"K_o": 1.6, "K_q": 0.4, "beta": 0.3})
     >>> r.status.value, 0.0 < float(r.alpha) < spectral_decay_rate("ring:8", (1.6, 0.4, 0.3))
     ('certified', True)
+    >>> pd = certified_decay_rate("ring:8", {"k_p": 0.4, "k_d": 1.6}, "searched", spec="pd_consensus")
+    >>> 0.0 < float(pd.alpha) <= spectral_decay_rate("ring:8", (0.4, 1.6), spec="pd_consensus")
+    True
     """
     cert = Certificate(str(certificate))
     if cert not in (Certificate.EXACT, Certificate.SEARCHED):
         raise InputError(f"expected a decay certificate 'exact' or 'searched', received {certificate!r}")
     g = make_graph(graph)
-    b = GainBox.parse(box, GAINS)
     mm = mode_model(spec)
+    b, given = split_box(mm, box)
+    shown = GainBox((*b.ranges, *given.ranges)) if given is not None else b
     sp_ = laplacian_spectrum(g)
-    ij = ((0, 0), (0, 1), (1, 1))
     # a rate needs a Lyapunov function first: the exact verdict (never a solver's) decides
-    base = certify(g, b, cert, spec=spec, spectrum=sp_)
+    base = certify(g, shown, cert, spec=spec, spectrum=sp_)
     if base.status is not Verdict.CERTIFIED:
         return DecayResult(cert, base.status if base.status is Verdict.REFUTED else Verdict.UNDECIDED,
-                           g.name, b, Fraction(0), math.inf, base.reason)
+                           g.name, shown, Fraction(0), math.inf, base.reason)
     if cert is Certificate.EXACT:
-        p, f = mm.p_paper, mm.vdot(mm.p_paper)
-        mats = {v: ([entry_coeffs(p[i, j], gain_subs(mm, v)) for i, j in ij],
-                    [entry_coeffs(f[i, j], gain_subs(mm, v)) for i, j in ij]) for v in b.vertices()}
-        rates, pnum = [], []
-        for v in b.vertices():
-            sub = gain_subs(mm, v)
-            for c in sp_.clusters:
-                sv = {**sub, LAMBDA: c.mid}
-                pn = np.array(p.subs(sv), dtype=float)
-                fn = np.array(f.subs(sv), dtype=float)
-                pnum.append(pn)
-                ll = np.linalg.cholesky(pn)
-                li = np.linalg.inv(ll)
-                rates.append(float(np.linalg.eigvalsh(li @ (-fn) @ li.T).min()) / 2)
-        alpha0 = min(rates)
-        if alpha0 <= 0:  # pragma: no cover - the exact certificate passed, so alpha0 > 0
-            return DecayResult(cert, Verdict.UNDECIDED, g.name, b, Fraction(0), math.inf,
-                               "no positive rate found in floating point")
-        alpha = Fraction(alpha0 * (1 - 1e-6)).limit_denominator(10**9)
-        for _ in range(30):
-            if _check_rate(mats, alpha, sp_.clusters):
-                return DecayResult(cert, Verdict.CERTIFIED, g.name, b, alpha, _kappa(pnum),
-                                   "exact re-check of -(F + 2 alpha P) > 0 at every vertex and mode")
-            alpha /= 2
-        return DecayResult(cert, Verdict.UNDECIDED, g.name, b, Fraction(0), math.inf,
+        previews = []
+        for cand in exact_candidates(mm, given):
+            a0, pnum = _exact_rate_preview(mm, sp_, b, cand)
+            if a0 > 0:
+                previews.append((a0, cand, pnum))
+        previews.sort(key=lambda x: -x[0])
+        for a0, cand, pnum in previews[:4]:  # the best few by the float preview, proven exactly
+            if certify_exact_with(mm, sp_, b, cand)[0] is not Verdict.CERTIFIED:
+                continue
+            alpha = _exact_rate(mm, sp_, b, cand, a0)
+            if alpha is not None:
+                chosen = "".join(f", {s.name} = {float(r.lo):g}" for s, r in cand.items()
+                                 if given is None or s.name not in given.names)
+                return DecayResult(cert, Verdict.CERTIFIED, g.name, shown, alpha, _kappa(pnum),
+                                   "exact re-check of -(F + 2 alpha P) > 0 at every vertex and mode" + chosen)
+        return DecayResult(cert, Verdict.UNDECIDED, g.name, shown, Fraction(0), math.inf,
                            "no rate passed the exact re-check")
     # searched: bisection per cluster
     lmi = SearchedLMI(mm, b)
     monos = monomials(b)
     f = mm.vdot(mm.p_class)
     best = math.inf
-    coeffs_per: list[tuple[Any, list[Fraction]]] = []
+    coeffs_per: list[tuple[Any, list[list[Fraction]]]] = []
     for c in sp_.clusters:
         st, co = lmi.solve(c.mid, 0.0)
         if co is None or lmi.t_value <= 0:
-            return DecayResult(cert, Verdict.UNDECIDED, g.name, b, Fraction(0), math.inf,
+            return DecayResult(cert, Verdict.UNDECIDED, g.name, shown, Fraction(0), math.inf,
                                f"the decay-rate LMI for the mode lambda ~ {c.mid:g} ended '{st}'")
         lo, hi, good = 0.0, 1.0, co
         while True:  # bracket
@@ -198,49 +242,52 @@ def certified_decay_rate(graph: Any, box: Any, certificate: str = "exact", *, sp
             else:
                 hi = mid
         best = min(best, lo)
-        coeffs_per.append((c, [Fraction(x).limit_denominator(10**8) for x in good]))
+        coeffs_per.append((c, [[Fraction(x).limit_denominator(10**8) for x in q] for q in good]))
     alpha = Fraction(best * (1 - 1e-4)).limit_denominator(10**9)
-    ents = {v: ([lp_coeffs(mm.p_class[i, j], gain_subs(mm, v)) for i, j in ij],
-                [lp_coeffs(f[i, j], gain_subs(mm, v)) for i, j in ij]) for v in b.vertices()}
+    ij = ((0, 0), (0, 1), (1, 1))
+    ents = {v: ([lp_coeffs(mm.p_class[i, j], gain_subs(mm, v), mm.free) for i, j in ij],
+                [lp_coeffs(f[i, j], gain_subs(mm, v), mm.free) for i, j in ij]) for v in b.vertices()}
     pnum = []
     for _ in range(30):
         ok = True
         for c, q in coeffs_per:
             for v in b.vertices():
-                pv = sum((qj * monomial_value(e, v) for qj, e in zip(q, monos)), Fraction(0))
+                pv = free_values(q, monos, v)
                 pc = [with_p(d, pv) for d in ents[v][0]]
                 fc = [with_p(d, pv) for d in ents[v][1]]
                 if not _check_rate({v: (pc, fc)}, alpha, [c]):
                     ok = False
                     break
                 lam = c.mid
-                pnum.append(np.array(mm.p_class.subs({**gain_subs(mm, v), LAMBDA: lam,
-                                                      P_FREE: lam * float(pv)}), dtype=float))
+                fsub = {x: lam * float(val) for x, val in zip(mm.free, pv)}
+                pnum.append(np.array(mm.p_class.subs({**gain_subs(mm, v), LAMBDA: lam, **fsub}), dtype=float))
             if not ok:
                 break
         if ok:
-            return DecayResult(cert, Verdict.CERTIFIED, g.name, b, alpha, _kappa(pnum),
+            return DecayResult(cert, Verdict.CERTIFIED, g.name, shown, alpha, _kappa(pnum),
                                "searched V (bisection on alpha, vertex LMIs), exact re-check")
         alpha /= 2
         pnum = []
-    return DecayResult(cert, Verdict.UNDECIDED, g.name, b, Fraction(0), math.inf,
+    return DecayResult(cert, Verdict.UNDECIDED, g.name, shown, Fraction(0), math.inf,
                        "no rate passed the exact re-check")
 
 
 def spectral_decay_rate(graph: Any, gains: Any, *, spec: Any = None) -> float:
     """True decay rate of the nominal linear loop on the disagreement subspace (floating point):
-    ``min_k -max Re(roots of det(s I - A_k))`` over the nonzero Laplacian eigenvalues.
+    ``min_k -max Re(roots of det(s I - A_k))`` over the nonzero Laplacian eigenvalues, at a
+    gain point of the design's controller gains.
 
     >>> round(spectral_decay_rate("complete:4", (2, 1, 0.1)), 6)   # s^2 + 2 s + 4: Re = -1
     1.0
+    >>> round(spectral_decay_rate("complete:4", (1, 2), spec="pd_consensus"), 6)   # s^2 + 2 s + 4
+    1.0
     """
     mm = mode_model(spec)
-    sub = dict(zip(mm.gains, [float(x) for x in gains]))
+    cqd, cs = (float(x) for x in mm.coefficients(gains))
     lam = make_graph(graph).laplacian_eigenvalues[1:]
     worst = math.inf
     for lk in lam:
-        coeffs = [float(sp.sympify(c).subs({**sub, LAMBDA: float(lk)})) for c in mm.charpoly]
-        roots = np.roots(coeffs)
+        roots = np.roots([1.0, -cqd, -cs * float(lk)])
         worst = min(worst, float(-roots.real.max()))
     return worst
 

@@ -21,10 +21,11 @@ certificates (:func:`.certificates.certify`), then each requirement:
     (:func:`.delay.delay_margin`) exceeds ``tau``, refuted when it does not (a
     root crosses into the right half plane at the margin).
 ``torque_limit`` U (with ``inertias``, ``att_radius`` r0, ``rate_radius`` w0)
-    per gain point only: certified when the certified peak-torque bound
-    (:func:`.torque.peak_torque_bound`) from every ``|q_i(0)| <= r0``,
-    ``|omega_i(0)| <= w0`` is ``<= U`` for every spacecraft; otherwise undecided
-    (the bound is conservative).
+    a gain point or a whole box: certified when the certified peak-torque bound
+    (:func:`.torque.peak_torque_bound`, valid for every gain of the box) from every
+    ``|q_i(0)| <= r0``, ``|omega_i(0)| <= w0`` is ``<= U`` for every spacecraft; refuted
+    when an initial state of the set at a gain of the box already needs more than ``U``
+    at ``t = 0`` (:func:`.torque.torque_limit_check`); otherwise undecided.
 ``graph_set``
     certified when one quadratic Lyapunov function is common to every graph of
     the set and every gain of the box (:func:`.switching.certify_switching`,
@@ -48,8 +49,9 @@ from typing import Any
 
 import sympy as sp
 
-from formsync_design.analysis.certificates import GAINS, certify, gain_subs, hurwitz_conditions
+from formsync_design.analysis.certificates import certify
 from formsync_design.analysis.delay import DelayModel, delay_margin
+from formsync_design.analysis.modecheck import gain_subs, hurwitz_conditions, split_box
 from formsync_design.analysis.modes import mode_model, poly_coeffs_in_lambda
 from formsync_design.analysis.performance import certified_decay_rate
 from formsync_design.analysis.results import Certificate, CertificateResult, Verdict, jsonify
@@ -174,8 +176,8 @@ def decay_refutation(graph: Any, box: Any, alpha: Any, *, spec: Any = None,
     (True, None)
     """
     g = make_graph(graph)
-    b = GainBox.parse(box, GAINS)
     mm = mode_model(spec)
+    b, _ = split_box(mm, box)
     sp_ = spectrum if spectrum is not None else laplacian_spectrum(g)
     a = Fraction(alpha)
     s = sp.Symbol("s")
@@ -191,7 +193,7 @@ def decay_refutation(graph: Any, box: Any, alpha: Any, *, spec: Any = None,
                 coeffs = poly_coeffs_in_lambda(e, sub)
                 lo, hi = poly_range(coeffs, c.lo, c.hi)
                 if hi < 0:
-                    return {"point": dict(zip(GAINS, v)), "lambda": (c.lo, c.hi),
+                    return {"point": dict(zip(mm.names, v)), "lambda": (c.lo, c.hi),
                             "condition": str(e), "upper_bound": hi}
     return None
 
@@ -215,24 +217,23 @@ def certify_requirements(graph: Any, box: Any, certificate: str | Certificate, r
     'refuted'
     """
     g = make_graph(graph)
-    b = GainBox.parse(box, GAINS)
+    mm = mode_model(spec)
+    b, given = split_box(mm, box)
     cert = Certificate(str(certificate))
     if req.delay is not None and not all(r.is_point for r in b.ranges):
         raise InputError("expected a gain point (X, not LO:HI) with --delay: the delay margin is "
                          f"certified per gain point, received {b}")
     if req.torque_limit is not None:
-        if not all(r.is_point for r in b.ranges):
-            raise InputError("expected a gain point (X, not LO:HI) with --torque-limit: the torque bound "
-                             f"is certified per gain point, received {b}")
         if req.inertias is None:
             raise InputError("expected inertias (--inertia or --case) with --torque-limit, received none")
     sp_ = spectrum if spectrum is not None else laplacian_spectrum(g)
-    base = certify(g, b, cert, spec=spec, margin=margin, spectrum=sp_, use_sdp=use_sdp)
+    full = GainBox((*b.ranges, *given.ranges)) if given is not None else b
+    base = certify(g, full, cert, spec=spec, margin=margin, spectrum=sp_, use_sdp=use_sdp)
     if not base.certified:
         return RequirementResult(base.status, base, ())
     checks: list[RequirementCheck] = []
     if req.decay is not None or req.settle is not None:
-        checks.extend(_decay_checks(g, b, cert, req, spec, sp_))
+        checks.extend(_decay_checks(g, full, cert, req, spec, sp_))
     if req.delay is not None:
         checks.append(_delay_check(g, b, req, spec))
     if req.torque_limit is not None:
@@ -290,22 +291,12 @@ def _delay_check(g: Any, b: GainBox, req: Requirements, spec: Any) -> Requiremen
 
 
 def _torque_check(g: Any, b: GainBox, req: Requirements, spec: Any) -> RequirementCheck:
-    from formsync_design.analysis.torque import peak_torque_bound
+    from formsync_design.analysis.torque import torque_limit_check
 
     assert req.torque_limit is not None
-    tb = peak_torque_bound(g, tuple(r.lo for r in b.ranges), req.inertias, req.att_radius,
-                           req.rate_radius, spec=spec)
-    ok = tb.status is Verdict.CERTIFIED and tb.peak <= req.torque_limit
-    where = (f"from every |q_i(0)| <= {float(req.att_radius):g}, |omega_i(0)| <= "
-             f"{float(req.rate_radius):g} rad/s")
-    if tb.status is not Verdict.CERTIFIED:
-        why = tb.reason
-    else:
-        why = (f"|u_i(t)| <= {tb.peak:.6g} N m for all t {where} (nominal loop, K_v = 0); "
-               + ("within" if ok else "above") + f" the limit {req.torque_limit:g} N m"
-               + ("" if ok else " (the bound is conservative: undecided, not refuted)"))
-    return RequirementCheck("torque", Verdict.CERTIFIED if ok else Verdict.UNDECIDED, req.torque_limit,
-                            tb.peak, why)
+    tc = torque_limit_check(g, b, req.torque_limit, req.inertias, req.att_radius, req.rate_radius, spec=spec)
+    value = tc.bound.peak if tc.status is not Verdict.REFUTED or tc.witness is None else tc.witness["torque_N_m"]
+    return RequirementCheck("torque", tc.status, req.torque_limit, value, tc.reason)
 
 
 def _graph_set_check(b: GainBox, req: Requirements, spec: Any) -> RequirementCheck:

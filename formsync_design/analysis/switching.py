@@ -3,7 +3,8 @@ Lyapunov function of the nominal loop over a set of graphs and a gain box.
 
 Graph sets: an explicit list, or "the nominal graph minus any ``k`` links that
 keep it connected" (:func:`graphs_minus_links`).  The nominal loop switches
-arbitrarily among ``q'' = -K_o q' - K_q L_sigma q`` (``c_qd``, ``c_s`` derived).
+arbitrarily among ``q'' = c_qd q' + c_s L_sigma q`` (``c_qd``, ``c_s`` derived from any
+design: ``-K_o``, ``-K_q`` for Liang et al., ``-k_d``, ``-k_p`` for the PD baseline).
 
 Class (graph-independent, so it can be common to every topology): per axis,
 on the disagreement subspace ``1^perp`` (shared by every connected graph),
@@ -24,8 +25,9 @@ Scope and what is missing: the nominal linear loop only.  This class does not
 keep the switching structure (``dV/dq_i'`` aligned with ``q_i' + beta s_i``):
 ``s_i`` depends on the current graph, so no graph-independent quadratic
 function can; the switching and disturbance terms under link failures would
-need an ultimate-bound argument.  No dwell-time certificate is computed when
-the class is empty (the result is then ``undecided``).
+need an ultimate-bound argument (a design without a switching term, such as the PD
+baseline, needs none: its loop is the nominal one).  When the class is empty the
+result is ``undecided``; :mod:`.dwell` then certifies a dwell time.
 """
 
 from __future__ import annotations
@@ -40,7 +42,13 @@ import numpy as np
 import sympy as sp
 from scipy.linalg import expm
 
-from formsync_design.analysis.certificates import GAINS, check_pd_coeffs, entry_coeffs, gain_subs
+from formsync_design.analysis.modecheck import (
+    GAINS,
+    check_pd_coeffs,
+    entry_coeffs,
+    gain_subs,
+    split_box,
+)
 from formsync_design.analysis.modes import LAMBDA, mode_model
 from formsync_design.analysis.results import Verdict, jsonify
 from formsync_design.analysis.spectrum import laplacian_spectrum
@@ -114,6 +122,8 @@ def certify_switching(graphs: Any, box: Any, *, spec: Any = None) -> SwitchingRe
     ...                       {"K_o": 1.6, "K_q": 0.4, "beta": 0.3})
     >>> r.status.value
     'certified'
+    >>> certify_switching(["ring:6", "path:6"], {"k_p": 0.4, "k_d": 1.6}, spec="pd_consensus").status.value
+    'certified'
     """
     import cvxpy as cp
 
@@ -122,8 +132,8 @@ def certify_switching(graphs: Any, box: Any, *, spec: Any = None) -> SwitchingRe
     gs = [make_graph(g) for g in graphs]
     if not gs:
         raise GraphError("expected at least one connected graph in the set, received none")
-    b = GainBox.parse(box, GAINS)
     mm = mode_model(spec)
+    b, _ = split_box(mm, box)
     p, f = _class_matrices(spec)
     clusters = [c for g in gs for c in laplacian_spectrum(g).clusters]
     a_v, b_v, t = cp.Variable(), cp.Variable(), cp.Variable()
@@ -175,16 +185,14 @@ def certify_switching(graphs: Any, box: Any, *, spec: Any = None) -> SwitchingRe
 
 def simulate_switching(graphs: Any, gains: Any, *, tf: float = 60.0, mean_dwell: float = 1.0,
                        seed: int = 0, spec: Any = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Nominal loop (one axis) with the topology switching at random (exponential) times.
+    """Nominal loop (one axis) with the topology switching at random (exponential) times, at a
+    gain point of the design's controller gains.
 
     Returns ``(t, x, sigma)``: switching instants and dense samples ``x = (q, q')``
     at every instant and every 0.1 s (exact ``expm`` propagation), the graph index.
     """
     gs = [make_graph(g) for g in graphs]
-    mm = mode_model(spec)
-    sub = dict(zip(mm.gains, [float(x) for x in gains]))
-    a21 = float(sp.sympify(mm.a[1, 0] / LAMBDA).subs(sub))  # c_s
-    a22 = float(sp.sympify(mm.a[1, 1]).subs(sub))  # c_qd
+    a22, a21 = (float(x) for x in mode_model(spec).coefficients(gains))  # c_qd, c_s
     n = gs[0].n
     mats = [np.block([[np.zeros((n, n)), np.eye(n)], [a21 * g.laplacian.astype(float), a22 * np.eye(n)]])
             for g in gs]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
@@ -30,11 +31,14 @@ __all__ = ["add_parser", "run", "load_conditions", "certify_design", "require_cl
 
 #: One line per certificate (``--help``).
 CERTIFICATE_HELP = """\
-certificates (--certificate, most to least conservative; each proves the whole box):
+certificates (--certificate, most to least conservative; each proves the whole box; any design,
+in its own gains, through its derived closed loop q'' = c_qd q' + c_s s + c_sigma sigma):
   paper     the paper's per-spacecraft test: every Theta_i > 0 and Pi > 0 (default)
-  exact     the paper's own V on the whole graph: V > 0 and V' <= 0 per Laplacian mode
+  exact     the design's own V on the whole graph: V > 0 and V' <= 0 per Laplacian mode
+            (a multiplier of V not given, e.g. pd_consensus's eps, is chosen from its declared range)
   searched  the best quadratic V keeping the switching structure, common over the box
-            (vertex LMIs, exact re-check; when none exists, an exact dual refutation of the class)
+            (vertex LMIs, exact re-check; when none exists, an exact dual refutation of the class);
+            a design without a switching term: every quadratic V per mode
   spectral  the nominal linear loop is stable (Routh-Hurwitz per Laplacian mode): the outer bound
 requirements (restrict the admissible gains; each certified, refuted or undecided):
   --decay ALPHA          V' <= -2 ALPHA V on the whole box (certified rate >= ALPHA)
@@ -43,7 +47,8 @@ requirements (restrict the admissible gains; each certified, refuted or undecide
   --graphs-set SET       one Lyapunov function common to the graphs of SET (minus:K or G1,G2,...),
                          or with --min-dwell T a certified dwell time <= T s (gain points)
   --torque-limit U       certified |u_i(t)| <= U N m from every |q_i(0)| <= --att0, |omega_i(0)| <= --rate0
-                         (gain points; inertias from --inertia or --case)
+                         for every gain of the box (inertias from --inertia or --case); refuted when a
+                         state of that set already needs more at t = 0
 
 """
 
@@ -82,6 +87,8 @@ examples:
       --settle 120 --delay 0.5 --graphs-set minus:1
   formsync certify --design pd_consensus --graph star:8 --gain k_p=0.1:2 --gain k_d=0.5:3
       (another design: its own gains; its multiplier eps searched, the certifying value reported)
+  formsync certify --design pd_consensus --graph star:8 --gain k_p=0.4 --gain k_d=1.6 \
+      --certificate searched --decay 0.1 --delay 0.5 --graphs-set minus:1
 """
 
 
@@ -137,8 +144,8 @@ def add_certificate_options(p: argparse.ArgumentParser, *, point_options: bool =
                        help="with --graphs-set: accept switching that stays >= T s on each graph when no "
                        "common Lyapunov function exists (dwell-time certificate, gain points)")
         p.add_argument("--torque-limit", default=None, metavar="U",
-                       help="require a certified peak torque |u_i(t)|_2 <= U N m (gain points; needs "
-                       "--inertia or --case)")
+                       help="require a certified peak torque |u_i(t)|_2 <= U N m for every gain of the box "
+                       "(needs --inertia or --case)")
         p.add_argument("--att0", default="0.1", metavar="R",
                        help="initial set: |q_i(0)| <= R, quaternion vector part (default 0.1)")
         p.add_argument("--rate0", default="0.01", metavar="W",
@@ -421,10 +428,11 @@ def run(args: argparse.Namespace) -> int:
     box = gain_box_from_args(args, spec)
     margin = parse_margin(args.margin)
     req = requirements_from_args(args, args.graph)
-    if args.certificate != "paper" or req.any():
-        require_classic(spec, "--certificate or a requirement option")
-        return _run_analysis(args, box, margin, req)
     _, theorem = design_graph(args.graph, spec, args.allow_outside_theorem)
+    if args.certificate != "paper" or req.any():
+        if not theorem.inside:
+            sys.stderr.write(theorem.note() + "\n")
+        return _run_analysis(args, spec, box, margin, req)
     conds = load_conditions(args.graph, args.conditions, args.spec)
     kv = _kv_from_args(args, conds)
     if kv is not None and spec.decl.switching is None:
@@ -439,7 +447,7 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK if res.certified else EXIT_NEGATIVE
 
 
-def _run_analysis(args: argparse.Namespace, box: GainBox, margin: Fraction, req: Any) -> int:
+def _run_analysis(args: argparse.Namespace, spec: Any, box: GainBox, margin: Fraction, req: Any) -> int:
     from formsync_design.analysis.requirements import certify_requirements
 
     if args.conditions != "derived":
@@ -452,11 +460,6 @@ def _run_analysis(args: argparse.Namespace, box: GainBox, margin: Fraction, req:
             req.torque_limit is None and (args.inertia or args.case)):
         raise InputError("expected the K_v check (--ud/--inertia/--case/--kv) without --certificate or "
                          "requirement options, received both (run them separately)")
-    spec = None
-    if args.spec:
-        from formsync_design.spec.loader import load_spec
-
-        spec = load_spec(args.spec)
     res = certify_requirements(args.graph, box, args.certificate, req, spec=spec, margin=margin)
     if args.format == "json":
         emit_json(res.to_dict())

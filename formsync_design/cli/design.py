@@ -19,12 +19,15 @@ point is rounded to a short decimal, certified with the same rigorous re-check
 as 'formsync certify', and the largest certified box g*(1 +- s) around it is
 reported.
 
-With --min-delay TAU and/or --graphs-set SET the design maximises instead the
-certified decay rate (searched quadratic V, exact re-check) over a grid of
---grid^3 candidate points, keeping only points whose searched certificate
-holds, whose processing-delay margin is >= TAU and (with --graphs-set) that
-have one Lyapunov function common to the graph set; it reports the largest box
-g (1 +- s) around the winner on which the certificates still hold.
+With --min-delay TAU, --graphs-set SET and/or --torque-limit U the design
+maximises instead the certified decay rate (searched quadratic V, exact
+re-check) over a grid of --grid^dim candidate points (any design, in its own
+gains), keeping only points whose searched certificate holds, whose
+processing-delay margin is >= TAU, (with --graphs-set) that have one Lyapunov
+function common to the graph set and (with --torque-limit) whose certified peak
+torque from --att0/--rate0 is <= U; it reports the largest box g (1 +- s) around
+the winner on which every certificate still holds for every gain of the box (the
+delay margin and the torque bound are proven over the whole box).
 
 Exit status: 0 gains recommended and certified, 1 none found, 2 bad input.
 
@@ -32,6 +35,8 @@ examples:
   formsync design --graph ring:8 --ko 0.05:5 --kq 0.05:5 --beta 0.01:1
   formsync design --graph star:8 --ko 0.1:3 --kq 0.1:3 --beta 0.01:0.5 --penalty 0.1 --betas 21
   formsync design --graph ring:6 --ko 1:3 --kq 0.2:1 --beta 0.1:0.3 --min-delay 0.5 --graphs-set minus:1
+  formsync design --design pd_consensus --graph ring:8 --gain k_p=0.1:1 --gain k_d=0.5:3 \\
+      --torque-limit 40 --inertia J.txt --att0 0.05 --min-delay 0.5
 """
 
 
@@ -96,10 +101,7 @@ def run(args: argparse.Namespace) -> int:
     if not 1 <= args.betas <= 1000:
         raise InputError(f"expected --betas in 1..1000, received {args.betas}")
     if args.min_delay is not None or args.graphs_set is not None or args.torque_limit is not None:
-        from formsync_design.cli.certify import require_classic
-
-        require_classic(spec, "--min-delay, --graphs-set or --torque-limit")
-        return _run_constrained(args, box)
+        return _run_constrained(args, spec, gain_box_from_args(args, spec))
     conds = load_conditions(args.graph, args.conditions, args.spec)
     d = design_gains(conds, box, betas=args.betas, penalty=float(pen), margin=margin, hold=hold)
     g0, g1, g2 = conds.gains
@@ -127,7 +129,7 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK if d.status == "designed" else EXIT_NEGATIVE
 
 
-def _run_constrained(args: argparse.Namespace, box: Any) -> int:
+def _run_constrained(args: argparse.Namespace, spec: Any, box: Any) -> int:
     from formsync_design.analysis.design import design_with_constraints
     from formsync_design.analysis.requirements import parse_graph_set
     from formsync_design.cli.options import parse_number
@@ -146,11 +148,10 @@ def _run_constrained(args: argparse.Namespace, box: Any) -> int:
     gs, label = (None, "")
     if args.graphs_set is not None:
         gs, label = parse_graph_set(args.graphs_set, args.graph)
-    spec = None
-    if args.spec:
-        from formsync_design.spec.loader import load_spec
-
-        spec = load_spec(args.spec)
+    given = [n for n in spec.decl.multipliers if n in box.names]
+    if given:
+        raise InputError(f"expected no multiplier ({', '.join(given)}) in a constrained design (it uses the "
+                         f"searched certificate), received {', '.join(given)}")
     torque: dict[str, Any] = {}
     if args.torque_limit is not None:
         from formsync_design.cli.certify import requirements_from_args
@@ -173,11 +174,12 @@ def _run_constrained(args: argparse.Namespace, box: Any) -> int:
               + (f", peak torque <= {float(args.torque_limit):g} N m" if torque else "") + ")")
         print(f"  {d.reason}")
         if d.gains is not None:
-            print("  recommended: " + ", ".join(f"{k}={float(v):g}"
-                                                for k, v in zip(("K_o", "K_q", "beta"), d.gains)))
+            print("  recommended: " + ", ".join(f"{k}={float(v):g}" for k, v in zip(d.names, d.gains)))
             print(f"  certified decay rate: alpha >= {float(d.alpha):.6g} 1/s; processing-delay margin "
                   f"{d.delay_margin:.6g} s")
         if d.box is not None:
             print("  largest certified box: " + ", ".join(
-                f"{r.name} in [{float(r.lo):.4g}, {float(r.hi):.4g}]" for r in d.box))
+                f"{r.name} in [{float(r.lo):.4g}, {float(r.hi):.4g}]" for r in d.box)
+                  + ("" if d.torque_bound is None else
+                     f"; certified peak torque <= {d.torque_bound:.6g} N m for every gain of it"))
     return EXIT_OK if d.status == "certified" else EXIT_NEGATIVE

@@ -34,13 +34,18 @@ derived ones.  Dashed lines: closed-form boundaries from the derivation.
 A range with LO == HI makes that axis a slice (2-D map).
 
 With --certificate exact|searched|spectral or a requirement (--decay, --settle,
---graphs-set) every cell of an R x R x R grid (1 cell along a point axis) is
-decided by that certificate and the requirements; DIR/region.json lists the
+--graphs-set, --delay, --torque-limit) every cell of an R x R x R grid (R x R for a
+two-gain design such as pd_consensus; 1 cell along a point axis) is decided by that
+certificate and the requirements, for any design; DIR/region.json lists the
 cells and the certified / refuted / undecided volume fractions (the certified
 fraction is a rigorous lower bound of the admissible volume).  Default R = 8
 there.  --delay TAU decides every gain of each cell by the proven monotonicity of
 the exact delay margin (processing: worst at K_o lo, K_q hi; transmission on a
 regular graph: delay-independent where K_o^2 >= 2 K_q d; otherwise undecided).
+--torque-limit U decides every gain of each cell with the certified peak-torque bound
+valid over the whole cell (from --att0/--rate0, inertias from --inertia or --case):
+certified within U, refuted when a state of the initial set already needs more than U
+at t = 0 at a gain of the cell, undecided in between.
 
 %s
 examples:
@@ -51,6 +56,10 @@ examples:
       --decay 0.02 --resolution 4 --out out/star8
   formsync region --design pd_consensus --graph star:8 --gain k_p=0.01:2 --gain k_d=0.01:2 \\
       --out out/pd        # another design: its gains, its multipliers searched per cell
+  formsync region --graph ring:8 --ko 0.5:3 --kq 0.1:1 --beta 0.3 --certificate spectral \\
+      --torque-limit 40 --inertia J.txt --att0 0.05 --out out/torque
+  formsync region --design pd_consensus --graph star:8 --gain k_p=0.1:2 --gain k_d=0.5:3 \\
+      --certificate searched --decay 0.1 --delay 0.5 --out out/pd-req
 """
 
 
@@ -94,6 +103,15 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--delay-model", default="processing", choices=("processing", "transmission"),
                    help="processing: both terms of s_i late; transmission: neighbours' states late; "
                    "default processing")
+    p.add_argument("--torque-limit", default=None, metavar="U",
+                   help="require a certified peak torque |u_i(t)|_2 <= U N m for every gain of a cell (needs "
+                   "--inertia or --case)")
+    p.add_argument("--inertia", default=None, metavar="FILE",
+                   help="inertias for --torque-limit: text/CSV, 3 rows per spacecraft (or 3 rows for all)")
+    p.add_argument("--case", default=None, metavar="FILE", help="TOML case file: inertias for --torque-limit")
+    p.add_argument("--att0", default="0.1", metavar="R", help="initial set |q_i(0)| <= R (default 0.1)")
+    p.add_argument("--rate0", default="0.01", metavar="W",
+                   help="initial set |omega_i(0)| <= W rad/s (default 0.01)")
     add_format_option(p)
     p.set_defaults(func=run)
 
@@ -118,10 +136,12 @@ def run(args: argparse.Namespace) -> int:
     box = gain_box_from_args(args, spec)
     margin = parse_margin(args.margin)
     req = requirements_from_args(args, args.graph[0])
+    if args.torque_limit is None and (args.inertia or args.case):
+        raise InputError("expected --inertia/--case only with --torque-limit, received them without it")
+    if args.certificate != "paper" or req.any():
+        return _run_cells(args, spec, box, margin, req)
     if tuple(spec.gains) != ("K_o", "K_q", "beta"):
         return _run_design(args, spec, box, margin, req)
-    if args.certificate != "paper" or req.any():
-        return _run_cells(args, box, margin, req)
     if args.resolution is None:
         args.resolution = 32
     if args.conditions not in ("derived", "paper", "both"):
@@ -184,13 +204,10 @@ def _run_design(args: argparse.Namespace, spec: Any, box: Any, margin: Any, req:
     from formsync_design.certify.multiregion import region_with_multipliers
     from formsync_design.certify.plots import plot_slices
     from formsync_design.certify.region import map_to_dict
-    from formsync_design.cli.certify import require_classic
     from formsync_design.cli.options import to_json_value
     from formsync_design.derive.conditions import derive_conditions
     from formsync_design.graphs import make_graph
 
-    if args.certificate != "paper" or req.any():
-        require_classic(spec, "--certificate or a requirement option")
     if args.conditions != "derived":
         raise InputError(f"expected --conditions derived for design {spec.name} (printed "
                          f"conditions are liang2016's), received --conditions {args.conditions}")
@@ -238,14 +255,17 @@ def _run_design(args: argparse.Namespace, spec: Any, box: Any, margin: Any, req:
     return EXIT_OK
 
 
-def _run_cells(args: argparse.Namespace, box: Any, margin: Any, req: Any) -> int:
-    """The grid of cells decided by one certificate and the requirements."""
+def _run_cells(args: argparse.Namespace, spec: Any, box: Any, margin: Any, req: Any) -> int:
+    """The grid of cells decided by one certificate and the requirements (any design)."""
     import dataclasses
+    import itertools
     import json
     from fractions import Fraction
     from pathlib import Path
 
     from formsync_design.analysis.celldelay import delay_cell_check
+    from formsync_design.analysis.modecheck import split_box
+    from formsync_design.analysis.modes import mode_model
     from formsync_design.analysis.requirements import certify_requirements
     from formsync_design.analysis.results import Verdict
     from formsync_design.analysis.spectrum import laplacian_spectrum
@@ -261,17 +281,20 @@ def _run_cells(args: argparse.Namespace, box: Any, margin: Any, req: Any) -> int
                          f"received --conditions {args.conditions}")
     if args.certificate != "paper" and margin != 0:
         raise InputError(f"expected --margin only with --certificate paper, received --margin {args.margin}")
-    spec = None
-    if args.spec:
-        from formsync_design.spec.loader import load_spec
-
-        spec = load_spec(args.spec)
+    if args.beta_slices or args.kq_slices:
+        raise InputError("expected no --beta-slices/--kq-slices with --certificate or a requirement option "
+                         "(the cells are written to region.json), received them")
+    mm = mode_model(spec)
+    ctrl, given = split_box(mm, box)
+    fixed = list(given.ranges) if given is not None else []
     axes = []
-    for r in box:
-        k = 1 if r.is_point else res
-        axes.append([(r.lo + (r.hi - r.lo) * Fraction(i, k), r.lo + (r.hi - r.lo) * Fraction(i + 1, k))
+    for gr in ctrl:
+        k = 1 if gr.is_point else res
+        axes.append([(gr.lo + (gr.hi - gr.lo) * Fraction(i, k), gr.lo + (gr.hi - gr.lo) * Fraction(i + 1, k))
                      for i in range(k)])
-    ncell = len(axes[0]) * len(axes[1]) * len(axes[2])
+    ncell = 1
+    for ax in axes:
+        ncell *= len(ax)
     prog = Progress(ncell * len(args.graph), "region", enabled=not args.no_progress)
     out_maps = []
     for gspec in args.graph:
@@ -280,22 +303,21 @@ def _run_cells(args: argparse.Namespace, box: Any, margin: Any, req: Any) -> int
         greq = requirements_from_args(args, g) if req.graph_set is not None else req
         nreq = dataclasses.replace(greq, delay=None)  # the delay is decided per cell below
         cells, counts = [], {"certified": 0, "refuted": 0, "undecided": 0, "error": 0}
-        for a in axes[0]:
-            for b in axes[1]:
-                for c in axes[2]:
-                    cell = GainBox.parse({"K_o": a, "K_q": b, "beta": c}, ("K_o", "K_q", "beta"))
-                    r = certify_requirements(g, cell, args.certificate, nreq, spec=spec, margin=margin,
-                                             spectrum=sp_, use_sdp=False)
-                    status, checks = r.status, list(r.checks)
-                    if greq.delay is not None and r.base.status is not Verdict.ERROR:
-                        dc = delay_cell_check(g, cell, greq.delay, greq.delay_model, spec=spec)
-                        checks.append(dc)
-                        status = max([status, dc.status], key=lambda v: _SEVERITY[v])
-                    counts[str(status)] += 1
-                    cells.append({"box": cell.to_dict(), "status": str(status),
-                                  "certificate": str(r.base.status),
-                                  "requirements": {ch.name: str(ch.status) for ch in checks}})
-                    prog.update(1)
+        for combo in itertools.product(*axes):
+            cell = GainBox((*(GainBox.parse({gr.name: c}, (gr.name,)).ranges[0] for gr, c in zip(ctrl, combo)),
+                            *fixed))
+            r = certify_requirements(g, cell, args.certificate, nreq, spec=spec, margin=margin,
+                                     spectrum=sp_, use_sdp=False)
+            status, checks = r.status, list(r.checks)
+            if greq.delay is not None and r.base.status is not Verdict.ERROR:
+                dc = delay_cell_check(g, cell, greq.delay, greq.delay_model, spec=spec)
+                checks.append(dc)
+                status = max([status, dc.status], key=lambda v: _SEVERITY[v])
+            counts[str(status)] += 1
+            cells.append({"box": cell.to_dict(), "status": str(status),
+                          "certificate": str(r.base.status),
+                          "requirements": {ch.name: str(ch.status) for ch in checks}})
+            prog.update(1)
         out_maps.append({"graph": g.name, "certificate": args.certificate,
                          "requirements": _req_dict(greq), "resolution": res, "cells": len(cells),
                          "fractions": {k: Fraction(v, len(cells)) for k, v in counts.items()},
@@ -305,7 +327,8 @@ def _run_cells(args: argparse.Namespace, box: Any, margin: Any, req: Any) -> int
     path = out / "region.json"
     from formsync_design.cli.options import to_json_value
 
-    path.write_text(json.dumps(to_json_value({"box": box.to_dict(), "maps": out_maps}), indent=1) + "\n")
+    doc = {"design": spec.name, "box": box.to_dict(), "maps": out_maps}
+    path.write_text(json.dumps(to_json_value(doc), indent=1) + "\n")
     if args.format == "json":
         emit_json({"files": [str(path)], "maps": [{k: v for k, v in m.items() if k != "boxes"}
                                                   for m in out_maps]})
@@ -330,4 +353,6 @@ def _req_dict(req: Any) -> dict[str, Any]:
         d["graphs_set"] = req.graph_set_label
     if req.delay is not None:
         d.update(delay=req.delay, delay_model=str(req.delay_model))
+    if req.torque_limit is not None:
+        d.update(torque_limit=req.torque_limit, att0=req.att_radius, rate0=req.rate_radius)
     return d
