@@ -181,8 +181,8 @@ def design_section(spec: str = "pd_consensus", graphs: Sequence[str] = ("ring:8"
              f"Four certificates on the box {b}, {resolution}^{len(names)} cells (certified volume fractions):", "",
              "| graph | paper | exact | searched | spectral | nesting violations |", "|---|---|---|---|---|---|"]
     full = True
-    for g in graphs:
-        rc = compare_regions(g, b, resolution, spec=spec)
+    for gspec in graphs:
+        rc = compare_regions(gspec, b, resolution, spec=spec)
         full = full and all(rc.fractions[c] == 1 for c in ORDER)
         lines.append(f"| {rc.graph} | " + " | ".join(_pct(rc.fractions[c]) for c in ORDER)
                      + f" | {rc.nesting_violations} |")
