@@ -544,6 +544,14 @@ def _try_storage(lin: LinearLoop, bx: GainBox, gamma: Fraction, method: str,
     return last, []
 
 
+def _round_down_level(g: Fraction, bits: int = 24) -> Fraction:
+    """A dyadic level ``<= g`` within ``2^-bits`` relative (its square's denominator is a
+    power of two, like the storage's: the family's integers stay small)."""
+    e = math.floor(math.log2(float(g))) - bits
+    q = Fraction(2) ** e
+    return math.floor(g / q) * q
+
+
 def certify_l2_box(lin: LinearLoop, box: Any, gamma: Any, *, method: str = "auto",
                    max_pieces: int = 16) -> L2Certificate:
     """Decide whether the linearisation's L2 gain is ``<= gamma`` for every gain in ``box``.
@@ -567,6 +575,9 @@ def certify_l2_box(lin: LinearLoop, box: Any, gamma: Any, *, method: str = "auto
     if g <= 0:
         raise InputError(f"expected a positive gamma, received {float(g):g}")
     bx = _box(lin, box)
+    # a level with a long decimal expansion is certified through a shorter one below it
+    # (certifying gc <= g certifies g): the dissipation family's integers stay in int64
+    gc = g if g.denominator < 10**6 else _round_down_level(g)
     point = all(lo == hi for lo, hi in bx.bounds)
     meth = method if method != "auto" else ("riccati" if point else "sdp")
     if meth not in ("sdp", "riccati"):
@@ -590,7 +601,7 @@ def certify_l2_box(lin: LinearLoop, box: Any, gamma: Any, *, method: str = "auto
                                          reason=f"the L2 gain exceeds {float(g):g} at "
                                                 f"{ {k: float(v) for k, v in wit.point.items()} }",
                                          elapsed=time.perf_counter() - t0)
-        res, _ = _try_storage(lin, b, g, meth, systems)
+        res, _ = _try_storage(lin, b, gc, meth, systems)
         if res is not None and res.certified:
             done.append(res)
             continue

@@ -161,14 +161,14 @@ def _rows(design: Any, m: int) -> tuple[Any, Any, list[sp.Symbol], Any]:
     Jwdot = loop.u - v.w.cross(v.J * v.w) + loop.disturbance
     if v.J.inv() * Jwdot != loop.wdot:
         raise DerivationError(f"{design.path}: the closed loop's w' is not J^-1 (u - w x J w + d)")
-    rows = [loop.rates[s] for s in v.q] + list(Jwdot)
+    rows = [loop.rates[s] for s in v.own.q] + list(Jwdot)
     rows += [loop.rates[s] for n in names for s in v.z[n]]
     own_z = [s for n in names for s in v.z[n]]
-    cols = [*v.q, *v.w, *own_z]
+    cols = [*v.own.q, *v.w, *own_z]
     for nb in v.nbrs:
         cols += [*nb.q, *nb.w, *[s for n in names for s in nb.z[n]]]
     point: dict[Any, Any] = {s: 0 for s in cols}
-    point.update({v.q0: 1, **{nb.q0: 1 for nb in v.nbrs}})
+    point.update({v.own.q0: 1, **{nb.q0: 1 for nb in v.nbrs}})
     if design.decl.leader:
         point.update({s: 0 for s in (*v.ref.q, *v.ref.w, *v.ref.wdot)})
         point[v.ref.q0] = 1
@@ -277,10 +277,10 @@ def linearize_agents(design: Any, graph: Any, inertias: Any, *, pinning: Any = N
         for a in range(Jn.shape[0]):
             for b in range(Jn.shape[1]):
                 ent = _poly_entries(Jn[a, b], gens, where)
-                for mono, c in ent.items():
+                for mono, coef in ent.items():
                     cell = terms.setdefault(mono, {})
                     key = (row0[a], col0[b])
-                    cell[key] = cell.get(key, Fraction(0)) + c
+                    cell[key] = cell.get(key, Fraction(0)) + coef
         Jdn = Jd.xreplace(num)
         for a in range(Jdn.shape[0]):
             for b in range(3):

@@ -229,7 +229,9 @@ def analyse_case(path: str | Path, design: Any = None, progress: Any = None) -> 
         box = certify_l2_box(lin, bx, cl["box_gamma"], max_pieces=4)
         refute = certify_l2_box(lin, bx, cl["refute_gamma"], max_pieces=1)
     tb = float(budget_bound(d, lin, gains))
-    zb = harmonic_steady_bound(gamma.gamma, case.formation().disturbance.harmonic)
+    dist = case.formation().disturbance
+    assert dist is not None  # AgentFormation fills in "none"
+    zb = harmonic_steady_bound(gamma.gamma, dist.harmonic)
     sbound = math.degrees(2 * math.asin(min(1.0, zb)))  # |e_i| <= |z|: angle 2 asin |e_i|
 
     tail = float(cl.get("tail_fraction", 0.2))
