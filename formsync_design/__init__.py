@@ -20,12 +20,15 @@ data flows through the stages:
   :func:`agent_conditions`;
 * certification: :class:`GainBox` (the one gain-box type), :func:`certify_box`,
   :func:`certify_with_multipliers` (designs whose candidate has multipliers),
-  :func:`region_map`, :func:`plot_slices`, :func:`design_gains`;
+  :func:`region_map`, :func:`plot_slices`, :func:`design_gains`; certified L2 gains of an
+  agent design's linearisation (:func:`linearize_agents`): :func:`certify_gamma`,
+  :func:`certify_l2_box`, :func:`design_l2_gains`;
 * simulation: :class:`Formation`, :class:`Gains`, :class:`SimOptions`,
   :func:`simulate`, :func:`simulate_sampled` (per-spacecraft sample-and-hold and
   trigger rules), :func:`metric_figure`, :func:`torque_figures`,
   :func:`monte_carlo`; agent designs: :class:`AgentFormation`, :class:`Reference`,
-  :class:`AgentOptions`, :func:`simulate_agents` (:class:`AgentResult`);
+  :class:`AgentOptions`, :func:`simulate_agents` (:class:`AgentResult`), gyro models
+  :class:`RateSensors`, :func:`measured_l2_gain`;
 * verification of a published case: :func:`load_case`, :func:`verify_case`;
   :func:`load_agent_case` (the case files of agent designs); self-triggered designs
   (seed 001): :func:`sampling_variant` (a design under another sampling rule),
@@ -106,6 +109,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "write_derivation_report": "formsync_design.derive.report",
     "agent_closed_loop": "formsync_design.derive",
     "agent_conditions": "formsync_design.derive",
+    "linearize_agents": "formsync_design.derive.linearize",
     # gains and numbers
     "GainBox": "formsync_design.gains",
     "GainRange": "formsync_design.gains",
@@ -121,6 +125,9 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "plot_slices": "formsync_design.certify.plots",
     "DesignResult": "formsync_design.certify",
     "design_gains": "formsync_design.certify",
+    "certify_gamma": "formsync_design.analysis.l2gain",
+    "certify_l2_box": "formsync_design.analysis.l2gain",
+    "design_l2_gains": "formsync_design.analysis.l2design",
     # simulation
     "Formation": "formsync_design.sim",
     "Gains": "formsync_design.sim",
@@ -133,6 +140,8 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "AgentResult": "formsync_design.sim",
     "Reference": "formsync_design.sim",
     "simulate_agents": "formsync_design.sim",
+    "RateSensors": "formsync_design.sim.sensors",
+    "measured_l2_gain": "formsync_design.sim.l2measure",
     "metric_figure": "formsync_design.sim.figures",
     "torque_figures": "formsync_design.sim.figures",
     "MonteCarloSettings": "formsync_design.sim",

@@ -118,8 +118,11 @@ import sys
 from pathlib import Path
 import formsync_design
 from formsync_design import resources
-from formsync_design.spec.loader import load_spec
+from formsync_design.spec.loader import load_design, load_spec
+from formsync_design.tomlio import load_toml
+from formsync_design.verify.agentcase import load_agent_case
 from formsync_design.verify.case import load_case
+from formsync_design.verify.kinds import case_kind
 lib = Path({lib!r})
 assert Path(formsync_design.__file__).resolve().is_relative_to(lib.resolve()), formsync_design.__file__
 paths = resources.check_installation()

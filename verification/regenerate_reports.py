@@ -16,6 +16,9 @@ documented commands produce:
 * ``formsync verify zhang2014_flyaround`` -> reports/zhang2014_flyaround-verification.md (+
   figures): the fly-around case of Zhang et al. 2014 (a tracking design, case kind
   ``flyaround``), its claims, sensitivity study, allocation comparison and certificates;
+* ``formsync verify lv2012`` -> reports/lv2012-verification.md (+ figures): the output-feedback
+  design without rate gyros (Lv et al. 2012, reconstructed) on the Liang et al. case and a
+  three-spacecraft chain, against controller (4) with perfect, noisy and failed gyros;
 * ``verification/region_report.py`` -> reports/liang2016-region.md (+ figures);
 * ``verification/analysis_report.py`` -> reports/liang2016-certificates.md (+ figure): the
   paper's, exact, searched and spectral certificates side by side;
@@ -49,6 +52,7 @@ def main() -> int:
         ["verify", "pd_consensus"],
         ["verify", "selftrigger_mrp"],
         ["verify", "zhang2014_flyaround"],
+        ["verify", "lv2012"],
         ["sweep", "--campaign", "verification/sweep_atlas6.toml", "--out", "reports/sweep-atlas6",
          "--overwrite"],
         ["sweep", "--campaign", "verification/sweep_pd_atlas5.toml", "--out",

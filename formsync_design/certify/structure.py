@@ -148,6 +148,8 @@ def _pencil_of(mats_csr: list[Any]) -> tuple[Any, list[Fraction], list[Fraction]
         b = Fraction(int(m[i0, j0]), v0)
         a = Fraction(int(m[0, 0])) - b * int(base[0, 0])
         den = a.denominator * b.denominator
+        if max(abs(den), abs(int(a * den)), abs(int(b * den))) >= 2**62:
+            return None  # not representable in int64: no pencil (the dense path decides)
         resid = m * den - eye * int(a * den) - base * int(b * den)
         if resid.count_nonzero():
             return None

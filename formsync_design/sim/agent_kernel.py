@@ -247,7 +247,7 @@ def agent_param_layout(n: int, ngains: int, narcs: int) -> dict[str, slice]:
     """Slices of the flat kernel parameter vector."""
     sizes = [("gains", max(ngains, 1)), ("phi", 1), ("umax", 3 * n), ("J", 9 * n),
              ("Jinv", 9 * n), ("a", max(narcs, 1)), ("b", n), ("freq", 6), ("harm", 18 * n),
-             ("gg", 1), ("orbit", 4)]
+             ("gg", 1), ("orbit", 4), ("tfail", n)]
     out, k = {}, 0
     for name, s in sizes:
         out[name] = slice(k, k + s)
@@ -282,6 +282,7 @@ class AgentKernel:
     compiled: bool = False
     compile_seconds: float = 0.0
     laws: dict[int, AgentLaw] = field(default_factory=dict)
+    measured: bool = False
 
 
 def _normalise(x: Any, n: int, leader_at: int | None) -> Any:
@@ -298,7 +299,7 @@ def _normalise(x: Any, n: int, leader_at: int | None) -> Any:
 
 
 def _build(design: AgentDesign, neighbours: tuple[tuple[int, ...], ...], switch: str, M: int,
-           K: int, ref_rate: tuple[str, str, str]) -> AgentKernel:
+           K: int, ref_rate: tuple[str, str, str], measured: bool = False) -> AgentKernel:
     n = len(neighbours)
     rep = design.representation
     na = ATTITUDE_SIZE[rep]
@@ -318,7 +319,15 @@ def _build(design: AgentDesign, neighbours: tuple[tuple[int, ...], ...], switch:
     J = [ca.reshape(p[lay["J"]][9 * i: 9 * i + 9], 3, 3) for i in range(n)]
     Jinv = [ca.reshape(p[lay["Jinv"]][9 * i: 9 * i + 9], 3, 3) for i in range(n)]
     att = [ca.vertcat(*attitude_entries(rep, q[i])) for i in range(n)]
-    full = [ca.vertcat(att[i], w[i], z[i]) for i in range(n)]
+    # the measurement/disturbance channel (``measured`` kernels): ext = (rate offsets b_i + n_i
+    # (3N), extra torques (3N)), held over each RK4 step; a law sees the rate its gyro reports,
+    # h_i(t) (w_i + b_i + n_i) with h_i = 0 from the failure time on
+    ext = ca.SX.sym("ext", 6 * n) if measured else ca.SX.zeros(6 * n)
+    seen = w
+    if measured:
+        tf_ = p[lay["tfail"]]
+        seen = [ca.if_else(t < tf_[i], 1, 0) * (w[i] + ext[3 * i: 3 * i + 3]) for i in range(n)]
+    full = [ca.vertcat(att[i], seen[i], z[i]) for i in range(n)]
     laws: dict[int, AgentLaw] = {}
     if leader:
         lead_at = 7 * n + nz * n
@@ -356,41 +365,47 @@ def _build(design: AgentDesign, neighbours: tuple[tuple[int, ...], ...], switch:
                                     p[lay["gg"]])
             dq.append(ca.vertcat(0.5 * (q0 * w[i] + ca.cross(v3, w[i])), -0.5 * ca.dot(v3, w[i])))
             Jw = ca.mtimes(J[i], w[i])
-            dw.append(ca.mtimes(Jinv[i], -ca.cross(w[i], Jw) + uv[3 * i: 3 * i + 3] + ud))
+            dw.append(ca.mtimes(Jinv[i], -ca.cross(w[i], Jw) + uv[3 * i: 3 * i + 3] + ud
+                                + ext[3 * n + 3 * i: 3 * n + 3 * i + 3]))
         parts = [*dq, *dw, *zds]
         if leader:
             v3, q0 = qr[0:3], qr[3]
             parts.append(ca.vertcat(0.5 * (q0 * wr + ca.cross(v3, wr)), -0.5 * ca.dot(v3, wr)))
         return ca.vertcat(*parts)
 
-    rhs = ca.Function("agent_rhs", [x, t, p], [plant_expr(u)], ["x", "t", "p"], ["xdot"])
+    xin = [x, t, p, ext] if measured else [x, t, p]
+    xnames = ["x", "t", "p", "ext"] if measured else ["x", "t", "p"]
+    rhs = ca.Function("agent_rhs", xin, [plant_expr(u)], xnames, ["xdot"])
     plant = ca.Function("agent_plant", [x, uin, t, p], [plant_expr(uin)], ["x", "u", "t", "p"],
-                        ["xdot"])
+                        ["xdot"]) if not measured else ca.Function(
+        "agent_plant", [x, uin, t, p, ext], [plant_expr(uin)], ["x", "u", "t", "p", "ext"], ["xdot"])
     mon_all = ca.vertcat(*mons) if mons else ca.SX.zeros(0)
-    observe = ca.Function("agent_observe", [x, t, p], [u, mon_all], ["x", "t", "p"],
-                          ["u", "monitors"])
+    observe = ca.Function("agent_observe", xin, [u, mon_all], xnames, ["u", "monitors"])
     # RK4 sub-step on MX (the SX right-hand side called once per stage), then the output
     # interval of M sub-steps and K intervals by mapaccum
     xs, ts, hs, ps = ca.MX.sym("x", nx), ca.MX.sym("t"), ca.MX.sym("h"), ca.MX.sym("p", p.shape[0])
-    k1 = rhs(xs, ts, ps)
-    k2 = rhs(xs + hs / 2 * k1, ts + hs / 2, ps)
-    k3 = rhs(xs + hs / 2 * k2, ts + hs / 2, ps)
-    k4 = rhs(xs + hs * k3, ts + hs, ps)
+    es = ca.MX.sym("ext", 6 * n)
+    ex = [es] if measured else []
+    k1 = rhs(xs, ts, ps, *ex)
+    k2 = rhs(xs + hs / 2 * k1, ts + hs / 2, ps, *ex)
+    k3 = rhs(xs + hs / 2 * k2, ts + hs / 2, ps, *ex)
+    k4 = rhs(xs + hs * k3, ts + hs, ps, *ex)
     xn = _normalise(xs + hs / 6 * (k1 + 2 * k2 + 2 * k3 + k4), n, lead_at)
-    step = ca.Function("agent_step", [ca.vertcat(xs, ts), hs, ps], [ca.vertcat(xn, ts + hs)])
+    step = ca.Function("agent_step", [ca.vertcat(xs, ts), hs, ps, *ex], [ca.vertcat(xn, ts + hs)])
     xa, h2, p2 = ca.MX.sym("xa", nx + 1), ca.MX.sym("h"), ca.MX.sym("p", p.shape[0])
+    eM = ca.MX.sym("ext", 6 * n, M)
     xk = xa
     if M <= 10:
-        for _ in range(M):
-            xk = step(xk, h2, p2)
+        for j in range(M):
+            xk = step(xk, h2, p2, *([eM[:, j]] if measured else []))
     else:
-        xk = step.mapaccum("agent_steps", M)(xa, h2, p2)[:, -1]
-    interval = ca.Function("agent_interval", [xa, h2, p2], [xk])
+        xk = step.mapaccum("agent_steps", M)(xa, h2, p2, *([eM] if measured else []))[:, -1]
+    interval = ca.Function("agent_interval", [xa, h2, p2, *([eM] if measured else [])], [xk])
     chunk = interval.mapaccum("agent_chunk", K)
     return AgentKernel(n=n, nx=nx, M=M, K=K, switch=switch, neighbours=neighbours,
                        monitors=next(iter(laws.values())).monitors if laws else (),
                        rhs=rhs, observe=observe, plant=plant, chunk=chunk, layout=lay,
-                       laws=laws)
+                       laws=laws, measured=measured)
 
 
 _KERNELS: dict[tuple[Any, ...], AgentKernel] = {}
@@ -398,8 +413,13 @@ _KERNELS: dict[tuple[Any, ...], AgentKernel] = {}
 
 def get_agent_kernel(design: AgentDesign, neighbours: tuple[tuple[int, ...], ...], switch: str,
                      M: int, K: int, ref_rate: tuple[str, str, str] = ("0", "0", "0"),
-                     compile: bool = True) -> AgentKernel:
+                     compile: bool = True, measured: bool = False) -> AgentKernel:
     """The (compiled, cached) kernel of a design on a graph structure (in-neighbour lists).
+
+    ``measured``: the kernel with the measurement/disturbance channel (``rhs``, ``observe``,
+    ``plant`` take an extra input ``ext`` of ``6N``: rate offsets the laws see, then extra
+    torques; ``chunk(x0, h, p, EXT)`` takes ``EXT`` of ``6N x (M K)``, one column per RK4
+    step) and the gyro failure times ``p[layout["tfail"]]``.
 
     Cached in memory by the design's key, the structure and the options, and on disk by the
     generated C source (:func:`formsync_design.sim.kernels.compile_function`).
@@ -407,12 +427,14 @@ def get_agent_kernel(design: AgentDesign, neighbours: tuple[tuple[int, ...], ...
     from formsync_design.sim.kernels import compile_enabled, compile_function
 
     compile = bool(compile) and compile_enabled()
-    key = (design.key, neighbours, switch, M, K, tuple(str(r) for r in ref_rate), compile)
+    key = (design.key, neighbours, switch, M, K, tuple(str(r) for r in ref_rate), compile,
+           measured)
     hit = _KERNELS.get(key)
     if hit is not None:
         return hit
     t0 = time.perf_counter()
-    k = _build(design, neighbours, switch, M, K, tuple(str(r) for r in ref_rate))  # type: ignore[arg-type]
+    k = _build(design, neighbours, switch, M, K, tuple(str(r) for r in ref_rate),  # type: ignore[arg-type]
+               measured)
     if compile:
         k.chunk, ok = compile_function(k.chunk, design.key)
         k.compiled = ok

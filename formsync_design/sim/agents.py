@@ -380,8 +380,14 @@ def _x0(design: AgentDesign, f: AgentFormation) -> np.ndarray:
 
 
 def simulate_agents(design: AgentDesign, formation: AgentFormation,
-                    options: AgentOptions | None = None) -> AgentResult:
+                    options: AgentOptions | None = None, *, sensors: Any = None,
+                    torque_input: np.ndarray | None = None) -> AgentResult:
     """Simulate ``formation`` under ``design`` (module docstring).
+
+    ``sensors`` (a :class:`~formsync_design.sim.sensors.RateSensors`) makes the law read a
+    biased, noisy or failed gyro instead of the true rate; ``torque_input`` (``(steps, N, 3)``,
+    ``steps = tf / step``) adds a torque held over each RK4 step (:mod:`~formsync_design.sim.
+    sensors`).  Both need the ``rk4`` integrator and a continuous design.
 
     Examples
     --------
@@ -398,6 +404,11 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
     """
     opt = options or AgentOptions()
     _check(design, formation)
+    measured = sensors is not None or torque_input is not None
+    if measured and (opt.integrator != "rk4" or design.decl.sampling != "continuous"):
+        raise InputError(f"expected the rk4 integrator and a continuous design for a gyro model "
+                         f"or a torque input, received {opt.integrator} and "
+                         f"{design.decl.sampling}")
     if design.decl.sampling != "continuous":
         from formsync_design.sim.agent_sampled import simulate_agents_sampled
 
@@ -410,17 +421,30 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
                          f"{opt.output_step:g}")
     K = min(T, 200)
     ref_rate = f.reference.rate if f.reference is not None else ("0", "0", "0")
-    kern = get_agent_kernel(design, f.neighbours(), opt.switch, M, K, ref_rate)
+    kern = get_agent_kernel(design, f.neighbours(), opt.switch, M, K, ref_rate,
+                            measured=measured)
     p = agent_parameters(design, f, opt, kern.layout)
     x0 = _x0(design, f)
     t = np.arange(T + 1) * opt.output_step
+    ext = None
+    if measured:
+        from formsync_design.sim.sensors import external_inputs
+
+        ext, tfail = external_inputs(f.n, T * M, opt.step, sensors, torque_input)
+        p[kern.layout["tfail"]] = tfail
     if opt.integrator == "rk4":
         X = np.empty((T + 1, kern.nx))
         X[0] = x0
         xa = np.concatenate([x0, [0.0]])
         k = 0
         while k < T:
-            out = np.asarray(kern.chunk(xa, opt.step, p))  # (nx + 1, K)
+            if ext is not None:
+                blk = ext[:, k * M: (k + K) * M]
+                if blk.shape[1] < K * M:
+                    blk = np.concatenate([blk, np.zeros((blk.shape[0], K * M - blk.shape[1]))], 1)
+                out = np.asarray(kern.chunk(xa, opt.step, p, blk))
+            else:
+                out = np.asarray(kern.chunk(xa, opt.step, p))  # (nx + 1, K)
             take = min(K, T - k)
             X[k + 1: k + 1 + take] = out[:-1, :take].T
             xa = out[:, take - 1]
@@ -443,14 +467,19 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
             raise SimulationError(f"CVODES failed on {design.name} ({' '.join(str(e).split())[:160]});"
                                   " try --integrator rk4 or a boundary layer") from None
         X = np.vstack([x0, np.asarray(sol["xf"]).T])
-    return assemble_result(design, f, opt, kern, p, t, X, opt.integrator)
+    obs_ext = None
+    if ext is not None:  # the held inputs of the step starting at each output time
+        cols = np.minimum(np.arange(T + 1) * M, ext.shape[1] - 1)
+        obs_ext = ext[:, cols].T
+    return assemble_result(design, f, opt, kern, p, t, X, opt.integrator, ext=obs_ext)
 
 
 def assemble_result(design: AgentDesign, f: AgentFormation, opt: AgentOptions, kern: Any, p: np.ndarray,
             t: np.ndarray, X: np.ndarray, integrator: str, *, torques: np.ndarray | None = None,
-            sampled: Any = None) -> AgentResult:
+            sampled: Any = None, ext: np.ndarray | None = None) -> AgentResult:
     """The :class:`AgentResult` of a trajectory ``X`` (kernel state order) on the grid ``t``
-    (shared by the continuous and the sampled paths)."""
+    (shared by the continuous and the sampled paths; ``ext``: the measured kernel's held
+    inputs at each output time)."""
     n = f.n
     nz = design.decl.state_size
     Q = X[:, : 4 * n].reshape(X.shape[0], n, 4)
@@ -460,7 +489,7 @@ def assemble_result(design: AgentDesign, f: AgentFormation, opt: AgentOptions, k
     obs_u, obs_m = [], []
     for k in range(X.shape[0]):
         xk = X[k] if X.shape[1] == kern.nx else np.concatenate([X[k], R[k] if R is not None else []])
-        u, m = kern.observe(xk, t[k], p)
+        u, m = kern.observe(xk, t[k], p) if ext is None else kern.observe(xk, t[k], p, ext[k])
         obs_u.append(np.asarray(u).ravel())
         obs_m.append(np.asarray(m).ravel())
     U = np.asarray(obs_u).reshape(-1, n, 3) if torques is None else torques

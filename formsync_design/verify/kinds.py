@@ -43,6 +43,7 @@ KINDS: dict[str, str] = {
     "formation": "formsync_design.verify.formation:verify_formation_case",
     "selftrigger": "formsync_design.verify.selftrigger:verify_selftrigger_case",
     "flyaround": "formsync_design.verify.flyaround:verify_flyaround_case",
+    "lv2012": "formsync_design.verify.lv2012:verify_lv2012",
 }
 
 
