@@ -174,7 +174,7 @@ def _scalar(e: sp.Expr, b: Mapping[sp.Symbol, Any], memo: dict) -> Any:
             out = base ** _scalar(ex, b, memo)
     elif isinstance(e, sp.Function) and e.func in _UNARY and len(e.args) == 1:
         out = _UNARY[e.func](_scalar(e.args[0], b, memo))
-    elif isinstance(e, sp.Function) and e.func in (sp.Max, sp.Min):
+    elif e.func in (sp.Max, sp.Min):  # MinMaxBase is not a sympy Function
         args = [_scalar(a, b, memo) for a in e.args]
         op = ca.fmax if e.func is sp.Max else ca.fmin
         out = args[0]
