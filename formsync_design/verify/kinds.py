@@ -16,8 +16,8 @@ figures under ``<out>/figures/<case file stem>-verification/``), prints a summar
 JSON document with ``request.format == "json"``) and returns 0, or 1 with
 ``request.strict`` unless every claim holds.
 
->>> sorted(KINDS)[:1]
-['formation']
+>>> "formation" in KINDS
+True
 >>> case_kind({"case": {"name": "x"}}, "x.toml")
 'formation'
 >>> case_kind({"case": {"kind": "nonsense"}}, "x.toml")  # doctest: +ELLIPSIS
@@ -41,6 +41,7 @@ __all__ = ["KINDS", "VerifyRequest", "case_kind", "verifier"]
 #: Case kind -> ``"module:function"`` of its verifier.
 KINDS: dict[str, str] = {
     "formation": "formsync_design.verify.formation:verify_formation_case",
+    "agent-comparison": "formsync_design.verify.comparison:verify_comparison_case",
 }
 
 
