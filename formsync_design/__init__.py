@@ -21,6 +21,8 @@ data flows through the stages:
 * certification: :class:`GainBox` (the one gain-box type), :func:`certify_box`,
   :func:`certify_with_multipliers` (designs whose candidate has multipliers),
   :func:`region_map`, :func:`plot_slices`, :func:`design_gains`;
+  :func:`certify_agent_graphs` (an agent design's box on graph families; a graph outside
+  its theorem refused as a finding);
 * simulation: :class:`Formation`, :class:`Gains`, :class:`SimOptions`,
   :func:`simulate`, :func:`simulate_sampled` (per-spacecraft sample-and-hold and
   trigger rules), :func:`metric_figure`, :func:`torque_figures`,
@@ -108,6 +110,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "CertificationResult": "formsync_design.certify",
     "certify_box": "formsync_design.certify",
     "certify_with_multipliers": "formsync_design.certify",
+    "certify_agent_graphs": "formsync_design.certify.agentgraphs",
     "RegionMap": "formsync_design.certify",
     "region_map": "formsync_design.certify",
     "plot_slices": "formsync_design.certify.plots",

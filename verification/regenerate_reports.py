@@ -11,6 +11,9 @@ documented commands produce:
   (the same files ``formsync derive`` writes);
 * ``formsync verify pd_consensus`` -> reports/pd_consensus-verification.md (+ figures) and
   reports/pd_consensus-derivation-ring4.{md,tex}: the PD consensus baseline design end to end;
+* ``formsync verify ma_so3`` -> reports/ma_so3-verification.md (+ figures): the SO(3)
+  sliding-mode design of seed paper 002 against its comparison methods, the Lagrangian
+  designs and its certificates on digraph families;
 * ``verification/region_report.py`` -> reports/liang2016-region.md (+ figures);
 * ``verification/analysis_report.py`` -> reports/liang2016-certificates.md (+ figure): the
   paper's, exact, searched and spectral certificates side by side;
@@ -38,6 +41,7 @@ def main() -> int:
     jobs: list[list[str]] = [
         ["verify", "liang2016"],
         ["verify", "pd_consensus"],
+        ["verify", "ma_so3"],
         ["sweep", "--campaign", "verification/sweep_atlas6.toml", "--out", "reports/sweep-atlas6",
          "--overwrite"],
     ]

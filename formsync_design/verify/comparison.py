@@ -385,8 +385,9 @@ def judge(res_case1: tuple[MethodRun, ...], res_case2: tuple[MethodRun, ...],
                      f"its peak; below {frac:g} x peak from {_fmt(t_small)}; the formation "
                      f"keeps a common rotation of {main.common_rate:.3g} rad/s",
                      "holds" if ratio <= frac else "fails", f"'vanished' = at most {frac:g} x the peak; "
-                     "the law has no absolute rate damping (A8): the initial angular momentum "
-                     "stays as a common rotation, held by torques"))
+                     "no term of the law damps the common motion (A8: the command moves with the "
+                     "neighbours), so the formation keeps rotating together, and keeping "
+                     "bodies of different inertia in one rotation takes torque"))
     for m, r in zip(methods, res_case1):
         if m.paper_time is None:
             continue
