@@ -118,8 +118,11 @@ import sys
 from pathlib import Path
 import formsync_design
 from formsync_design import resources
-from formsync_design.spec.loader import load_spec
+from formsync_design.spec.loader import load_design, load_spec
+from formsync_design.tomlio import load_toml
+from formsync_design.verify.agentcase import load_agent_case
 from formsync_design.verify.case import load_case
+from formsync_design.verify.kinds import case_kind
 lib = Path({lib!r})
 assert Path(formsync_design.__file__).resolve().is_relative_to(lib.resolve()), formsync_design.__file__
 paths = resources.check_installation()
@@ -128,10 +131,12 @@ print("designs", *resources.design_names())
 print("cases", *resources.case_names())
 print("files", *sorted(p.name for p in paths))
 for name in resources.design_names():
-    spec = load_spec(resources.design_file(name))
+    spec = load_design(resources.design_file(name))  # Lagrangian or agent design
     assert callable(spec.controller), name
 for name in resources.case_names():
-    load_case(resources.case_file(name))
+    path = resources.case_file(name)
+    kind = case_kind(load_toml(path, "case"), str(path))
+    (load_case if kind == "formation" else load_agent_case)(path)
 print("default-spec", Path(str(load_spec(None).path)).name)
 """
 
