@@ -115,10 +115,10 @@ def design_file(name: str) -> Path:
 
     >>> design_file("liang2016_printed").name
     'liang2016_printed.py'
-    >>> design_file("nope")
+    >>> design_file("nope")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    formsync_design.errors.InputError: expected a design name in ['liang2016', 'pd_consensus'], received 'nope'
+    formsync_design.errors.InputError: expected a design name in ['liang2016', ...], received 'nope'
     """
     return _file(DESIGNS_PACKAGE, name, ".py", "design", design_names())
 
