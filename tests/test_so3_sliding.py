@@ -256,3 +256,17 @@ def test_formsync_verify_ma_so3(tmp_path, monkeypatch):
     text = (tmp_path / "ma_so3-verification.md").read_text()
     assert "| every spacecraft converges to a common attitude (case 1) |" in text
     assert (tmp_path / "figures" / "ma_so3-verification" / "fig11_r23_case2.png").is_file()
+
+
+@pytest.mark.slow
+def test_the_case_stays_on_the_group(monkeypatch):
+    """Case 1 of verification/ma_so3.toml over its whole horizon: |R^T R - I| < 1e-10."""
+    monkeypatch.delenv("FORMSYNC_NO_COMPILE")
+    from formsync_design.resources import case_file
+    from formsync_design.verify.agentcase import load_agent_case
+    from formsync_design.verify.comparison import method_list, run_method
+
+    c = load_agent_case(case_file("ma_so3"))
+    for m in method_list(c):
+        r = run_method(c, m)
+        assert r.orthonormality < 1e-10, m.key
