@@ -23,6 +23,8 @@ data flows through the stages:
   :func:`region_map`, :func:`plot_slices`, :func:`design_gains`; certified L2 gains of an
   agent design's linearisation (:func:`linearize_agents`): :func:`certify_gamma`,
   :func:`certify_l2_box`, :func:`design_l2_gains`;
+  :func:`certify_agent_graphs` (an agent design's box on graph families; a graph outside
+  its theorem refused as a finding);
 * simulation: :class:`Formation`, :class:`Gains`, :class:`SimOptions`,
   :func:`simulate`, :func:`simulate_sampled` (per-spacecraft sample-and-hold and
   trigger rules), :func:`metric_figure`, :func:`torque_figures`,
@@ -120,6 +122,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "CertificationResult": "formsync_design.certify",
     "certify_box": "formsync_design.certify",
     "certify_with_multipliers": "formsync_design.certify",
+    "certify_agent_graphs": "formsync_design.certify.agentgraphs",
     "RegionMap": "formsync_design.certify",
     "region_map": "formsync_design.certify",
     "plot_slices": "formsync_design.certify.plots",

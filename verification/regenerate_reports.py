@@ -19,6 +19,9 @@ documented commands produce:
 * ``formsync verify lv2012`` -> reports/lv2012-verification.md (+ figures): the output-feedback
   design without rate gyros (Lv et al. 2012, reconstructed) on the Liang et al. case and a
   three-spacecraft chain, against controller (4) with perfect, noisy and failed gyros;
+* ``formsync verify ma_so3`` -> reports/ma_so3-verification.md (+ figures): the SO(3)
+  sliding-mode design of seed paper 002 against its comparison methods, the Lagrangian
+  designs and its certificates on digraph families;
 * ``verification/region_report.py`` -> reports/liang2016-region.md (+ figures);
 * ``verification/analysis_report.py`` -> reports/liang2016-certificates.md (+ figure): the
   paper's, exact, searched and spectral certificates side by side;
@@ -53,6 +56,7 @@ def main() -> int:
         ["verify", "selftrigger_mrp"],
         ["verify", "zhang2014_flyaround"],
         ["verify", "lv2012"],
+        ["verify", "ma_so3"],
         ["sweep", "--campaign", "verification/sweep_atlas6.toml", "--out", "reports/sweep-atlas6",
          "--overwrite"],
         ["sweep", "--campaign", "verification/sweep_pd_atlas5.toml", "--out",

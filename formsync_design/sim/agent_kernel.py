@@ -38,6 +38,7 @@ from formsync_design.errors import InputError
 from formsync_design.models.disturbances import disturbance_torque, disturbance_trig
 from formsync_design.sim.bridge import sympy_to_casadi
 from formsync_design.spec.agent import AgentDesign, AgentView, agent_expressions, sgn
+from formsync_design.spec.dag import replace_function
 from formsync_design.spec.declarations import GainKind, GainRole
 
 __all__ = [
@@ -95,12 +96,13 @@ def attitude_entries(rep: str, q: Any) -> Any:
 
 
 def _switch(expr: Any, switch: str, phi: sp.Symbol) -> Any:
+    # DAG-aware (formsync_design.spec.dag): a deeply composed law has a huge tree
     if switch == "sgn":
-        return expr.replace(sgn, sp.sign)
+        return replace_function(expr, sgn, sp.sign)
     if switch == "sat":
-        return expr.replace(sgn, lambda a: sp.Max(-1, sp.Min(1, a / phi)))
+        return replace_function(expr, sgn, lambda a: sp.Max(-1, sp.Min(1, a / phi)))
     if switch == "tanh":
-        return expr.replace(sgn, lambda a: sp.tanh(a / phi))
+        return replace_function(expr, sgn, lambda a: sp.tanh(a / phi))
     raise InputError(f"expected a switch in ['sgn', 'sat', 'tanh'], received {switch!r}")
 
 

@@ -85,6 +85,7 @@ from typing import Any
 import sympy as sp
 
 from formsync_design.errors import DerivationError
+from formsync_design.spec.dag import free_symbols as dag_free_symbols
 from formsync_design.spec.declarations import Declarations, GainKind, GainRole, parse_declarations
 
 __all__ = [
@@ -515,8 +516,7 @@ def _check_symbols(fn: str, expr: Any, v: AgentView, where: str, allowed_extra: 
     for q in QUANTITIES:
         if q in measured:
             allowed |= cls[q]
-    free = set(sp.Matrix([expr]).free_symbols) if not isinstance(expr, sp.MatrixBase) \
-        else set(expr.free_symbols)
+    free = dag_free_symbols(expr)
     bad = free - allowed
     if not bad:
         return
@@ -623,7 +623,7 @@ def agent_expressions(design: AgentDesign, m: int, where: str | None = None) -> 
             # a monitor observes the run: it may read any quantity of the view
             cls = v.symbols_by_class()
             allowed = set().union(*cls.values()) - cls["kept"]
-            bad = sorted(str(s) for s in e.free_symbols - allowed)
+            bad = sorted(str(s) for s in dag_free_symbols(e) - allowed)
             if bad:
                 raise DerivationError(f"{where}: monitors()[{k!r}]: expected only the view's "
                                       f"symbols, received unknown symbols {bad}")
@@ -668,10 +668,14 @@ def _check_functions(attrs: Mapping[str, Any], decl: AgentDeclarations, where: s
     return fns
 
 
-def _validate(design: AgentDesign, where: str) -> str:
+def _validate(design: AgentDesign, where: str, text: bool = False) -> str:
+    # ``text`` (the expressions' srepr, a key of designs built from functions) walks the
+    # expression *tree*: only computed when asked for
     parts = []
     for m in (0, 1, 2):
         ex = agent_expressions(design, m, where)
+        if not text:
+            continue
         parts.append(sp.srepr(ex["u"]))
         for k in ("states", "event", "next_interval", "monitors", "hold"):
             if k in ex:
@@ -730,7 +734,7 @@ def agent_design_from_functions(controller: Callable[[AgentView], Any], *, name:
     extra = MappingProxyType({k: v for k, v in attrs.items() if k == "conditions"})
     d = AgentDesign(name=name, title=title or name, path=where, key="", source=where, decl=decl,
                     functions=MappingProxyType(fns), module=extra)
-    text = _validate(d, where)
+    text = _validate(d, where, text=True)
     tokens = [text]
     if "conditions" in extra:
         import inspect

@@ -44,6 +44,7 @@ KINDS: dict[str, str] = {
     "selftrigger": "formsync_design.verify.selftrigger:verify_selftrigger_case",
     "flyaround": "formsync_design.verify.flyaround:verify_flyaround_case",
     "lv2012": "formsync_design.verify.lv2012:verify_lv2012",
+    "agent-comparison": "formsync_design.verify.comparison:verify_comparison_case",
 }
 
 
