@@ -85,12 +85,46 @@ def test_derive_agent_design_report_and_json(tmp_path, capsys):
     assert doc["conditions"] is None
 
 
-@pytest.mark.parametrize("cmd", [["region", "--graph", "ring:4", "--out", "unused-out"],
-                                 ["design", "--graph", "ring:4"]])
-def test_lagrangian_only_commands_refuse_agent_designs_in_one_line(cmd, capsys):
-    rc = main([*cmd, "--design", SO3])
+def test_region_of_an_agent_design_matches_its_closed_form(tmp_path, capsys):
+    """agent_so3's families are diag(k_R, k_w) > 0 and k_w > k_R / 2: every certified cell lies
+    in k_w > k_R / 2 and every refuted one below it (an independent closed form)."""
+    rc = main(["region", "--design", SO3, "--graph", "ring:4", "--gain", "k_R=0.5:3", "--gain",
+               "k_w=0.5:3", "--resolution", "8", "--out", str(tmp_path), "--format", "json",
+               "--no-progress"])
+    doc = json.loads(capsys.readouterr().out)
+    assert rc == 0 and 0 < doc["maps"][0]["fractions"]["certified"] < 1
+    boxes = json.loads((tmp_path / "region.json").read_text())["maps"][0]["boxes"]
+    for b in boxes:
+        (r_lo, w_lo, _), (r_hi, w_hi, _) = b["lo"], b["hi"]
+        if b["class"] == "certified":
+            assert w_lo > r_hi / 2
+        elif b["class"] == "refuted":
+            assert w_hi < r_lo / 2
+    rc = main(["region", "--design", SO3, "--graph", "ring:4", "--gain", "k_R=3", "--gain",
+               "k_w=1", "--out", str(tmp_path / "pt"), "--no-progress"])
+    assert rc == 0 and "refuted 100.0%" in capsys.readouterr().out
+
+
+def test_design_of_an_agent_design_recommends_a_certified_point(capsys):
+    rc = main(["design", "--design", SO3, "--graph", "ring:4", "--gain", "k_R=0.5:3", "--gain",
+               "k_w=0.5:3", "--format", "json"])
+    doc = json.loads(capsys.readouterr().out)
+    assert rc == 0 and doc["status"] == "recommended"
+    from fractions import Fraction
+
+    kr, kw = (Fraction(str(doc["gains"][n])) for n in ("k_R", "k_w"))
+    true = min(kr, kw, kw - kr / 2)  # lambda_min of the families, closed form
+    lb = Fraction(str(doc["margin"]))  # a rigorous lower bound of it
+    assert true - Fraction(1, 10**9) < lb <= true
+    assert doc["certified_box_status"] == "certified"
+    assert main(["design", "--design", SO3, "--graph", "ring:4", "--gain", "k_R=3", "--gain",
+                 "k_w=1"]) == 1
+
+
+def test_sweep_refuses_agent_designs_in_one_line(capsys):
+    rc = main(["sweep", "--design", SO3, "--graphs", "ring:4", "--out", "unused-out"])
     err = capsys.readouterr().err
-    assert rc == 2 and "agent design 'agent_so3'" in err and len(err.strip().splitlines()) == 1
+    assert rc == 2 and "agent" in err and len(err.strip().splitlines()) == 1
 
 
 def test_montecarlo_of_an_agent_design_is_seeded_and_replays(tmp_path, capsys):

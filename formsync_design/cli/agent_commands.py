@@ -1,4 +1,5 @@
-"""The agent-design paths of ``formsync simulate``, ``certify``, ``derive`` and ``montecarlo``.
+"""The agent-design paths of ``formsync simulate``, ``certify``, ``region``, ``design``,
+``derive`` and ``montecarlo``.
 
 Each of those subcommands hands an agent design (``FORM = "agent"``,
 :mod:`formsync_design.spec.agent`) to the function here, after its own parser ran: the
@@ -39,6 +40,8 @@ __all__ = [
     "run_agent_certify",
     "run_agent_derive",
     "run_agent_montecarlo_cli",
+    "run_agent_region",
+    "run_agent_design",
 ]
 
 
@@ -448,3 +451,165 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
             lines.insert(0, theorem.note())
         print("\n".join(lines))
     return EXIT_OK if res.all_converged else EXIT_NEGATIVE
+
+
+def _agent_box_and_multipliers(design: Any, gains: Any) -> tuple[Any, dict[str, Any]]:
+    """The ``--gain`` box of an agent design (controller gains; a gain not given takes its
+    declared range) and the multipliers left to search (declared ranges)."""
+    from formsync_design.cli.options import design_box
+
+    box = design_box(design, gains)
+    mult = {n: design.decl.gain(n).range for n in design.decl.multipliers if n not in box}
+    return box, mult
+
+
+def run_agent_region(args: argparse.Namespace, design: Any) -> int:
+    """``formsync region`` of an agent design: its ``conditions(c)`` families mapped over at
+    most three gain ranges (the other gains fixed at their single ``--gain`` value,
+    multipliers searched per cell), region.json and a slice figure per graph."""
+    from pathlib import Path
+
+    from formsync_design.certify.multiregion import region_with_multipliers
+    from formsync_design.certify.plots import plot_slices
+    from formsync_design.certify.reduce import three_axes
+    from formsync_design.certify.region import map_to_dict
+    from formsync_design.cli.options import Progress, to_json_value
+    from formsync_design.derive.agent import agent_conditions
+    from formsync_design.gains import GainBox, GainRange
+    from formsync_design.graphs.theorem import check_theorem_graph, load_graph
+
+    _refuse(args, ("ko", "kq", "beta", "beta_slices", "kq_slices", "delay", "torque_limit",
+                   "decay", "settle", "graphs_set", "inertia", "case"), design)
+    if getattr(args, "certificate", "paper") != "paper" or getattr(args, "conditions",
+                                                                  "derived") != "derived":
+        raise InputError(f"expected no --certificate/--conditions for the agent design "
+                         f"{design.name} (its certificate is its conditions(c) hook), received one")
+    res = 32 if args.resolution is None else args.resolution
+    if not 1 <= res <= 512:
+        raise InputError(f"expected --resolution in 1..512, received {res}")
+    box, mult = _agent_box_and_multipliers(design, args.gain)
+    full = GainBox(tuple(box.ranges) + tuple(GainRange(n, r.lo, r.hi) for n, r in mult.items()))
+    out = Path(args.out)
+    maps, notes = [], []
+    prog = Progress(len(args.graph), "region", enabled=not args.no_progress)
+    for gspec in args.graph:
+        g = load_graph(gspec)
+        theorem = check_theorem_graph(g, design.decl.graphs,
+                                      allow_outside=args.allow_outside_theorem, design=design.name)
+        if not theorem.inside:
+            notes.append(theorem.note())
+        conds = agent_conditions(design, g)
+        red, rbox = three_axes(conds, {r.name: (r.lo, r.hi) for r in full.ranges})
+        given = {n: v for n, v in rbox.items() if n not in mult}
+        m = region_with_multipliers(red, given, {n: r for n, r in mult.items() if n in rbox},
+                                    resolution=res, margin=getattr(args, "margin", 0) or 0)
+        maps.append((m, red))
+        prog.update()
+    red0 = maps[0][1]
+    axes = [n for n in red0.gains if n not in mult]
+    free = [n for n in axes if rbox[n][0] != rbox[n][1]] or axes
+    plot_axes = (free + [n for n in axes if n not in free])[:2]
+    fixed = next(n for n in red0.gains if n not in plot_axes)
+    value = float(maps[0][0].ranges[red0.gains.index(fixed)][0])
+    fig = plot_slices([m for m, _ in maps], axes=(plot_axes[0], plot_axes[1]), fixed=fixed,
+                      values=[value])
+    out.mkdir(parents=True, exist_ok=True)
+    fig_path = out / f"{design.name}-region-{plot_axes[0]}-{plot_axes[1]}.png"
+    fig.savefig(fig_path, dpi=120, metadata={"Software": None})
+    doc = {"design": design.name,
+           "fixed": {n: str(v) for n, v in red0.fixed},
+           "maps": [map_to_dict(m, timing=False) for m, _ in maps]}
+    json_path = out / "region.json"
+    json_path.write_text(json.dumps(to_json_value(doc), indent=1, allow_nan=False) + "\n")
+    if args.format == "json":
+        emit_json({"files": [str(json_path), str(fig_path)], "fixed": doc["fixed"],
+                   "maps": [{"graph": m.graph, "fractions": m.fractions, "boxes": len(m.boxes)}
+                            for m, _ in maps]})
+    else:
+        for note in notes:
+            print(note)
+        for m, r in maps:
+            f = m.fractions
+            fx = ", ".join(f"{n} = {float(v):g}" for n, v in r.fixed)
+            print(f"{m.graph} ({design.name}): certified {f['certified']:.1%}, refuted "
+                  f"{f['refuted']:.1%}, undecided {f['undecided']:.1%} of the box"
+                  + (f" (fixed {fx})" if fx else ""))
+        print(f"wrote {json_path}\nwrote {fig_path}")
+    return EXIT_OK
+
+
+def run_agent_design(args: argparse.Namespace, design: Any) -> int:
+    """``formsync design`` of an agent design: the gain point of a ``--grid`` over the box with
+    the largest certified margin of its ``conditions(c)`` families (multipliers searched, exact
+    re-check), and the largest certified box around it."""
+    import itertools
+    from fractions import Fraction
+
+    from formsync_design.certify.design import largest_certified_box
+    from formsync_design.certify.multipliers import certify_with_multipliers
+    from formsync_design.certify.reduce import fix_gains
+    from formsync_design.derive.agent import agent_conditions
+    from formsync_design.gains import json_number
+    from formsync_design.graphs.theorem import check_theorem_graph, load_graph
+
+    _refuse(args, ("ko", "kq", "beta", "min_delay", "graphs_set", "torque_limit", "inertia",
+                   "case"), design)
+    if getattr(args, "penalty", "0") not in ("0", 0, None):
+        raise InputError(f"expected no --penalty for the agent design {design.name}, received one")
+    graph = load_graph(args.graph)
+    theorem = check_theorem_graph(graph, design.decl.graphs,
+                                  allow_outside=args.allow_outside_theorem, design=design.name)
+    box, mult = _agent_box_and_multipliers(design, args.gain)
+    k = max(2, int(getattr(args, "grid", 4) or 4))
+    conds = agent_conditions(design, graph)
+    axes = []
+    for r in box.ranges:
+        lo, hi = Fraction(r.lo), Fraction(r.hi)
+        axes.append([lo] if lo == hi else [lo + (hi - lo) * Fraction(i, k - 1) for i in range(k)])
+    best: tuple[Fraction, dict[str, Fraction], Any] | None = None
+    for pt in itertools.product(*axes):
+        point = dict(zip(box.names, pt))
+        r = certify_with_multipliers(conds, {n: (v, v) for n, v in point.items()}, mult,
+                                     use_sdp=False)
+        lb = r.margin_lower_bound
+        if r.certified and lb is not None and (best is None or lb > best[0]):
+            best = (lb, point, r)
+    doc: dict[str, Any] = {"design": design.name, "graph": graph.name, "box": str(box),
+                           "grid": k, "points": len(list(itertools.product(*axes)))}
+    if not theorem.inside:
+        doc["outside_theorem"] = theorem.to_dict()
+    if best is None:
+        doc.update(status="not-found", reason="no grid point is certified")
+        if args.format == "json":
+            emit_json(doc)
+        else:
+            print(f"NOT FOUND: no point of the {k}-per-axis grid over {box} is certified for "
+                  f"{design.name} on {graph.name}")
+        return EXIT_NEGATIVE
+    lb, point, res = best
+    chosen = {n: Fraction(res.box[n].lo) for n in mult}
+    fixed = fix_gains(conds, chosen) if chosen else conds
+    ranges = tuple((Fraction(r.lo), Fraction(r.hi)) for r in box.ranges)
+    cbox, s, cres = largest_certified_box(fixed, point, ranges)
+    doc.update(status="recommended", gains={n: json_number(v) for n, v in point.items()},
+               multipliers={n: json_number(v) for n, v in chosen.items()},
+               margin=json_number(lb), scale=json_number(s),
+               certified_box=None if cbox is None else
+               {n: [json_number(lo), json_number(hi)] for n, (lo, hi) in zip(box.names, cbox)},
+               certified_box_status=None if cres is None else str(cres.status))
+    if args.format == "json":
+        emit_json(doc)
+    else:
+        if not theorem.inside:
+            print(theorem.note())
+        pts = ", ".join(f"{n} = {float(v):g}" for n, v in point.items())
+        mm = ", ".join(f"{n} = {float(v):g}" for n, v in chosen.items())
+        print(f"RECOMMENDED for {design.name} on {graph.name}: {pts}"
+              + (f" (multiplier {mm})" if mm else "")
+              + f", certified margin {float(lb):.6g} (best of a {k}-per-axis grid over {box})")
+        if cbox is not None:
+            bx = ", ".join(f"{n} in [{float(lo):g}, {float(hi):g}]"
+                           for n, (lo, hi) in zip(box.names, cbox))
+            print(f"largest certified box around it (+-{s:.3g} relative, "
+                  f"{cres.status if cres else '-'}): {bx}")
+    return EXIT_OK

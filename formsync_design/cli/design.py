@@ -75,12 +75,16 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from formsync_design.certify.design import design_gains
+    from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_design
     from formsync_design.cli.certify import gain_box_from_args, load_conditions, parse_margin
     from formsync_design.cli.options import design_graph
     from formsync_design.errors import InputError
     from formsync_design.gains import GainBox, parse_number
     from formsync_design.spec.loader import load_spec
 
+    agent = agent_design_or_none(args.spec)
+    if agent is not None:
+        return run_agent_design(args, agent)
     spec = load_spec(args.spec)
     _, theorem = design_graph(args.graph, spec, args.allow_outside_theorem)
     if not theorem.inside:

@@ -119,6 +119,7 @@ def add_parser(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from formsync_design.certify.plots import write_region
     from formsync_design.certify.region import region_map
+    from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_region
     from formsync_design.cli.certify import (
         gain_box_from_args,
         load_conditions,
@@ -128,6 +129,9 @@ def run(args: argparse.Namespace) -> int:
     from formsync_design.cli.options import design_graph
     from formsync_design.spec.loader import load_spec
 
+    agent = agent_design_or_none(args.spec)
+    if agent is not None:
+        return run_agent_region(args, agent)
     spec = load_spec(args.spec)
     for gspec in args.graph:  # the design's graph class (a note on stderr when outside it)
         _, theorem = design_graph(gspec, spec, args.allow_outside_theorem)
