@@ -281,6 +281,7 @@ def sym_to_fraction(x: Any) -> Fraction:
 def poly_coeffs_in_lambda(expr: sp.Expr, subs: dict) -> list[Fraction]:
     """Exact coefficients (ascending powers of ``LAMBDA``) of ``expr`` after ``subs``.
 
+    >>> from formsync_design.spec.loader import gain_symbols
     >>> K_o, K_q, beta = gain_symbols()
     >>> poly_coeffs_in_lambda(K_o - beta * LAMBDA, {K_o: 2, K_q: 1, beta: sp.Rational(1, 2)})
     [Fraction(2, 1), Fraction(-1, 2)]

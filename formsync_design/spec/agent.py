@@ -601,7 +601,7 @@ def agent_expressions(design: AgentDesign, m: int, where: str | None = None) -> 
     for fn, extra in (("controller", out["u"]), *(
             (f"states()[{n!r}]", e) for n, e in out.get("states", {}).items()), *(
             (f"hold()[{n!r}]", e) for n, e in out.get("hold", {}).items())):
-        if kept & set(sp.Matrix(extra).free_symbols):
+        if kept & dag_free_symbols(sp.Matrix(extra)):
             raise DerivationError(f"{where}: {fn}: expected the kept values v.kept only in "
                                   "event(view) and next_interval(view), received a use in "
                                   f"{fn.split('(')[0]}")
