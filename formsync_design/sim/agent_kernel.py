@@ -37,6 +37,7 @@ import sympy as sp
 from formsync_design.errors import InputError
 from formsync_design.models.disturbances import disturbance_torque, disturbance_trig
 from formsync_design.sim.bridge import sympy_to_casadi
+from formsync_design.sim.layout import param_slices
 from formsync_design.spec.agent import AgentDesign, AgentView, agent_expressions, sgn
 from formsync_design.spec.dag import replace_function
 from formsync_design.spec.declarations import GainKind, GainRole
@@ -52,6 +53,8 @@ __all__ = [
     "get_agent_kernel",
     "agent_state_names",
     "gain_vector",
+    "LawInputs",
+    "law_inputs",
 ]
 
 #: Attitude entries a law receives per representation.
@@ -132,6 +135,82 @@ class AgentLaw:
     next_interval: ca.Function | None = None
 
 
+@dataclass
+class LawInputs:
+    """The CasADi inputs of a spacecraft's translated functions (module docstring: ``own``,
+    ``held``, ``J``, ``t``, ``nbrs``, ``a``, ``b``, ``ref``, ``gains``, ``phi``) and the
+    binding of every symbol of its view to them; :meth:`translate` turns an expression of the
+    view into CasADi with the switching function replaced."""
+
+    own: Any
+    held: Any
+    J: Any
+    t: Any
+    nbrs: Any
+    a: Any
+    b: Any
+    ref: Any
+    gains: Any
+    phi: Any
+    bind: dict[Any, Any]
+    phi_symbol: sp.Symbol
+
+    def translate(self, expr: Any, switch: str, memo: dict) -> Any:
+        return sympy_to_casadi(_switch(sp.sympify(expr), switch, self.phi_symbol), self.bind,
+                               memo)
+
+
+def law_inputs(design: AgentDesign, v: AgentView, m: int) -> LawInputs:
+    """The inputs and bindings of the view ``v`` of a spacecraft with ``m`` in-neighbours."""
+    na = ATTITUDE_SIZE[design.representation]
+    states = design.decl.states
+    nz = design.decl.state_size
+    phi_s = sp.Symbol("phi", positive=True)
+    own = ca.SX.sym("own", na + 3 + nz)
+    held = ca.SX.sym("held", na + 3)
+    J = ca.SX.sym("J", 3, 3)
+    t = ca.SX.sym("t")
+    nb = ca.SX.sym("nbrs", na + 3 + nz, max(m, 1))
+    a = ca.SX.sym("a", max(m, 1))
+    b = ca.SX.sym("b")
+    ref = ca.SX.sym("ref", na + 6)
+    gsyms = _gain_symbols(design)
+    gains = ca.SX.sym("gains", max(len(gsyms), 1))
+    phi = ca.SX.sym("phi")
+    bind: dict[Any, Any] = {v.t: t, phi_s: phi}
+    for k, s_ in enumerate(gsyms):
+        bind[s_] = gains[k]
+    for i in range(3):
+        for j in range(3):
+            bind[v.J[i, j]] = J[i, j]
+
+    def bind_state(sym: Any, vec: Any, with_states: bool) -> None:
+        for k, s_ in enumerate(sym.attitude_symbols()):
+            bind[s_] = vec[k]
+        for k in range(3):
+            bind[sym.w[k]] = vec[na + k]
+        if with_states:
+            off = na + 3
+            for name, size in states:
+                for k in range(size):
+                    bind[sym.z[name][k]] = vec[off + k]
+                off += size
+
+    bind_state(v.own, own, True)
+    bind_state(v.held, held, False)
+    for k, n in enumerate(v.nbrs):
+        bind_state(n, nb[:, k], True)
+        bind[n.a] = a[k]
+    if design.decl.leader:
+        bind[v.b] = b
+        for k, s_ in enumerate(v.ref.attitude_symbols()):
+            bind[s_] = ref[k]
+        for k in range(3):
+            bind[v.ref.w[k]] = ref[na + k]
+            bind[v.ref.wdot[k]] = ref[na + 3 + k]
+    return LawInputs(own, held, J, t, nb, a, b, ref, gains, phi, bind, phi_s)
+
+
 _LAWS: dict[tuple[str, int, str], AgentLaw] = {}
 
 
@@ -150,60 +229,15 @@ def agent_law(design: AgentDesign, m: int, switch: str = "sgn") -> AgentLaw:
         return hit
     ex = agent_expressions(design, m)
     v: AgentView = ex["view"]
-    rep = design.representation
-    na = ATTITUDE_SIZE[rep]
+    li = law_inputs(design, v, m)
     states = design.decl.states
-    nz = design.decl.state_size
-    phi_s = sp.Symbol("phi", positive=True)
-    own = ca.SX.sym("own", na + 3 + nz)
-    held = ca.SX.sym("held", na + 3)
-    J = ca.SX.sym("J", 3, 3)
-    t = ca.SX.sym("t")
-    nb = ca.SX.sym("nbrs", na + 3 + nz, max(m, 1))
-    a = ca.SX.sym("a", max(m, 1))
-    b = ca.SX.sym("b")
-    ref = ca.SX.sym("ref", na + 6)
-    gsyms = _gain_symbols(design)
-    gains = ca.SX.sym("gains", max(len(gsyms), 1))
-    phi = ca.SX.sym("phi")
-
-    bind: dict[Any, Any] = {v.t: t, phi_s: phi}
-    for k, s in enumerate(gsyms):
-        bind[s] = gains[k]
-    for i in range(3):
-        for j in range(3):
-            bind[v.J[i, j]] = J[i, j]
-
-    def bind_state(sym: Any, vec: Any, with_states: bool) -> None:
-        for k, s in enumerate(sym.attitude_symbols()):
-            bind[s] = vec[k]
-        for k in range(3):
-            bind[sym.w[k]] = vec[na + k]
-        if with_states:
-            off = na + 3
-            for name, size in states:
-                for k in range(size):
-                    bind[sym.z[name][k]] = vec[off + k]
-                off += size
-
-    bind_state(v.own, own, True)
-    bind_state(v.held, held, False)
-    for k, n in enumerate(v.nbrs):
-        bind_state(n, nb[:, k], True)
-        bind[n.a] = a[k]
-    if design.decl.leader:
-        bind[v.b] = b
-        for k, s in enumerate(v.ref.attitude_symbols()):
-            bind[s] = ref[k]
-        for k in range(3):
-            bind[v.ref.w[k]] = ref[na + k]
-            bind[v.ref.wdot[k]] = ref[na + 3 + k]
-
     memo: dict = {}
 
     def cas(e: Any) -> Any:
-        return sympy_to_casadi(_switch(sp.sympify(e), switch, phi_s), bind, memo)
+        return li.translate(e, switch, memo)
 
+    own, held, J, t, nb, a, b, ref, gains, phi = (li.own, li.held, li.J, li.t, li.nbrs, li.a,
+                                                  li.b, li.ref, li.gains, li.phi)
     u = cas(ex["u"])
     zdot = ca.vertcat(*[cas(ex["states"][n]) for n, _ in states]) if states else ca.SX.zeros(0)
     mons = ex.get("monitors", {})
@@ -250,12 +284,7 @@ def agent_param_layout(n: int, ngains: int, narcs: int) -> dict[str, slice]:
     sizes = [("gains", max(ngains, 1)), ("phi", 1), ("umax", 3 * n), ("J", 9 * n),
              ("Jinv", 9 * n), ("a", max(narcs, 1)), ("b", n), ("freq", 6), ("harm", 18 * n),
              ("gg", 1), ("orbit", 4), ("tfail", n)]
-    out, k = {}, 0
-    for name, s in sizes:
-        out[name] = slice(k, k + s)
-        k += s
-    out["_size"] = slice(0, k)
-    return out
+    return param_slices(sizes)
 
 
 @dataclass

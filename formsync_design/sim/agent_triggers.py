@@ -33,12 +33,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
-import sympy as sp
 
-from formsync_design.sim.agent_kernel import ATTITUDE_SIZE
-from formsync_design.sim.bridge import sympy_to_casadi
-from formsync_design.spec.agent import AgentDesign, AgentView, agent_expressions, sgn
-from formsync_design.spec.declarations import GainKind, GainRole
+from formsync_design.sim.agent_kernel import law_inputs
+from formsync_design.spec.agent import AgentDesign, AgentView, agent_expressions
 
 __all__ = ["KeptTriggers", "kept_trigger_functions", "kept_size"]
 
@@ -71,49 +68,9 @@ def kept_trigger_functions(design: AgentDesign, m: int, switch: str = "sgn") -> 
         return hit
     ex = agent_expressions(design, m)
     v: AgentView = ex["view"]
-    na = ATTITUDE_SIZE[design.representation]
-    own = ca.SX.sym("own", na + 3 + design.decl.state_size)
-    held = ca.SX.sym("held", na + 3)
+    li = law_inputs(design, v, m)
+    bind = li.bind
     kept = ca.SX.sym("kept", max(kept_size(design), 1))
-    J = ca.SX.sym("J", 3, 3)
-    t = ca.SX.sym("t")
-    nb = ca.SX.sym("nbrs", na + 3 + design.decl.state_size, max(m, 1))
-    a = ca.SX.sym("a", max(m, 1))
-    b = ca.SX.sym("b")
-    ref = ca.SX.sym("ref", na + 6)
-    gsyms: list[sp.Symbol] = []
-    for g in design.decl.gains:
-        if g.role == GainRole.CONTROLLER:
-            gsyms += (list(sp.symbols(f"{g.name}_1:4", positive=True)) if g.kind == GainKind.DIAG
-                      else [g.symbol])
-    gains = ca.SX.sym("gains", max(len(gsyms), 1))
-    phi = ca.SX.sym("phi")
-    phi_s = sp.Symbol("phi", positive=True)
-    bind: dict[Any, Any] = {v.t: t, phi_s: phi}
-    for k, s in enumerate(gsyms):
-        bind[s] = gains[k]
-    for i in range(3):
-        for j in range(3):
-            bind[v.J[i, j]] = J[i, j]
-
-    def bind_state(sym: Any, vec: Any) -> None:
-        for k, s in enumerate(sym.attitude_symbols()):
-            bind[s] = vec[k]
-        for k in range(3):
-            bind[sym.w[k]] = vec[na + k]
-
-    bind_state(v.own, own)
-    bind_state(v.held, held)
-    for k, n in enumerate(v.nbrs):
-        bind_state(n, nb[:, k])
-        bind[n.a] = a[k]
-    if design.decl.leader:
-        bind[v.b] = b
-        for k, s in enumerate(v.ref.attitude_symbols()):
-            bind[s] = ref[k]
-        for k in range(3):
-            bind[v.ref.w[k]] = ref[na + k]
-            bind[v.ref.wdot[k]] = ref[na + 3 + k]
     off = 0
     for name, size in design.decl.hold:
         for k in range(size):
@@ -122,13 +79,9 @@ def kept_trigger_functions(design: AgentDesign, m: int, switch: str = "sgn") -> 
     memo: dict = {}
 
     def cas(e: Any) -> Any:
-        e = sp.sympify(e)
-        e = e.replace(sgn, sp.sign) if switch == "sgn" else e.replace(
-            sgn, (lambda x: sp.Max(-1, sp.Min(1, x / phi_s))) if switch == "sat"
-            else (lambda x: sp.tanh(x / phi_s)))
-        return sympy_to_casadi(e, bind, memo)
+        return li.translate(e, switch, memo)
 
-    ins = [own, held, kept, J, t, nb, a, b, ref, gains, phi]
+    ins = [li.own, li.held, kept, li.J, li.t, li.nbrs, li.a, li.b, li.ref, li.gains, li.phi]
     names = ["own", "held", "kept", "J", "t", "nbrs", "a", "b", "ref", "gains", "phi"]
     hold_out = ca.vertcat(*[cas(ex["hold"][n]) for n, _ in design.decl.hold]) \
         if design.decl.hold else ca.SX.zeros(1)

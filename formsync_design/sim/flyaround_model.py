@@ -36,6 +36,7 @@ import numpy as np
 
 from formsync_design.models.mrp import mrp_rhs_terms
 from formsync_design.sim.bridge import sympy_to_casadi
+from formsync_design.sim.layout import param_slices
 
 __all__ = ["OUTPUTS", "param_layout", "build_functions", "mrp_matrix_ca", "dcm_to_mrp_ca",
            "reference_ca", "N_THRUSTERS_MAX"]
@@ -58,12 +59,7 @@ def param_layout(ngain: int) -> dict[str, slice]:
              ("mass", 1), ("mass_hat", 1), ("thrust", 1), ("min_pulse", 1), ("carry", 1),
              ("shift", 1), ("Apinv", 6 * nt), ("A", 6 * nt), ("null", nt), ("ref", 9),
              ("RrT", 9), ("orbit", 4), ("cw", 18), ("tol", 2)]
-    out, k = {}, 0
-    for name, s in sizes:
-        out[name] = slice(k, k + s)
-        k += s
-    out["_size"] = slice(0, k)
-    return out
+    return param_slices(sizes)
 
 
 def mrp_matrix_ca(s: Any) -> Any:

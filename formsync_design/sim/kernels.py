@@ -49,6 +49,7 @@ from formsync_design.sim.ccompile import (
     warn_no_compiler,
 )
 from formsync_design.sim.formation import Formation, SimOptions
+from formsync_design.sim.layout import param_slices
 from formsync_design.sim.metrics import metrics_expr
 from formsync_design.spec.loader import Spec, load_spec
 
@@ -95,12 +96,7 @@ def param_layout(n: int, ngains: int = 3) -> dict[str, slice]:
         ("gg", 1),
         ("orbit", 4),  # mu, R, n, theta0
     ]
-    out, k = {}, 0
-    for name, s in sizes:
-        out[name] = slice(k, k + s)
-        k += s
-    out["_size"] = slice(0, k)
-    return out
+    return param_slices(sizes)
 
 
 def pack_params(f: Formation, opt: SimOptions, spec: Spec | None = None) -> np.ndarray:
