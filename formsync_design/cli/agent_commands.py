@@ -27,6 +27,7 @@ import numpy as np
 from formsync_design.cli.options import (
     EXIT_NEGATIVE,
     EXIT_OK,
+    closing_lines,
     emit_json,
     parse_gain_assignments,
     write_summary_and_runs,
@@ -281,11 +282,7 @@ def _text(case: Any, graph: Any, f: Any, opt: Any, r: Any, design: Any, written:
         assert r.min_interevent is not None
         lines.append("shortest inter-event time per spacecraft (s): "
                      + ", ".join(f"{v:.3g}" for v in r.min_interevent))
-    if case.assumptions:
-        lines.append("case assumptions:")
-        lines += [f"  - {a}" for a in case.assumptions]
-    if written:
-        lines.append("written: " + ", ".join(written))
+    lines += closing_lines(case.assumptions, written)
     return "\n".join(lines)
 
 

@@ -20,6 +20,7 @@ from formsync_design.errors import InputError
 from formsync_design.gains import GainRange, json_number, parse_gain_range, parse_number
 
 __all__ = [
+    "closing_lines",
     "EXIT_OK",
     "EXIT_NEGATIVE",
     "EXIT_USAGE",
@@ -282,3 +283,18 @@ def write_summary_and_runs(out_dir: Any, summary: Mapping[str, Any], rows: list[
         for row in rows:
             w.writerow(row)
     return [str(d / "summary.json"), str(d / "runs.csv")]
+
+
+def closing_lines(assumptions: list[str] | tuple[str, ...], written: list[str]) -> list[str]:
+    """The last lines of a text summary: the case's assumptions and the files written.
+
+    >>> closing_lines(["ring:8 is assumed"], ["a.csv"])
+    ['case assumptions:', '  - ring:8 is assumed', 'written: a.csv']
+    """
+    lines: list[str] = []
+    if assumptions:
+        lines.append("case assumptions:")
+        lines += [f"  - {a}" for a in assumptions]
+    if written:
+        lines.append("written: " + ", ".join(written))
+    return lines

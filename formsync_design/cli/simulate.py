@@ -15,6 +15,7 @@ from formsync_design.cli.options import (
     EXIT_OK,
     add_format_option,
     add_theorem_option,
+    closing_lines,
     emit_json,
 )
 from formsync_design.errors import InputError
@@ -319,11 +320,7 @@ def _text(case: Any, graph: Any, f: Any, r: Any, written: list[str], spec: Any =
             if e["count"]:
                 parts.append(f"{label} {e['count']} (first {e['first']:.6f} s, last {e['last']:.6f} s)")
         lines.append(f"events located to {ev['tolerance']:g} s: " + ("; ".join(parts) if parts else "none"))
-    if case.assumptions:
-        lines.append("case assumptions:")
-        lines += [f"  - {a}" for a in case.assumptions]
-    if written:
-        lines.append("written: " + ", ".join(written))
+    lines += closing_lines(case.assumptions, written)
     return "\n".join(lines)
 
 

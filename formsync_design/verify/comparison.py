@@ -498,15 +498,11 @@ def verify_comparison_case(req: VerifyRequest) -> int:
     import json
 
     from formsync_design.verify.comparison_report import comparison_json, write_comparison_report
-    from formsync_design.verify.output import display_path
 
     case = load_agent_case(req.path, design=req.design)
     res = run_comparison(case, req.progress)
     req.progress("write report")
-    cmd = "formsync verify " + (req.case_arg if req.case_arg == req.path.stem
-                                else display_path(req.path))
-    if req.out != "reports":
-        cmd += f" --out {req.out}"
+    cmd = req.command()
     md, figs = write_comparison_report(res, req.out, req.path.stem, cmd)
     if req.format == "json":
         sys.stdout.write(json.dumps(comparison_json(res), indent=2) + "\n")

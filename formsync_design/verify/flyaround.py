@@ -376,12 +376,7 @@ def verify_flyaround_case(req: VerifyRequest) -> int:
 
     res = verify_flyaround(req.path, spec=req.design, progress=req.progress)
     req.progress("write the report")
-    cmd = "formsync verify " + (req.case_arg if req.case_arg == req.path.stem
-                                and not Path(req.case_arg).exists() else display_path(req.path))
-    if req.design is not None:
-        cmd += f" --design {req.design}"
-    if req.out != "reports":
-        cmd += f" --out {req.out}"
+    cmd = req.command()
     md, figs = write_flyaround_report(res, req.out, display_path(req.path), cmd)
     if req.format == "json":
         sys.stdout.write(json.dumps(res.to_dict(), indent=2, sort_keys=True) + "\n")

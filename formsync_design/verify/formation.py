@@ -8,7 +8,6 @@ verification report with the derivation report it links to.
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 from formsync_design.verify.kinds import VerifyRequest
 
@@ -48,11 +47,7 @@ def verify_formation_case(req: VerifyRequest) -> int:
         g0, req.out, spec=spec,
         command="formsync derive" + (f" --graph {g0}" if g0 != "ring:8" else "") + spec_opt + out_opt,
     )
-    cmd = "formsync verify " + (req.case_arg if req.case_arg == path.stem
-                                and not Path(req.case_arg).exists() else case_display)
-    if req.design is not None:
-        cmd += spec_opt
-    cmd += out_opt
+    cmd = req.command(spec_opt if req.design is not None else "")
     md, figs = write_verification_report(res, req.out, command=cmd)
     if req.format == "json":
         sys.stdout.write(verification_json(res) + "\n")

@@ -80,6 +80,28 @@ class VerifyRequest:
     format: str
     progress: Callable[[str], None]
 
+    def command(self, design_option: str | None = None) -> str:
+        """The ``formsync verify`` command line printed in the report: the case as typed
+        when it is a shipped case's name, else its display path; ``--design`` (or
+        ``design_option``, e.g. ``" --spec FILE"``) and ``--out`` when they were given.
+
+        >>> r = VerifyRequest(Path("verification/x.toml"), "x", "out", None, False, False,
+        ...                   "text", print)
+        >>> r.command()
+        'formsync verify x --out out'
+        """
+        from formsync_design.verify.output import display_path
+
+        shipped = self.case_arg == self.path.stem and not Path(self.case_arg).exists()
+        cmd = "formsync verify " + (self.case_arg if shipped else display_path(self.path))
+        if design_option is not None:
+            cmd += design_option
+        elif self.design is not None:
+            cmd += f" --design {self.design}"
+        if self.out != "reports":
+            cmd += f" --out {self.out}"
+        return cmd
+
 
 def case_kind(data: dict[str, Any], source: str) -> str:
     """The ``[case] kind`` of a parsed case document (default ``"formation"``)."""

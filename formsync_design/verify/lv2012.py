@@ -388,10 +388,7 @@ def verify_lv2012(req: VerifyRequest) -> int:
                              f"{display_path(req.path)}, received {small!r}")
         outcomes.append(analyse_case(sp_, design=req.design, progress=req.progress))
     req.progress("write report")
-    cmd = "formsync verify " + (req.case_arg if req.case_arg == Path(req.path).stem
-                                and not Path(req.case_arg).exists() else display_path(req.path))
-    if req.out != "reports":
-        cmd += f" --out {req.out}"
+    cmd = req.command()
     md, figs = write_lv2012_report(outcomes, req.out, Path(req.path).stem,
                                    display_path(req.path), cmd)
     claims = [c for o in outcomes for c in o.claims]

@@ -358,7 +358,6 @@ def _range(v: list[float]) -> str:
 
 def verify_selftrigger_case(req: VerifyRequest) -> int:
     """``formsync verify`` on a ``selftrigger`` case (exit status: :mod:`~formsync_design.verify.kinds`)."""
-    from pathlib import Path
 
     from formsync_design.verify.agentcase import load_agent_case
     from formsync_design.verify.output import display_path
@@ -367,12 +366,7 @@ def verify_selftrigger_case(req: VerifyRequest) -> int:
     case = load_agent_case(req.path, design=req.design)
     res = verify_selftrigger(case, progress=req.progress)
     req.progress("write report")
-    cmd = "formsync verify " + (req.case_arg if req.case_arg == req.path.stem
-                                and not Path(req.case_arg).exists() else display_path(req.path))
-    if req.design is not None:
-        cmd += f" --design {req.design}"
-    if req.out != "reports":
-        cmd += f" --out {req.out}"
+    cmd = req.command()
     md, figs = write_selftrigger_report(res, req.out, req.path.stem, display_path(req.path), cmd)
     if req.format == "json":
         sys.stdout.write(json.dumps(res.to_dict(), indent=1, sort_keys=True) + "\n")
