@@ -31,6 +31,16 @@ documented commands produce:
 * ``formsync sweep --campaign verification/sweep_pd_atlas5.toml --out reports/sweep-pd-atlas5
   --overwrite`` -> reports/sweep-pd-atlas5/ (the PD baseline on the same graphs, compared with
   reports/sweep-atlas6, so it runs after it; also removed first).
+
+The reports hold numbers whose last digits depend on rounding (counts of an adaptive
+integrator's trigger evaluations, a Riccati residual, the vertex a degenerate LP picks), and
+numpy and OpenBLAS pick their kernels by CPU: AVX-512 kernels sum in another order than AVX2
+ones.  So the script runs itself in one numeric environment (:func:`canonical_environment`):
+numpy's AVX-512 dispatch targets off, OpenBLAS's core type ``Haswell`` (AVX2 + FMA), so that
+every x86-64 machine with AVX2 and FMA writes the same bytes (checked on an AVX-512 machine
+against reports written on an AVX2 one).  The compiled kernels use ``-march=native``; gcc
+contracts to FMA on both classes alike.  A machine without AVX2/FMA, another gcc or glibc may
+still differ in such digits.
 """
 
 from __future__ import annotations
@@ -44,7 +54,41 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
+_CANONICAL = "FORMSYNC_CANONICAL_NUMERICS"
+
+
+def canonical_environment(env: dict[str, str]) -> dict[str, str]:
+    """``env`` with the numeric environment of the module docstring (idempotent)."""
+    try:  # the dispatch tables of this numpy (numpy >= 2: numpy._core)
+        import numpy._core._multiarray_umath as um
+    except ImportError:  # numpy 1.26
+        import numpy.core._multiarray_umath as um  # type: ignore[no-redef]
+
+    out = dict(env)
+    found = getattr(um, "__cpu_features__", {})
+    dispatch = getattr(um, "__cpu_dispatch__", [])
+    off = [f for f in dispatch if found.get(f) and ("512" in f or f == "X86_V4")]
+    if off:
+        out["NPY_DISABLE_CPU_FEATURES"] = " ".join(off)
+    flags = ""
+    try:
+        flags = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        pass
+    if " avx2" in flags and " fma" in flags:
+        out["OPENBLAS_CORETYPE"] = "Haswell"
+    out[_CANONICAL] = "1"
+    return out
+
+
 def main() -> int:
+    if os.environ.get(_CANONICAL) != "1":
+        env = canonical_environment(dict(os.environ))
+        print("numeric environment: " + ", ".join(
+            f"{k}={env[k]}" for k in ("NPY_DISABLE_CPU_FEATURES", "OPENBLAS_CORETYPE") if k in env),
+            flush=True)
+        return subprocess.call([sys.executable, str(Path(__file__).resolve()), *sys.argv[1:]],
+                               env=env)
     from formsync_design.cli.main import main as formsync
 
     os.chdir(ROOT)
