@@ -116,6 +116,28 @@ def test_sweep_rows_equal_formsync_certify_and_resume(tmp_path, capsys):
     assert again.computed == 0 and (out / "results.csv").read_bytes() == before
 
 
+def test_graph_outside_the_theorem_is_a_row_flag_not_a_refusal(tmp_path, capsys):
+    # lv2012's theorem needs a leader-reachable graph; path:3 has no leader
+    out = tmp_path / "r"
+    rc = main(["sweep", "--design", "lv2012", "--graphs", "path:3", "--resolution", "2",
+               "--design-betas", "2", "--workers", "0", "--no-progress", "--out", str(out)])
+    assert rc == 0
+    (r,) = read_results(out / "results.csv")
+    assert r["theorem"].startswith("outside: lacks leader-reachable")
+    d = load_design("lv2012")
+    status, fr = _truth("lv2012", "path:3", {n: (d.decl.gain(n).range.lo, d.decl.gain(n).range.hi)
+                                             for n in d.decl.controller_gains},
+                        {"k_p": Fraction(r["ref_k_p"]), "k_d": Fraction(r["ref_k_d"]),
+                         "a_f": Fraction(r["ref_a_f"])})
+    assert r["ref_status"] == status and float(r["frac_certified"]) == pytest.approx(fr["certified"])
+    md = (out / "summary.md").read_text()
+    assert "outside the design's theorem (column `theorem`; their statuses decide the families " \
+           "only): path:3" in md
+    # formsync certify refuses that graph unless asked (the sweep flags it instead)
+    capsys.readouterr()
+    assert main(["certify", "--design", "lv2012", "--graph", "path:3"]) == 2
+
+
 def test_python_agent_design_travels_by_value_and_dask_equals_serial(tmp_path):
     def conds(c):
         return [("damping", sp.Matrix([[c.gains["k"] - 1]]), ("w",))]

@@ -108,8 +108,8 @@ class SweepSchema:
             ("lambda_2", "algebraic connectivity of the Laplacian L (LAPACK, for plots)"),
             ("lambda_max", "largest eigenvalue of L (LAPACK, for plots)"),
             *([("theorem", "inside: the graph has every property the design's theorem needs "
-                "(GRAPHS); else the note naming the missing one (the statuses then decide the "
-                "conditions(c) families only)")] if self.agent else []),
+                "(GRAPHS); else 'outside: lacks PROPERTY: reason' (the statuses then decide the "
+                "conditions(c) families only: none of the theorem's guarantees applies)")] if self.agent else []),
             ("conditions", "Lyapunov conditions checked: derived (from the controller) or paper "
              "(printed)"),
             ("box", "gain-box name"),

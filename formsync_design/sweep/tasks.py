@@ -170,7 +170,8 @@ def _agent_row(task: dict[str, Any], g: Graph, design: Any, schema: SweepSchema,
     from formsync_design.graphs.theorem import check_theorem_graph
 
     theorem = check_theorem_graph(g, design.decl.graphs, allow_outside=True, design=design.name)
-    out: dict[str, Any] = {"theorem": "inside" if theorem.inside else theorem.note()}
+    out: dict[str, Any] = {"theorem": "inside" if theorem.inside else "outside: lacks " + "; ".join(
+        f"{p}: {r}" for p, r in zip(theorem.missing, theorem.reasons))}
     conds = agent_conditions(design, g)
     box = GainBox.parse(list(bounds), schema.box)
     with warnings.catch_warnings():
