@@ -121,10 +121,11 @@ def test_design_of_an_agent_design_recommends_a_certified_point(capsys):
                  "k_w=1"]) == 1
 
 
-def test_sweep_refuses_agent_designs_in_one_line(capsys):
-    rc = main(["sweep", "--design", SO3, "--graphs", "ring:4", "--out", "unused-out"])
+def test_sweep_refuses_agent_designs_without_conditions_in_one_line(capsys):
+    rc = main(["sweep", "--design", "ma_quat_smc", "--graphs", "ring:4", "--out", "unused-out"])
     err = capsys.readouterr().err
-    assert rc == 2 and "agent" in err and len(err.strip().splitlines()) == 1
+    assert rc == 2 and "conditions(c)" in err and len(err.strip().splitlines()) == 1
+    assert not Path("unused-out").exists()
 
 
 def test_montecarlo_of_an_agent_design_is_seeded_and_replays(tmp_path, capsys):

@@ -1,5 +1,11 @@
 """Stage 5 — certificates over gain boxes: exact/rigorous re-checks, region maps, gain design."""
 
+from formsync_design.certify.agent import (
+    AgentGainDesign,
+    certify_agent,
+    design_agent,
+    region_agent,
+)
 from formsync_design.certify.design import DesignResult, design_gains
 from formsync_design.certify.engine import (
     CertificationResult,
@@ -22,4 +28,8 @@ __all__ = [
     "region_map",
     "DesignResult",
     "design_gains",
+    "AgentGainDesign",
+    "certify_agent",
+    "region_agent",
+    "design_agent",
 ]

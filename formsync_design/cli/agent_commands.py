@@ -82,14 +82,9 @@ def _case_path(case_arg: Any) -> Path:
 
 
 def _case_design_ref(case_arg: Any) -> str | None:
-    from formsync_design.tomlio import load_toml
+    from formsync_design.verify.agentcase import case_design_ref
 
-    path = _case_path(case_arg)
-    if not path.is_file():
-        return None
-    meta = load_toml(path, "case TOML file").get("case", {})
-    ref = meta.get("design", meta.get("spec")) if isinstance(meta, dict) else None
-    return ref if isinstance(ref, str) else None
+    return case_design_ref(_case_path(case_arg))
 
 
 def agent_case_for(design: Any, case_arg: Any, gains: Any) -> Any:
@@ -115,13 +110,9 @@ def agent_case_for(design: Any, case_arg: Any, gains: Any) -> Any:
 
 
 def _shipped_case(design: Any) -> Path | None:
-    from formsync_design.resources import case_file, case_names
+    from formsync_design.verify.agentcase import shipped_agent_case
 
-    for name in case_names():
-        ref = _case_design_ref(case_file(name))
-        if ref == design.name or (ref is not None and Path(ref).stem == design.name):
-            return case_file(name)
-    return None
+    return shipped_agent_case(design)
 
 
 def _paper_spacecraft_case(design: Any, gains: Any, parse: Any) -> Any:
@@ -289,8 +280,7 @@ def _text(case: Any, graph: Any, f: Any, opt: Any, r: Any, design: Any, written:
 def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
     """``formsync certify`` of an agent design: its ``conditions(c)`` families on ``--graph``,
     decided over the ``--gain`` box (multipliers searched over their declared ranges)."""
-    from formsync_design.certify.engine import certify_box
-    from formsync_design.certify.multipliers import certify_with_multipliers
+    from formsync_design.certify.agent import certify_agent
     from formsync_design.cli.certify import format_result
     from formsync_design.cli.options import design_box
     from formsync_design.derive.agent import agent_conditions
@@ -307,13 +297,8 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
                                   allow_outside=getattr(args, "allow_outside_theorem", False),
                                   design=design.name)
     box = design_box(design, args.gain)
-    margin = getattr(args, "margin", None) or 0
-    conds = agent_conditions(design, graph)
-    mult = {n: design.decl.gain(n).range for n in design.decl.multipliers if n not in box}
-    if mult:
-        res = certify_with_multipliers(conds, box, mult, margin=margin)
-    else:
-        res = certify_box(conds, box, margin=margin)
+    res = certify_agent(design, agent_conditions(design, graph), box,
+                        margin=getattr(args, "margin", None) or 0)
     if args.format == "json":
         emit_json({**({"outside_theorem": theorem.to_dict()} if not theorem.inside else {}),
                    "design": design.name, **res.to_dict()})
@@ -450,29 +435,17 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
     return EXIT_OK if res.all_converged else EXIT_NEGATIVE
 
 
-def _agent_box_and_multipliers(design: Any, gains: Any) -> tuple[Any, dict[str, Any]]:
-    """The ``--gain`` box of an agent design (controller gains; a gain not given takes its
-    declared range) and the multipliers left to search (declared ranges)."""
-    from formsync_design.cli.options import design_box
-
-    box = design_box(design, gains)
-    mult = {n: design.decl.gain(n).range for n in design.decl.multipliers if n not in box}
-    return box, mult
-
-
 def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     """``formsync region`` of an agent design: its ``conditions(c)`` families mapped over at
     most three gain ranges (the other gains fixed at their single ``--gain`` value,
     multipliers searched per cell), region.json and a slice figure per graph."""
     from pathlib import Path
 
-    from formsync_design.certify.multiregion import region_with_multipliers
+    from formsync_design.certify.agent import agent_multipliers, region_agent
     from formsync_design.certify.plots import plot_slices
-    from formsync_design.certify.reduce import three_axes
     from formsync_design.certify.region import map_to_dict
-    from formsync_design.cli.options import Progress, to_json_value
+    from formsync_design.cli.options import Progress, design_box, to_json_value
     from formsync_design.derive.agent import agent_conditions
-    from formsync_design.gains import GainBox, GainRange
     from formsync_design.graphs.theorem import check_theorem_graph, load_graph
 
     _refuse(args, ("ko", "kq", "beta", "beta_slices", "kq_slices", "delay", "torque_limit",
@@ -484,8 +457,8 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     res = 32 if args.resolution is None else args.resolution
     if not 1 <= res <= 512:
         raise InputError(f"expected --resolution in 1..512, received {res}")
-    box, mult = _agent_box_and_multipliers(design, args.gain)
-    full = GainBox(tuple(box.ranges) + tuple(GainRange(n, r.lo, r.hi) for n, r in mult.items()))
+    box = design_box(design, args.gain)
+    mult = agent_multipliers(design, box)
     out = Path(args.out)
     maps, notes = [], []
     prog = Progress(len(args.graph), "region", enabled=not args.no_progress)
@@ -495,11 +468,8 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
                                       allow_outside=args.allow_outside_theorem, design=design.name)
         if not theorem.inside:
             notes.append(theorem.note())
-        conds = agent_conditions(design, g)
-        red, rbox = three_axes(conds, {r.name: (r.lo, r.hi) for r in full.ranges})
-        given = {n: v for n, v in rbox.items() if n not in mult}
-        m = region_with_multipliers(red, given, {n: r for n, r in mult.items() if n in rbox},
-                                    resolution=res, margin=getattr(args, "margin", 0) or 0)
+        m, red, rbox = region_agent(design, agent_conditions(design, g), box, resolution=res,
+                                    margin=getattr(args, "margin", 0) or 0)
         maps.append((m, red))
         prog.update()
     red0 = maps[0][1]
@@ -539,12 +509,8 @@ def run_agent_design(args: argparse.Namespace, design: Any) -> int:
     """``formsync design`` of an agent design: the gain point of a ``--grid`` over the box with
     the largest certified margin of its ``conditions(c)`` families (multipliers searched, exact
     re-check), and the largest certified box around it."""
-    import itertools
-    from fractions import Fraction
-
-    from formsync_design.certify.design import largest_certified_box
-    from formsync_design.certify.multipliers import certify_with_multipliers
-    from formsync_design.certify.reduce import fix_gains
+    from formsync_design.certify.agent import design_agent
+    from formsync_design.cli.options import design_box
     from formsync_design.derive.agent import agent_conditions
     from formsync_design.gains import json_number
     from formsync_design.graphs.theorem import check_theorem_graph, load_graph
@@ -556,26 +522,14 @@ def run_agent_design(args: argparse.Namespace, design: Any) -> int:
     graph = load_graph(args.graph)
     theorem = check_theorem_graph(graph, design.decl.graphs,
                                   allow_outside=args.allow_outside_theorem, design=design.name)
-    box, mult = _agent_box_and_multipliers(design, args.gain)
+    box = design_box(design, args.gain)
     k = max(2, int(getattr(args, "grid", 4) or 4))
-    conds = agent_conditions(design, graph)
-    axes = []
-    for r in box.ranges:
-        lo, hi = Fraction(r.lo), Fraction(r.hi)
-        axes.append([lo] if lo == hi else [lo + (hi - lo) * Fraction(i, k - 1) for i in range(k)])
-    best: tuple[Fraction, dict[str, Fraction], Any] | None = None
-    for pt in itertools.product(*axes):
-        point = dict(zip(box.names, pt))
-        r = certify_with_multipliers(conds, {n: (v, v) for n, v in point.items()}, mult,
-                                     use_sdp=False)
-        lb = r.margin_lower_bound
-        if r.certified and lb is not None and (best is None or lb > best[0]):
-            best = (lb, point, r)
+    des = design_agent(design, agent_conditions(design, graph), box, grid=k)
     doc: dict[str, Any] = {"design": design.name, "graph": graph.name, "box": str(box),
-                           "grid": k, "points": len(list(itertools.product(*axes)))}
+                           "grid": k, "points": des.points}
     if not theorem.inside:
         doc["outside_theorem"] = theorem.to_dict()
-    if best is None:
+    if des.status != "recommended":
         doc.update(status="not-found", reason="no grid point is certified")
         if args.format == "json":
             emit_json(doc)
@@ -583,11 +537,9 @@ def run_agent_design(args: argparse.Namespace, design: Any) -> int:
             print(f"NOT FOUND: no point of the {k}-per-axis grid over {box} is certified for "
                   f"{design.name} on {graph.name}")
         return EXIT_NEGATIVE
-    lb, point, res = best
-    chosen = {n: Fraction(res.box[n].lo) for n in mult}
-    fixed = fix_gains(conds, chosen) if chosen else conds
-    ranges = tuple((Fraction(r.lo), Fraction(r.hi)) for r in box.ranges)
-    cbox, s, cres = largest_certified_box(fixed, point, ranges)
+    assert des.margin is not None
+    lb, point, chosen, cbox, s, cres = (des.margin, des.gains, des.multipliers, des.box, des.scale,
+                                        des.box_result)
     doc.update(status="recommended", gains={n: json_number(v) for n, v in point.items()},
                multipliers={n: json_number(v) for n, v in chosen.items()},
                margin=json_number(lb), scale=json_number(s),

@@ -46,6 +46,13 @@ after the design's gains (box_k_p_lo, ref_k_d, rec_k_p, ...).  The design's
 content is part of the campaign sha256, so a folder of another design is
 refused.
 
+An agent design (FORM = "agent": ma_so3, lv2012, ...) is swept as formsync
+certify, region and design run it: its conditions(c) families on each graph,
+a column `theorem` flagging a graph outside its theorem (computed, not
+refused), a box of at most three free axes counting the searched multipliers
+(ma_so3: give P1, P2 a single value), --design-betas K the gain design's grid
+per axis; no Monte-Carlo yet.
+
 Graph sets (repeat --graphs):
   ring:N | path:N | star:N | complete:N     N a number or a range A..B (ring:4..12)
   circulant:N:a,b                          N may be a range
@@ -91,6 +98,8 @@ examples:
   formsync sweep --campaign big.toml --out out/big --scheduler tcp://10.0.0.5:8786 --resume
   formsync sweep --design pd_consensus --graphs atlas:2..5 --gain k_p=0.1:2 --gain k_d=0.5:3 \
       --ref k_p=0.4,k_d=1.6 --out out/pd      # the PD baseline: its gains, eps searched
+  formsync sweep --design ma_so3 --graphs ring:4..6 --gain K1=0.5:2 --gain K2=0.05:0.5 \
+      --gain P1=0.03 --gain P2=0.03 --out out/ma_so3   # an agent design, mu searched
 """
 
 _DEF_FLAGS = ("graphs", "gain", "ko", "kq", "beta", "ref", "resolution", "design_betas", "conditions",
@@ -113,7 +122,8 @@ def add_parser(sub: Any) -> None:
                    help="graph set (repeatable), e.g. ring:4..12, atlas:6, random:8:0.4:0..9")
     d.add_argument("--name", default=None, help="campaign name (default 'sweep')")
     d.add_argument("--design", "--spec", dest="spec", default=None, metavar="NAME|FILE",
-                   help="the design: a shipped design's name (liang2016, pd_consensus) or a design "
+                   help="the design: a shipped design's name (liang2016, pd_consensus, the agent "
+                   "designs ma_so3, lv2012, ...) or a design "
                    ".py file (default liang2016; with --campaign, when the file names none)")
     d.add_argument("--gain", action="append", default=None, metavar="NAME=LO:HI",
                    help="range of a controller gain of the design in the box (repeat); default its "

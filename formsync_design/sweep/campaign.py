@@ -87,6 +87,7 @@ from formsync_design.gains import GainBox, parse_number
 from formsync_design.sweep.designs import (
     DEFAULT_BOX,
     DEFAULT_REFERENCE,
+    check_agent_box,
     check_sweepable,
     default_box,
     default_reference,
@@ -362,6 +363,20 @@ def _montecarlo(m: Any, sp: Any, schema: SweepSchema) -> MonteCarloSpec:
     )
 
 
+def _check_agent_campaign(sp: Any, schema: SweepSchema, boxes: Sequence[GainBoxSpec],
+                          penalty: float, mc: MonteCarloSpec | None) -> None:
+    """What a campaign of an agent design cannot hold (one-line errors)."""
+    for b in boxes:
+        check_agent_box(sp, schema, b.name, b.bounds)
+    if penalty:
+        raise InputError(f"expected design.penalty 0 for the agent design {sp.name} (its gain "
+                         f"design is a grid, as formsync design), received {penalty:g}")
+    if mc is not None:
+        raise InputError(f"expected no [montecarlo] (--mc-runs) for the agent design {sp.name} "
+                         "(not supported by the sweep yet: run formsync montecarlo --design "
+                         f"{sp.name}), received one")
+
+
 def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Path = ".",
                        spec: Any = None) -> Campaign:
     """Validate a campaign document (the TOML layout of :func:`load_campaign`).
@@ -378,6 +393,11 @@ def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Pa
     ...                                      "design": "pd_consensus"}})
     >>> c.schema.box, [float(v) for v in c.reference], str(c.boxes[0].box)
     (('k_p', 'k_d'), [0.4, 1.6], 'k_p=0.1:2, k_d=0.5:3')
+    >>> c = campaign_from_dict({"campaign": {"name": "t", "graphs": ["ring:4"], "design": "ma_so3"},
+    ...                         "box": {"K1": [1, 2], "K2": [0.1, 0.2], "P1": 0.03, "P2": 0.03,
+    ...                                 "eps": 0.01}})
+    >>> c.schema.form, [float(v) for v in c.reference]
+    ('agent', [1.15, 0.15, 0.03, 0.03, 0.01])
     """
     if not isinstance(data, dict):
         raise InputError(f"expected a campaign table, received {data!r}")
@@ -428,6 +448,8 @@ def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Pa
     betas = _pos_int(des.get("betas", 5), "design.betas", 1, 1000)
     penalty = _pos_float(des.get("penalty", 0.0), "design.penalty", allow_zero=True)
     mc = _montecarlo(data["montecarlo"], sp, schema) if "montecarlo" in data else None
+    if schema.agent:
+        _check_agent_campaign(sp, schema, boxes, penalty, mc)
     return Campaign(
         name=name, title=title, graphs=tuple(g.strip() for g in graphs), boxes=tuple(boxes),
         reference=reference, conditions=cond, margin=margin, resolution=resolution,

@@ -12,6 +12,11 @@ setting only (``[montecarlo] K_v`` for liang2016).  Defaults:
 * reference: liang2016's gains the paper's point :data:`DEFAULT_REFERENCE`; another
   design the gains of its shipped case (``verification/NAME.toml``), else the campaign
   must give ``[reference]``.
+
+An agent design (``FORM = "agent"``, :mod:`formsync_design.spec.agent`) is swept as
+``formsync certify``, ``region`` and ``design`` run it (:mod:`formsync_design.certify.agent`):
+it needs a ``conditions(c)`` hook, each box at most three free axes counting the searched
+multipliers (:func:`check_agent_box`), and no ``[montecarlo]`` (not supported yet).
 """
 
 from __future__ import annotations
@@ -24,23 +29,26 @@ from formsync_design.gains import parse_number
 from formsync_design.sweep.schema import GAINS, SweepSchema, rational_text
 
 __all__ = ["DEFAULT_BOX", "DEFAULT_REFERENCE", "load_design", "check_sweepable", "gain_key_error",
-           "default_box", "default_reference", "is_default_design", "is_shipped"]
+           "default_box", "default_reference", "is_default_design", "is_shipped",
+           "check_agent_box"]
 
 DEFAULT_BOX = {"name": "standard", "K_o": ["0.05", "5"], "K_q": ["0.05", "5"], "beta": ["0.01", "1"]}
 DEFAULT_REFERENCE = {"K_o": "1.6", "K_q": "0.4", "beta": "0.3"}
 
 
 def load_design(ref: Any = None, base: str | Path = ".") -> Any:
-    """The :class:`~formsync_design.spec.loader.Spec` named by ``ref``: a ``Spec``, a
-    shipped design's name (unless a file of that name exists in ``base``), a ``.py`` file
-    (relative to ``base``), or ``None`` / ``""`` for liang2016.
+    """The design named by ``ref`` (a :class:`~formsync_design.spec.loader.Spec` or an
+    agent design): a design value, a shipped design's name (unless a file of that name
+    exists in ``base``), a ``.py`` file (relative to ``base``), or ``None`` / ``""`` for
+    liang2016.
 
-    >>> load_design("pd_consensus").name, load_design().name
-    ('pd_consensus', 'liang2016')
+    >>> load_design("pd_consensus").name, load_design().name, load_design("ma_so3").form
+    ('pd_consensus', 'liang2016', 'agent')
     """
-    from formsync_design.spec.loader import Spec, load_spec
+    from formsync_design.spec.loader import Spec
+    from formsync_design.spec.loader import load_design as load_spec
 
-    if isinstance(ref, Spec):
+    if isinstance(ref, Spec) or getattr(ref, "form", None) == "agent":
         return ref
     if ref is None or (isinstance(ref, str) and not ref.strip()):
         return load_spec(None)
@@ -71,9 +79,18 @@ def check_sweepable(spec: Any) -> SweepSchema:
     >>> from formsync_design.spec.loader import load_spec
     >>> check_sweepable(load_spec("pd_consensus")).box
     ('k_p', 'k_d')
+    >>> print(check_sweepable(load_design("ma_quat_smc")))
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected an agent design with a conditions(c) hook (its certificate) for a sweep, received design ma_quat_smc without one
     """
     from formsync_design.spec.declarations import DERIVABLE
 
+    if getattr(spec, "form", None) == "agent":
+        if not callable(spec.module.get("conditions")):
+            raise InputError(f"expected an agent design with a conditions(c) hook (its "
+                             f"certificate) for a sweep, received design {spec.name} without one")
+        return SweepSchema.of_design(spec)
     if spec.representation not in DERIVABLE:
         raise InputError(f"expected a design in a derivable representation ({', '.join(DERIVABLE)}) "
                          f"for a sweep, received design {spec.name} in {spec.representation!r}")
@@ -85,6 +102,29 @@ def check_sweepable(spec: Any) -> SweepSchema:
             f"{', '.join(schema.family)}"
         )
     return schema
+
+
+def check_agent_box(spec: Any, schema: SweepSchema, name: str,
+                    bounds: Any) -> None:
+    """Refuse (one line) a box of an agent design with more than three free axes counting
+    the searched multipliers (a region map has three: fix the others at one value).
+
+    >>> from fractions import Fraction as F
+    >>> d = load_design("ma_so3")
+    >>> s = check_sweepable(d)
+    >>> check_agent_box(d, s, "b", [(F(1), F(2)), (F(1, 10), F(1, 5))] + [(F(1, 20),) * 2] * 3)
+    >>> check_agent_box(d, s, "std", [(F(1), F(2))] * 3 + [(F(1, 20),) * 2] * 2)
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected at most three free axes in box 'std' of design ma_so3 (its region map; the multipliers mu are searched), received ranges for K1, K2, P1; give the others a single value
+    """
+    free = [g for g, (lo, hi) in zip(schema.box, bounds) if lo != hi]
+    if len(free) + len(schema.multipliers) > 3:
+        mult = (f"; the multipliers {', '.join(schema.multipliers)} are searched"
+                if schema.multipliers else "")
+        raise InputError(f"expected at most three free axes in box {name!r} of design {spec.name} "
+                         f"(its region map{mult}), received ranges for {', '.join(free)}; give "
+                         "the others a single value")
 
 
 def gain_key_error(spec: Any, schema: SweepSchema, where: str, keys: Any) -> InputError | None:
@@ -145,7 +185,16 @@ def default_reference(spec: Any, schema: SweepSchema) -> dict[str, Any]:
 
     if schema.box == GAINS:
         return dict(DEFAULT_REFERENCE)
-    if spec.name in case_names():
+    if schema.agent:
+        from formsync_design.verify.agentcase import load_agent_case, shipped_agent_case
+
+        path = shipped_agent_case(spec) if is_shipped(spec) else None
+        if path is not None:
+            have = load_agent_case(path, design=spec).gains.as_dict()
+            if all(g in have and not isinstance(have[g], tuple) for g in schema.box):
+                return {g: rational_text(parse_number(have[g], f"case {spec.name} {g}"))
+                        for g in schema.box}
+    elif spec.name in case_names():
         from formsync_design.verify.case import load_case
 
         case = load_case(spec.name)
@@ -161,6 +210,6 @@ def default_reference(spec: Any, schema: SweepSchema) -> dict[str, Any]:
 def is_shipped(spec: Any) -> bool:
     """Whether ``spec`` is the shipped design of its name (its content)."""
     from formsync_design.resources import design_names
-    from formsync_design.spec.loader import load_spec
+    from formsync_design.spec.loader import load_design as load_any
 
-    return spec.name in design_names() and bool(load_spec(spec.name).key == spec.key)
+    return spec.name in design_names() and bool(load_any(spec.name).key == spec.key)

@@ -6,8 +6,10 @@ reference point and the largest certified box are over the design's *controller
 gains* (``box_K_o_lo``... for liang2016, ``box_k_p_lo``... for pd_consensus); the
 recommended point over its controller gains and multipliers; a design whose
 Lyapunov candidate has multipliers adds the multiplier value its certificates chose
-(``ref_cert_eps``, ``rec_cert_eps``: the evidence).  The classic schema of
-liang2016 (:data:`COLUMNS`) is the schema of every committed liang2016 report.
+(``ref_cert_eps``, ``rec_cert_eps``: the evidence).  An agent design (``FORM =
+"agent"``, :mod:`formsync_design.spec.agent`) adds the column ``theorem`` (whether the
+graph has the properties its theorem needs).  The classic schema of liang2016
+(:data:`COLUMNS`) is the schema of every committed liang2016 report.
 """
 
 from __future__ import annotations
@@ -30,7 +32,8 @@ class SweepSchema:
 
     ``box``: the design's controller gains (the box dimensions and the reference
     point); ``multipliers``: its Lyapunov-candidate multipliers (searched, never
-    given); ``switching``: its switching gain (Monte-Carlo only) or ``None``.
+    given); ``switching``: its switching gain (Monte-Carlo only) or ``None``; ``form``:
+    ``"lagrangian"`` or ``"agent"`` (the design's ``FORM``).
 
     Examples
     --------
@@ -41,22 +44,33 @@ class SweepSchema:
     ['ref_cert_eps', 'rec_cert_eps']
     >>> CLASSIC_SCHEMA.columns == COLUMNS
     True
+    >>> "theorem" in SweepSchema(("k_R", "k_w"), (), None, "agent").columns
+    True
     """
 
     box: tuple[str, ...] = GAINS
     multipliers: tuple[str, ...] = ()
     switching: str | None = "K_v"
+    form: str = "lagrangian"
 
     @classmethod
     def of_design(cls, spec: Any) -> SweepSchema:
-        """The schema of a :class:`~formsync_design.spec.loader.Spec`.
+        """The schema of a :class:`~formsync_design.spec.loader.Spec` or an agent design.
 
-        >>> from formsync_design.spec.loader import load_spec
-        >>> SweepSchema.of_design(load_spec("pd_consensus"))
-        SweepSchema(box=('k_p', 'k_d'), multipliers=('eps',), switching=None)
+        >>> from formsync_design.spec.loader import load_design
+        >>> SweepSchema.of_design(load_design("pd_consensus"))
+        SweepSchema(box=('k_p', 'k_d'), multipliers=('eps',), switching=None, form='lagrangian')
+        >>> SweepSchema.of_design(load_design("ma_so3")).box
+        ('K1', 'K2', 'P1', 'P2', 'eps')
         """
         d = spec.decl
-        return cls(tuple(d.controller_gains), tuple(d.multipliers), d.switching)
+        return cls(tuple(d.controller_gains), tuple(d.multipliers), d.switching,
+                   str(getattr(spec, "form", "lagrangian")))
+
+    @property
+    def agent(self) -> bool:
+        """Whether the design is an agent design (its certificate is its ``conditions(c)``)."""
+        return self.form == "agent"
 
     @property
     def family(self) -> tuple[str, ...]:
@@ -93,6 +107,9 @@ class SweepSchema:
             ("degree_mean", "mean degree"),
             ("lambda_2", "algebraic connectivity of the Laplacian L (LAPACK, for plots)"),
             ("lambda_max", "largest eigenvalue of L (LAPACK, for plots)"),
+            *([("theorem", "inside: the graph has every property the design's theorem needs "
+                "(GRAPHS); else 'outside: lacks PROPERTY: reason' (the statuses then decide the "
+                "conditions(c) families only: none of the theorem's guarantees applies)")] if self.agent else []),
             ("conditions", "Lyapunov conditions checked: derived (from the controller) or paper "
              "(printed)"),
             ("box", "gain-box name"),
@@ -108,7 +125,9 @@ class SweepSchema:
             ("frac_certified", "volume fraction of the box proven admissible (region_map)"),
             ("frac_refuted", refuted),
             ("frac_undecided", "volume fraction undecided at resolution R"),
-            ("design_status", "design_gains: designed|infeasible|undecided|error"),
+            ("design_status", "design_agent (grid of design.betas values per gain, as formsync "
+             "design --grid): designed|not-found" if self.agent else
+             "design_gains: designed|infeasible|undecided|error"),
             *[(f"rec_{g}", f"recommended {g} (designed only)") for g in self.box],
             *rec_mult,
             ("rec_margin", "rigorous lower bound of lambda_min at the recommended gains"),
@@ -144,12 +163,13 @@ class SweepSchema:
 
     def to_dict(self) -> dict[str, Any]:
         return {"box": list(self.box), "multipliers": list(self.multipliers),
-                "switching": self.switching}
+                "switching": self.switching, **({"form": self.form} if self.agent else {})}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> SweepSchema:
         """Inverse of :meth:`to_dict` (task payloads carry the schema as plain data)."""
-        return cls(tuple(d["box"]), tuple(d["multipliers"]), d["switching"])
+        return cls(tuple(d["box"]), tuple(d["multipliers"]), d["switching"],
+                   d.get("form", "lagrangian"))
 
 
 CLASSIC_SCHEMA = SweepSchema()

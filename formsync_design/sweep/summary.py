@@ -151,14 +151,22 @@ def write_summary(
              f"({len(manifest['graphs'])} graphs, {len(rows)} tasks)")
     if manifest["skipped"]:
         L.append(f"- skipped (listed, not analysed): {', '.join(manifest['skipped'])}")
-    L.append(f"- conditions: {camp['conditions']} Lyapunov conditions (Theta_i > {camp['margin']}, "
-             f"Pi > {camp['margin']})")
+    if schema.agent:
+        L.append(f"- conditions: the agent design's conditions(c) families (each > {camp['margin']})")
+        outside = [r["graph"] for r in rows if r["box_index"] == "0" and r["theorem"] != "inside"]
+        L.append(f"- graphs outside the design's theorem (column `theorem`; their statuses decide "
+                 f"the families only): {', '.join(outside) if outside else 'none'}")
+    else:
+        L.append(f"- conditions: {camp['conditions']} Lyapunov conditions (Theta_i > "
+                 f"{camp['margin']}, Pi > {camp['margin']})")
     L.append("- reference gains: " + ", ".join(f"{g} = {float(Fraction(ref[g])):g}" for g in schema.box))
     for b in camp["boxes"]:
         L.append(f"- box `{b['name']}`: " + " x ".join(
             f"{g} in [{float(Fraction(b[g][0])):g}, {float(Fraction(b[g][1])):g}]" for g in schema.box))
-    L.append(f"- region resolution R = {camp['region']['resolution']} per axis; design: "
-             f"{camp['design']['betas']} {schema.swept} values, penalty {camp['design']['penalty']:g}")
+    design = (f"grid of {max(2, camp['design']['betas'])} values per controller gain (as formsync "
+              "design --grid)" if schema.agent else
+              f"{camp['design']['betas']} {schema.swept} values, penalty {camp['design']['penalty']:g}")
+    L.append(f"- region resolution R = {camp['region']['resolution']} per axis; design: {design}")
     if schema.multipliers:
         from formsync_design.certify.multipliers import GRID_POINTS
 
@@ -195,7 +203,8 @@ def write_summary(
         by: dict[str, int] = {}
         for r in sub:
             if r["ref_refuted_by"]:
-                fam = "Pi" if r["ref_refuted_by"].startswith("Pi") else "Theta_i"
+                fam = (r["ref_refuted_by"] if schema.agent else
+                       "Pi" if r["ref_refuted_by"].startswith("Pi") else "Theta_i")
                 by[fam] = by.get(fam, 0) + 1
         body.append([n, len(sub), cnt["certified"], cnt["refuted"], cnt["undecided"], cnt["error"],
                      ", ".join(f"{k}: {v}" for k, v in sorted(by.items())) or "-",

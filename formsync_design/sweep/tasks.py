@@ -9,7 +9,9 @@ and per cell by the region map
 without multipliers these are :func:`certify_box` and :func:`region_map` - and the
 gain design optimizes the first two family gains, sweeps the third and holds a
 multiplier at its recommended value in the largest certified box, as ``formsync
-certify``, ``formsync region`` and ``formsync design`` do.
+certify``, ``formsync region`` and ``formsync design`` do.  An agent design's row is
+computed by :mod:`formsync_design.certify.agent` (its ``conditions(c)`` families on the
+graph), as those commands compute it for an agent design, plus the ``theorem`` column.
 """
 
 from __future__ import annotations
@@ -104,10 +106,12 @@ def _mc_formation(graph: Graph, mc: dict, schema: SweepSchema,
 
 
 def _task_spec(task: dict[str, Any]) -> Any:
-    from formsync_design.spec.loader import Spec, load_spec
+    from formsync_design.spec.loader import Spec, load_design, load_spec
 
     sp = task.get("spec")
-    return sp if isinstance(sp, Spec) else load_spec(sp)
+    if isinstance(sp, Spec) or getattr(sp, "form", None) == "agent":
+        return sp
+    return load_design(sp) if task["schema"].get("form") == "agent" else load_spec(sp)
 
 
 def _run_mc(graph: Graph, mc: dict, schema: SweepSchema, gains: Sequence[Fraction] | None,
@@ -154,6 +158,47 @@ def _chosen(box: Any, names: Sequence[str]) -> dict[str, Fraction]:
     return {n: box[n].lo for n in names if n in box and box[n].is_point}
 
 
+def _agent_row(task: dict[str, Any], g: Graph, design: Any, schema: SweepSchema,
+               bounds: Sequence[tuple[Fraction, Fraction]], ref: Sequence[Fraction],
+               margin: Fraction) -> dict[str, Any]:
+    """The certificate, region and design cells of an agent design's row, as ``formsync
+    certify``, ``region`` and ``design`` compute them (:mod:`formsync_design.certify.agent`);
+    a graph outside the design's theorem is flagged in ``theorem``, not refused."""
+    from formsync_design.certify.agent import certify_agent, design_agent, region_agent
+    from formsync_design.derive.agent import agent_conditions
+    from formsync_design.gains import GainBox
+    from formsync_design.graphs.theorem import check_theorem_graph
+
+    theorem = check_theorem_graph(g, design.decl.graphs, allow_outside=True, design=design.name)
+    out: dict[str, Any] = {"theorem": "inside" if theorem.inside else "outside: lacks " + "; ".join(
+        f"{p}: {r}" for p, r in zip(theorem.missing, theorem.reasons))}
+    conds = agent_conditions(design, g)
+    box = GainBox.parse(list(bounds), schema.box)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # solver chatter; statuses are mapped explicitly
+        cert = certify_agent(design, conds, GainBox.parse([(r, r) for r in ref], schema.box),
+                             margin=margin)
+        rm, _, _ = region_agent(design, conds, box, resolution=task["resolution"], margin=margin)
+        des = design_agent(design, conds, box, grid=task["design_betas"])
+    out["ref_status"] = str(cert.status)
+    out["ref_margin"] = cert.margin_lower_bound if cert.certified else None
+    out["ref_refuted_by"] = cert.witness.family if cert.witness is not None else None
+    if cert.certified:
+        out.update({f"ref_cert_{m}": v for m, v in _chosen(cert.box, schema.multipliers).items()})
+    out.update({f"frac_{k}": rm.fractions[k] for k in ("certified", "refuted", "undecided")})
+    out["design_status"] = "designed" if des.status == "recommended" else des.status
+    if des.status == "recommended":
+        out.update({f"rec_{n}": des.gains[n] for n in schema.box})
+        out.update({f"rec_cert_{m}": v for m, v in des.multipliers.items()})
+        out["rec_margin"] = des.margin
+        if des.box is not None:
+            for n, (lo, hi) in zip(schema.box, des.box):
+                out[f"cbox_{n}_lo"], out[f"cbox_{n}_hi"] = lo, hi
+            out["cbox_half_width"] = des.scale
+            out["cbox_status"] = None if des.box_result is None else str(des.box_result.status)
+    return out
+
+
 def run_task(task: dict[str, Any]) -> dict[str, str]:
     """Compute one row of ``results.csv`` (a pure function of the payload).
 
@@ -193,6 +238,9 @@ def run_task(task: dict[str, Any]) -> dict[str, str]:
         row[f"box_{gname}_lo"], row[f"box_{gname}_hi"] = lo, hi
         row[f"ref_{gname}"] = r
     spec = _task_spec(task)
+    if schema.agent:
+        row.update(_agent_row(task, g, spec, schema, bounds, ref, margin))
+        return {c: fmt_cell(row[c]) for c in columns}
     conds = derive_conditions(g, spec) if task["conditions"] == "derived" else paper_conditions(g)
     box = {gname: b for gname, b in zip(schema.box, bounds)}
     mult = {m: spec.decl.gain(m).range for m in schema.multipliers}

@@ -73,7 +73,8 @@ from formsync_design.verify.case import (
     make_disturbance,
 )
 
-__all__ = ["AgentCase", "load_agent_case", "parse_agent_case", "euler321_to_quat"]
+__all__ = ["AgentCase", "load_agent_case", "parse_agent_case", "euler321_to_quat",
+           "case_design_ref", "shipped_agent_case"]
 
 _TABLES: dict[str, set[str] | None] = {
     "case": {"name", "title", "source", "kind", "design", "assumptions", "graph"},
@@ -182,6 +183,39 @@ def load_agent_case(path: str | Path, design: Any = None) -> AgentCase:
     data = load_toml(p, "case TOML file")
     case = parse_agent_case(data, str(p), design=design)
     return replace(case, digest=hashlib.sha256(p.read_bytes()).hexdigest())
+
+
+def case_design_ref(path: str | Path) -> str | None:
+    """The ``[case] design`` (or its old name ``spec``) of a case file, ``None`` when the file
+    does not exist or names none.
+
+    >>> from formsync_design.resources import case_file
+    >>> case_design_ref(case_file("ma_so3"))
+    'ma_so3'
+    """
+    p = Path(path)
+    if not p.is_file():
+        return None
+    meta = load_toml(p, "case TOML file").get("case", {})
+    ref = meta.get("design", meta.get("spec")) if isinstance(meta, dict) else None
+    return ref if isinstance(ref, str) else None
+
+
+def shipped_agent_case(design: Any) -> Path | None:
+    """The shipped case file (``verification/NAME.toml``) whose ``[case] design`` names
+    ``design`` (by name or file stem), ``None`` when none does.
+
+    >>> from formsync_design.spec.loader import load_design
+    >>> shipped_agent_case(load_design("ma_so3")).name
+    'ma_so3.toml'
+    """
+    from formsync_design.resources import case_file, case_names
+
+    for name in case_names():
+        ref = case_design_ref(case_file(name))
+        if ref == design.name or (ref is not None and Path(ref).stem == design.name):
+            return case_file(name)
+    return None
 
 
 def _resolve_design(ref: str, path: str) -> Any:
