@@ -592,7 +592,9 @@ def load_spec(spec: Spec | str | Path | None = None) -> Spec:
 
 
 #: The commands that take agent designs (the others need a Lagrangian design).
-AGENT_COMMANDS: tuple[str, ...] = ("formsync simulate", "formsync certify", "formsync verify")
+AGENT_COMMANDS: tuple[str, ...] = ("formsync derive", "formsync simulate", "formsync certify",
+                                  "formsync region", "formsync design", "formsync montecarlo",
+                                  "formsync verify", "formsync sweep")
 
 
 def load_design(spec: Any = None) -> Any:
