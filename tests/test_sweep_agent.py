@@ -9,7 +9,9 @@ here for the same graph and box through the library the agent commands use
 :func:`~formsync_design.certify.multiregion.region_with_multipliers`), and
 ``formsync certify --design`` itself for the reference point; the region fractions of the
 test design ``tests/data/agent_so3.py`` (families ``diag(k_R, k_w) > 0`` and
-``k_w > k_R / 2``) have a closed form.
+``k_w > k_R / 2``) have a closed form.  The Monte-Carlo cells are recomputed by
+:func:`~formsync_design.sim.agent_montecarlo.run_agent_montecarlo` on a formation whose
+spacecraft data are cycled here from the case file.
 """
 
 from __future__ import annotations
@@ -27,9 +29,12 @@ from formsync_design.certify.multiregion import region_with_multipliers
 from formsync_design.certify.reduce import three_axes
 from formsync_design.cli.main import main
 from formsync_design.derive.agent import agent_conditions
+from formsync_design.errors import FormsyncError
 from formsync_design.spec.loader import load_design
 from formsync_design.sweep import campaign_from_dict, run_sweep
+from formsync_design.sweep.schema import fmt_cell
 from formsync_design.sweep.store import read_results
+from formsync_design.sweep.tasks import run_task
 
 DATA = Path(__file__).resolve().parent / "data"
 SO3 = str(DATA / "agent_so3.py")
@@ -166,7 +171,12 @@ def test_python_agent_design_travels_by_value_and_dask_equals_serial(tmp_path):
         (["--design", "ma_so3", "--gain", "mu=1:2"], "received mu (a multiplier"),
         (["--design", "ma_so3"], "at most three free axes in box 'standard'"),
         (["--design", SO3, "--ref", "k_R=1"], "missing ['k_w']"),
-        (["--design", SO3, "--ref", "1,1", "--mc-runs", "2"], "no [montecarlo]"),
+        (["--design", SO3, "--ref", "1,1", "--mc-runs", "2"], "expected montecarlo.case (--mc-case)"),
+        (["--design", SO3, "--ref", "1,1", "--mc-runs", "2", "--mc-case", "liang2016"],
+         "received the Lagrangian case liang2016"),
+        (["--design", "pd_consensus", "--mc-runs", "2", "--mc-case", "ma_so3"],
+         "received the agent case ma_so3"),
+        (["--design", "lv2012", "--mc-runs", "2"], "declares a leader and a sweep's graphs pin no"),
         (["--design", "ma_quat_smc"], "conditions(c) hook"),
     ],
 )
@@ -176,3 +186,120 @@ def test_bad_agent_sweep_input_is_exit_2_one_line(tmp_path, capsys, argv, words)
     err = capsys.readouterr().err
     assert rc == 2 and words in err and err.count("\n") == 1, err
     assert not out.exists()
+
+
+SO3_CASE = str(DATA / "agent_so3_case.toml")  # five spacecraft
+SO3_MC = {"campaign": {"name": "m", "graphs": ["ring:3", "path:7"], "design": SO3},
+          "reference": {"k_R": "4/5", "k_w": "3/2"},
+          "box": {"name": "b", "k_R": ["1/10", 2], "k_w": ["1/2", 3]},
+          "region": {"resolution": 2}, "design": {"betas": 2},
+          "montecarlo": {"runs": 2, "seed": 1, "case": SO3_CASE, "tf": 15.0,
+                         "max_angle_deg": 20.0, "max_rate": 0.01}}
+
+
+def _mc_truth(graph, n):
+    """The agent Monte-Carlo of the case's spacecraft cycled onto ``graph`` (n spacecraft)."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from formsync_design.gains import GainBox
+    from formsync_design.graphs import load_graph
+    from formsync_design.sim.agent_montecarlo import AgentMonteCarloSettings, run_agent_montecarlo
+    from formsync_design.sim.agents import AgentFormation
+    from formsync_design.verify.agentcase import load_agent_case
+
+    d = load_design(SO3)
+    case = load_agent_case(SO3_CASE, design=d)
+    idx = [i % 5 for i in range(n)]
+    f = AgentFormation(load_graph(graph), case.inertias[idx], case.attitudes[idx],
+                       case.rates[idx], case.gains)
+    box = GainBox.parse({"k_R": Fraction(4, 5), "k_w": Fraction(3, 2)})
+    st = AgentMonteCarloSettings(runs=2, seed=1, max_angle_deg=20.0, max_rate=0.01)
+    res = run_agent_montecarlo(d, f, box, st, replace(case.options, tf=15.0), certify=False)
+    times = [r.convergence_time for r in res.runs if r.convergence_time is not None]
+    status = [r.status for r in res.runs]
+    return {"mc_runs": "2", "mc_converged": str(status.count("converged")),
+            "mc_not_converged": str(status.count("not-converged")),
+            "mc_stopped": str(status.count("stopped")),
+            "mc_conv_time_median": fmt_cell(float(np.median(times)) if times else None),
+            "mc_conv_time_max": fmt_cell(max(times) if times else None),
+            "mc_failed_seeds": ";".join(str(r.seed) for r in res.failures)}
+
+
+def test_agent_monte_carlo_cells_equal_the_agent_library_with_cycled_spacecraft(tmp_path):
+    c = campaign_from_dict(SO3_MC)
+    run_sweep(c, tmp_path / "r", n_workers=0)
+    rows = read_results(tmp_path / "r" / "results.csv")
+    assert [(r["graph"], r["n"]) for r in rows] == [("ring:3", "3"), ("path:7", "7")]  # case: 5
+    for r in rows:
+        truth = _mc_truth(r["graph"], int(r["n"]))
+        assert r["mc_status"] == "ran" and r["mc_gains"] == "reference"
+        assert {k: r[k] for k in truth} == truth
+        assert r["mc_singular"] == r["mc_diverged"] == r["mc_inaccurate"] == ""  # Lagrangian only
+    assert rows[0]["mc_converged"] == "2" and rows[1]["mc_not_converged"] == "2"
+    md = (tmp_path / "r" / "summary.md").read_text()
+    assert "2 of 4 runs converged over 2 tasks" in md and "| stopped |" in md
+    assert f"case {SO3_CASE}, spacecraft data cycled" in md and "tf = 15 s, the case's other" in md
+
+
+def test_interrupted_agent_monte_carlo_sweep_resumes_to_identical_rows(tmp_path):
+    c = campaign_from_dict(SO3_MC)
+    run_sweep(c, tmp_path / "ref", n_workers=0)
+
+    def dies_on_second(task):
+        if task["graph_index"] == 1:
+            raise RuntimeError("simulated kill")
+        return run_task(task)
+
+    out = tmp_path / "r"
+    with pytest.raises(FormsyncError, match="simulated kill"):
+        run_sweep(c, out, n_workers=0, task_fn=dies_on_second)
+    res = run_sweep(c, out, n_workers=0, resume=True)
+    assert res.reused == 1 and res.computed == 1
+    for name in ("results.csv", "manifest.json", "summary.md"):
+        assert (out / name).read_bytes() == (tmp_path / "ref" / name).read_bytes(), name
+
+
+@pytest.mark.parametrize("key, value", [("phases", False), ("K_v", 0.1)])
+def test_lagrangian_monte_carlo_keys_for_an_agent_design_are_exit_2(tmp_path, capsys, key, value):
+    p = tmp_path / "c.toml"
+    p.write_text(f'[campaign]\nname = "m"\ngraphs = ["ring:3"]\ndesign = "ma_so3"\n'
+                 f'[montecarlo]\nruns = 2\n{key} = {str(value).lower()}\n')
+    rc = main(["sweep", "--campaign", str(p), "--workers", "0", "--out", str(tmp_path / "r")])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1, err
+    assert f"expected no montecarlo.{key} for the agent design ma_so3" in err
+    assert not (tmp_path / "r").exists()
+
+
+def test_agent_monte_carlo_options_default_to_the_case_and_reach_the_payload(tmp_path):
+    from formsync_design.sweep.graphsets import expand_graphs
+    from formsync_design.sweep.tasks import agent_mc_inputs, build_tasks
+
+    doc = {**SO3_MC, "montecarlo": {"runs": 1, "case": SO3_CASE, "step": 0.005}}
+    c = campaign_from_dict(doc)
+    assert c.montecarlo.tf is None and c.montecarlo.output_step is None
+    gs, _ = expand_graphs(["path:7"])
+    (task,) = build_tasks(c, gs)
+    assert task["montecarlo"]["case_text"] == Path(SO3_CASE).read_text()  # no file on workers
+    g = load_design(SO3)
+    from formsync_design.graphs.build import Graph
+
+    base, box, st, opt = agent_mc_inputs(Graph(7, tuple(gs[0].graph.edges), "path:7"),
+                                         task["montecarlo"], g, [Fraction(1), Fraction(1)])
+    assert (opt.tf, opt.output_step, opt.step) == (30.0, 0.1, 0.005)  # the case's, step given
+    assert base.n == 7 and (base.inertias[6] == base.inertias[1]).all()
+    shipped = campaign_from_dict({"campaign": {"name": "s", "graphs": ["ring:3"], "design": "ma_so3"},
+                                  "box": MA_BOX, "montecarlo": {"runs": 1}})
+    assert Path(build_tasks(shipped, gs)[0]["montecarlo"]["case_path"]).name == "ma_so3.toml"
+    with pytest.raises(FormsyncError, match="step to divide output_step"):
+        campaign_hash_of({**SO3_MC, "montecarlo": {"runs": 1, "case": SO3_CASE, "step": 0.03}})
+
+
+def campaign_hash_of(doc):
+    from formsync_design.sweep.campaign import campaign_hash
+    from formsync_design.sweep.graphsets import expand_graphs
+
+    c = campaign_from_dict(doc)
+    return campaign_hash(c, expand_graphs(c.graphs)[0])

@@ -51,7 +51,9 @@ certify, region and design run it: its conditions(c) families on each graph,
 a column `theorem` flagging a graph outside its theorem (computed, not
 refused), a box of at most three free axes counting the searched multipliers
 (ma_so3: give P1, P2 a single value), --design-betas K the gain design's grid
-per axis; no Monte-Carlo yet.
+per axis; --mc-runs N runs the agent Monte-Carlo (formsync montecarlo --design
+NAME) on its shipped case or --mc-case (spacecraft cycled over the graph's, the
+case's simulation options unless --mc-tf); a design with a leader has none.
 
 Graph sets (repeat --graphs):
   ring:N | path:N | star:N | complete:N     N a number or a range A..B (ring:4..12)
@@ -149,10 +151,12 @@ def add_parser(sub: Any) -> None:
     d.add_argument("--mc-seed", type=int, default=None, metavar="S", help="Monte-Carlo master seed (default 0)")
     d.add_argument("--mc-gains", default=None, choices=("reference", "recommended"),
                    help="gains simulated (default reference)")
-    d.add_argument("--mc-tf", default=None, metavar="S", help="Monte-Carlo horizon in s (default 200)")
+    d.add_argument("--mc-tf", default=None, metavar="S", help="Monte-Carlo horizon in s (default 200; an agent design: "
+                   "its case's)")
     d.add_argument("--mc-case", default=None, metavar="FILE",
                    help="case TOML for inertias/orbit/disturbance/K_v (default the paper's; "
-                   "inertias are cycled for larger formations)")
+                   "inertias are cycled for larger formations); an agent design: an agent "
+                   "case (default its shipped one), its spacecraft cycled")
     x = p.add_argument_group("execution")
     x.add_argument("--out", required=True, metavar="DIR", help="results folder")
     x.add_argument("--resume", action="store_true",

@@ -16,7 +16,9 @@ one graph x one box; it computes, with the public APIs of :mod:`.derive`,
   certified / refuted / undecided at resolution ``R``);
 * recommended gains (:func:`design_gains`) and the largest certified box
   around them (:func:`largest_certified_box` through ``design_gains``);
-* Monte-Carlo statistics (:func:`run_montecarlo`) when asked.
+* Monte-Carlo statistics (:func:`run_montecarlo`; for an agent design
+  :func:`~formsync_design.sim.agent_montecarlo.run_agent_montecarlo` on its agent case,
+  :class:`MonteCarloSpec`) when asked.
 
 A design whose Lyapunov candidate has multipliers (pd_consensus's ``eps``) has them
 searched over their declared ranges, as ``formsync certify`` and ``formsync region`` do
@@ -152,6 +154,14 @@ class MonteCarloSpec:
     ``K_v`` are used (default: the paper's case).  ``switching``: the design's
     switching gain (its key in ``[montecarlo]``, ``K_v`` for liang2016), ``None``
     for a design without one.
+
+    ``agent``: the Monte-Carlo of an agent design (:mod:`formsync_design.sim.agent_montecarlo`,
+    as ``formsync montecarlo --design NAME``): ``case`` is an agent case (default: the
+    design's shipped case, :func:`~formsync_design.verify.agentcase.shipped_agent_case`)
+    whose per-spacecraft data are cycled over the graph's spacecraft
+    (:meth:`~formsync_design.verify.agentcase.AgentCase.cycled`); ``tf``, ``step``,
+    ``output_step`` are ``None`` unless given (then the case's ``[simulation]`` options);
+    ``phases`` and ``K_v`` do not apply.
     """
 
     runs: int = 20
@@ -162,13 +172,19 @@ class MonteCarloSpec:
     max_angle_deg: float = 100.0
     max_rate: float = 0.9
     phases: bool = True
-    tf: float = 200.0
-    step: float = 0.1
-    output_step: float = 0.5
+    tf: float | None = 200.0
+    step: float | None = 0.1
+    output_step: float | None = 0.5
     disturbance: str = ""
     switching: str | None = "K_v"
+    agent: bool = False
 
     def to_dict(self) -> dict[str, Any]:
+        if self.agent:
+            return {"runs": self.runs, "seed": self.seed, "gains": self.gains, "case": self.case,
+                    "max_angle_deg": self.max_angle_deg, "max_rate": self.max_rate,
+                    "tf": self.tf, "step": self.step, "output_step": self.output_step,
+                    "disturbance": self.disturbance, "agent": True}
         sw = ({} if self.switching is None else
               {self.switching: None if self.K_v is None else rational_text(self.K_v)})
         return {
@@ -320,8 +336,16 @@ def _boxes(data: dict, sp: Any, schema: SweepSchema) -> list[GainBoxSpec]:
     return boxes
 
 
+_LAGRANGIAN_MC = ("phases", "K_v")
+
+
 def _montecarlo(m: Any, sp: Any, schema: SweepSchema) -> MonteCarloSpec:
     sw = schema.switching
+    if isinstance(m, dict) and schema.agent:
+        for k in _LAGRANGIAN_MC:
+            if k in m:
+                raise InputError(f"expected no montecarlo.{k} for the agent design {sp.name} (it "
+                                 "applies to the Lagrangian designs), received one")
     keys = _KEYS["montecarlo"] | ({sw} if sw else set())
     if isinstance(m, dict) and sw is None and "K_v" in m:
         raise InputError(f"expected no montecarlo.K_v for design {sp.name} (it has no switching "
@@ -355,12 +379,21 @@ def _montecarlo(m: Any, sp: Any, schema: SweepSchema) -> MonteCarloSpec:
         max_angle_deg=_pos_float(m.get("max_angle_deg", 100.0), "montecarlo.max_angle_deg", allow_zero=True),
         max_rate=_pos_float(m.get("max_rate", 0.9), "montecarlo.max_rate", allow_zero=True),
         phases=phases,
-        tf=_pos_float(m.get("tf", 200.0), "montecarlo.tf"),
-        step=_pos_float(m.get("step", 0.1), "montecarlo.step"),
-        output_step=_pos_float(m.get("output_step", 0.5), "montecarlo.output_step"),
+        tf=_sim_option(m, "tf", 200.0, schema.agent),
+        step=_sim_option(m, "step", 0.1, schema.agent),
+        output_step=_sim_option(m, "output_step", 0.5, schema.agent),
         disturbance=dist,
         switching=sw,
+        agent=schema.agent,
     )
+
+
+def _sim_option(m: dict, key: str, default: float, agent: bool) -> float | None:
+    """``montecarlo.KEY`` (positive); not given: ``default``, or ``None`` for an agent design
+    (its case's ``[simulation]`` value)."""
+    if key not in m and agent:
+        return None
+    return _pos_float(m.get(key, default), f"montecarlo.{key}")
 
 
 def _check_agent_campaign(sp: Any, schema: SweepSchema, boxes: Sequence[GainBoxSpec],
@@ -371,10 +404,11 @@ def _check_agent_campaign(sp: Any, schema: SweepSchema, boxes: Sequence[GainBoxS
     if penalty:
         raise InputError(f"expected design.penalty 0 for the agent design {sp.name} (its gain "
                          f"design is a grid, as formsync design), received {penalty:g}")
-    if mc is not None:
-        raise InputError(f"expected no [montecarlo] (--mc-runs) for the agent design {sp.name} "
-                         "(not supported by the sweep yet: run formsync montecarlo --design "
-                         f"{sp.name}), received one")
+    if mc is not None and sp.decl.leader:
+        raise InputError(f"expected no [montecarlo] (--mc-runs) for the design {sp.name}: it "
+                         "declares a leader and a sweep's graphs pin no spacecraft to it (run "
+                         f"formsync montecarlo --design {sp.name} with a case whose graph pins), "
+                         "received one")
 
 
 def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Path = ".",
@@ -553,24 +587,63 @@ def graph_records(graphs: Sequence[GraphEntry]) -> list[dict[str, Any]]:
     ]
 
 
-def case_text(mc: MonteCarloSpec) -> tuple[str, str]:
+def case_text(mc: MonteCarloSpec, design: Any = None) -> tuple[str, str]:
     """``(path, TOML text)`` of the Monte-Carlo case (a file, a shipped case's name;
-    default: the paper's), read here so that workers of a remote cluster need no access
-    to the file.  A design with a switching gain needs its value from the case or from
-    ``[montecarlo]``."""
-    from formsync_design.resources import case_file, case_names
+    default: the paper's, for an agent design its shipped agent case), read here so that
+    workers of a remote cluster need no access to the file.  A design with a switching gain
+    needs its value from the case or from ``[montecarlo]``.  ``design``: the campaign's
+    design (required for an agent Monte-Carlo, whose case must be an agent case of it; a
+    Lagrangian one must not be an agent case)."""
+    from formsync_design.verify.agentcase import case_is_agent
     from formsync_design.verify.case import default_case_path, load_case
 
+    if mc.agent:
+        return _agent_case_text(mc, design)
     if not mc.case:
         p = default_case_path()
-    elif mc.case.isidentifier() and mc.case in case_names() and not Path(mc.case).exists():
-        p = case_file(mc.case)
     else:
-        p = Path(mc.case)
+        p = _named_case(mc.case)
+    if case_is_agent(p):
+        raise InputError(f"expected a Lagrangian case in montecarlo.case, received the agent "
+                         f"case {mc.case}")
     case = load_case(p)  # validates (InputError for a missing or malformed case)
     if mc.switching is not None and mc.K_v is None and not case.gains.K_v:
         raise InputError(f"expected montecarlo.{mc.switching} (the case {mc.case or p.name} gives "
                          "no switching gain), received none")
+    return str(p), p.read_text(encoding="utf-8")
+
+
+def _named_case(case: str) -> Path:
+    """``montecarlo.case``: a shipped case's name (unless such a file exists here), else a path."""
+    from formsync_design.resources import case_file, case_names
+
+    if case.isidentifier() and case in case_names() and not Path(case).exists():
+        return case_file(case)
+    return Path(case)
+
+
+def _agent_case_text(mc: MonteCarloSpec, design: Any) -> tuple[str, str]:
+    """:func:`case_text` of an agent design: the case parsed for ``design`` and the
+    campaign's ``tf``/``step``/``output_step`` checked against its options."""
+    from dataclasses import replace
+
+    from formsync_design.verify.agentcase import case_is_agent, load_agent_case, shipped_agent_case
+
+    if not mc.case:
+        shipped = shipped_agent_case(design)
+        if shipped is None:
+            raise InputError(f"expected montecarlo.case (--mc-case) for the agent design "
+                             f"{design.name} (no shipped case names it), received none")
+        p = shipped
+    else:
+        p = _named_case(mc.case)
+    if p.is_file() and not case_is_agent(p):
+        raise InputError(f"expected an agent case ([case] design naming an agent design) in "
+                         f"montecarlo.case for the agent design {design.name}, received the "
+                         f"Lagrangian case {mc.case}")
+    case = load_agent_case(p, design=design)  # validates (InputError for a missing file)
+    replace(case.options, **{k: v for k in ("tf", "step", "output_step")
+                             if (v := getattr(mc, k)) is not None})
     return str(p), p.read_text(encoding="utf-8")
 
 
@@ -596,7 +669,8 @@ def campaign_hash(campaign: Campaign, graphs: Sequence[GraphEntry], spec: Any = 
                            "campaign": campaign.to_dict(), "graphs": graph_records(graphs),
                            "spec_sha256": spec_key(resolve_spec(campaign, spec))}
     if campaign.montecarlo is not None:
-        doc["case_sha256"] = hashlib.sha256(case_text(campaign.montecarlo)[1].encode()).hexdigest()
+        text = case_text(campaign.montecarlo, resolve_spec(campaign, spec))[1]
+        doc["case_sha256"] = hashlib.sha256(text.encode()).hexdigest()
     if campaign.compare:
         from formsync_design.sweep.compare import load_compared
 

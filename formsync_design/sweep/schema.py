@@ -139,16 +139,33 @@ class SweepSchema:
             ("mc_gains", "gains simulated: reference|recommended (empty: no Monte-Carlo)"),
             ("mc_status", "ran | skipped (reason) | empty"),
             ("mc_runs", "number of Monte-Carlo runs"),
-            ("mc_converged", "runs converged (Q_m <= q_tol and Omega_m <= omega_tol to the end)"),
-            ("mc_not_converged", "runs not converged within tf"),
-            ("mc_singular", "runs that reached q0 <= q0_floor"),
-            ("mc_diverged", "runs with NaN/inf"),
-            ("mc_inaccurate", "runs with quaternion norm drift above norm_tol"),
+            *(self._agent_mc() if self.agent else [
+                ("mc_converged", "runs converged (Q_m <= q_tol and Omega_m <= omega_tol to the end)"),
+                ("mc_not_converged", "runs not converged within tf"),
+                ("mc_singular", "runs that reached q0 <= q0_floor"),
+                ("mc_diverged", "runs with NaN/inf"),
+                ("mc_inaccurate", "runs with quaternion norm drift above norm_tol"),
+            ]),
             ("mc_conv_time_median", "median convergence time over converged runs (s)"),
             ("mc_conv_time_p95", "95th percentile convergence time (s)"),
             ("mc_conv_time_max", "largest convergence time (s)"),
             ("mc_failed_seeds", "run seeds of non-converged runs (replay with formsync montecarlo "
              "--replay), ';'-separated, at most 20"),
+        ]
+
+    @staticmethod
+    def _agent_mc() -> list[tuple[str, str]]:
+        """The run-status columns of an agent design's Monte-Carlo (AgentStatus)."""
+        lag = "Lagrangian designs only: empty for an agent design"
+        return [
+            ("mc_converged", "runs converged (attitude and rate disagreement, and the errors to "
+             "the reference, within angle_tol and rate_tol from the convergence time to tf)"),
+            ("mc_not_converged", "runs not converged within tf"),
+            ("mc_stopped", "runs whose hybrid integrator stopped (Zeno protection or too many "
+             "triggers)"),
+            ("mc_singular", lag),
+            ("mc_diverged", lag),
+            ("mc_inaccurate", lag),
         ]
 
     @property

@@ -175,9 +175,20 @@ def write_summary(
                              for m in schema.multipliers))
     if camp["montecarlo"]:
         m = camp["montecarlo"]
-        L.append(f"- Monte-Carlo: {m['runs']} runs per graph at the {m['gains']} gains, seed "
-                 f"{m['seed']}, tf = {m['tf']:g} s, step {m['step']:g} s, initial angle <= "
-                 f"{m['max_angle_deg']:g} deg, rates <= {m['max_rate']:g} rad/s")
+        if m.get("agent"):
+            sim = ", ".join(f"{k} = {m[k]:g} s" for k in ("tf", "step", "output_step")
+                            if m[k] is not None)
+            case = f"case {m['case']}" if m["case"] else "the design's shipped case"
+            L.append(f"- Monte-Carlo ({case}, spacecraft data cycled over "
+                     f"each graph's spacecraft): {m['runs']} runs per graph at the {m['gains']} "
+                     f"gains, seed {m['seed']}, " + (sim + ", the case's other" if sim else
+                                                     "the case's")
+                     + f" simulation options, initial angle <= {m['max_angle_deg']:g} deg, "
+                     f"rates <= {m['max_rate']:g} rad/s")
+        else:
+            L.append(f"- Monte-Carlo: {m['runs']} runs per graph at the {m['gains']} gains, seed "
+                     f"{m['seed']}, tf = {m['tf']:g} s, step {m['step']:g} s, initial angle <= "
+                     f"{m['max_angle_deg']:g} deg, rates <= {m['max_rate']:g} rad/s")
     L.append("")
     L.append("Certified / refuted statuses are proofs (rigorous re-check of every vertex of a "
              "multi-affine family); spectral values are floating point and only position the "
@@ -241,7 +252,18 @@ def write_summary(
         L.append(f"{conv} of {runs} runs converged over {len(mc)} tasks; "
                  f"{sum(r['mc_status'].startswith('skipped') for r in rows)} tasks skipped.")
         bad = [r for r in mc if int(r["mc_converged"]) < int(r["mc_runs"])]
-        if bad:
+        if bad and schema.agent:
+            L.append("")
+            L += _table(["task", "ref status", "runs", "converged", "not converged", "stopped",
+                         "failed seeds"],
+                        [[r["task"], r["ref_status"], r["mc_runs"], r["mc_converged"],
+                          r["mc_not_converged"], r["mc_stopped"], r["mc_failed_seeds"]]
+                         for r in bad])
+            L.append("")
+            L.append("not converged: attitude or rate disagreement (or the error to the "
+                     "reference) above angle_tol / rate_tol at tf; stopped: the hybrid integrator "
+                     "stopped (Zeno protection or too many triggers).")
+        elif bad:
             L.append("")
             L += _table(["task", "ref status", "runs", "converged", "not converged", "singular",
                          "diverged", "inaccurate", "failed seeds"],

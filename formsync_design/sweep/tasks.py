@@ -27,7 +27,7 @@ from formsync_design.sweep.campaign import Campaign, case_text
 from formsync_design.sweep.graphsets import GraphEntry
 from formsync_design.sweep.schema import SweepSchema, fmt_cell, rational_text
 
-__all__ = ["build_tasks", "run_task"]
+__all__ = ["build_tasks", "run_task", "agent_mc_inputs"]
 
 
 def build_tasks(
@@ -61,7 +61,7 @@ def build_tasks(
         "montecarlo": None,
     }
     if campaign.montecarlo is not None:
-        path, text = case_text(campaign.montecarlo)
+        path, text = case_text(campaign.montecarlo, sp)
         common["montecarlo"] = {**campaign.montecarlo.to_dict(), "case_path": path, "case_text": text}
     tasks = []
     for gi, g in enumerate(graphs):
@@ -148,6 +148,71 @@ def _run_mc(graph: Graph, mc: dict, schema: SweepSchema, gains: Sequence[Fractio
         "mc_conv_time_max": ct.get("max"),
         "mc_failed_seeds": ";".join(fails),
     })
+    return out
+
+
+def _mc_cells(runs: Sequence[Any], statuses: Sequence[str]) -> dict[str, Any]:
+    """The ``mc_*`` cells of a list of runs (each with ``status``, ``seed`` and
+    ``convergence_time``): counts per status, the convergence-time statistics of
+    :func:`~formsync_design.sim.montecarlo.run_montecarlo` and at most 20 failed seeds."""
+    import numpy as np
+
+    ct = np.array([r.convergence_time for r in runs if r.convergence_time is not None])
+    return {
+        "mc_status": "ran", "mc_runs": len(runs),
+        **{f"mc_{s.replace('-', '_')}": sum(str(r.status) == s for r in runs) for s in statuses},
+        "mc_conv_time_median": float(np.median(ct)) if ct.size else None,
+        "mc_conv_time_p95": float(np.percentile(ct, 95)) if ct.size else None,
+        "mc_conv_time_max": float(ct.max()) if ct.size else None,
+        "mc_failed_seeds": ";".join([str(r.seed) for r in runs
+                                     if str(r.status) != "converged"][:20]),
+    }
+
+
+def agent_mc_inputs(graph: Graph, mc: dict[str, Any], design: Any,
+                    gains: Sequence[Fraction]) -> tuple[Any, Any, Any, Any]:
+    """``(formation, box, settings, options)`` of an agent design's Monte-Carlo in a sweep
+    task, for :func:`~formsync_design.sim.agent_montecarlo.run_agent_montecarlo`.
+
+    The case (``mc["case_text"]``, an agent case) is resized to the graph's spacecraft by
+    :meth:`~formsync_design.verify.agentcase.AgentCase.cycled`: spacecraft ``i`` takes the
+    inertia, initial attitude, rate and controller states of the case's spacecraft
+    ``i % case.n``, as the Lagrangian Monte-Carlo cycles inertias (attitudes and rates are
+    drawn per run anyway).  The box is the point ``gains`` over the design's controller
+    gains; the options are the case's, with ``tf``, ``step``, ``output_step`` of
+    ``[montecarlo]`` where given; ``disturbance`` (when given) replaces the case's model.
+    """
+    from dataclasses import replace
+
+    from formsync_design.gains import GainBox
+    from formsync_design.sim.agent_montecarlo import AgentMonteCarloSettings
+    from formsync_design.tomlio import parse_toml
+    from formsync_design.verify.agentcase import parse_agent_case
+
+    case = parse_agent_case(parse_toml(mc["case_text"], mc["case_path"]), mc["case_path"],
+                            design=design).cycled(graph.n)
+    names = tuple(design.decl.controller_gains)
+    box = GainBox.parse([(v, v) for v in gains], names)
+    settings = AgentMonteCarloSettings(runs=mc["runs"], seed=mc["seed"],
+                                       max_angle_deg=mc["max_angle_deg"], max_rate=mc["max_rate"])
+    opt = replace(case.options, **{k: mc[k] for k in ("tf", "step", "output_step")
+                                   if mc[k] is not None})
+    base = case.formation(graph, disturbance=mc["disturbance"] or None)
+    return base, box, settings, opt
+
+
+def _run_agent_mc(graph: Graph, mc: dict[str, Any], design: Any,
+                  gains: Sequence[Fraction] | None) -> dict[str, Any]:
+    from formsync_design.sim.agent_montecarlo import run_agent_montecarlo
+    from formsync_design.sim.agents import AgentStatus
+
+    out: dict[str, Any] = {"mc_gains": mc["gains"]}
+    if gains is None:
+        out["mc_status"] = "skipped (no recommended gains)"
+        return out
+    base, box, settings, opt = agent_mc_inputs(graph, mc, design, gains)
+    r = run_agent_montecarlo(design, base, box, settings, opt, certify=False)
+    out.update(_mc_cells(r.runs, [str(s) for s in AgentStatus]))
     return out
 
 
@@ -240,6 +305,11 @@ def run_task(task: dict[str, Any]) -> dict[str, str]:
     spec = _task_spec(task)
     if schema.agent:
         row.update(_agent_row(task, g, spec, schema, bounds, ref, margin))
+        mc = task["montecarlo"]
+        if mc is not None:
+            rec = ([row[f"rec_{n}"] for n in schema.box] if row["design_status"] == "designed"
+                   else None)
+            row.update(_run_agent_mc(g, mc, spec, ref if mc["gains"] == "reference" else rec))
         return {c: fmt_cell(row[c]) for c in columns}
     conds = derive_conditions(g, spec) if task["conditions"] == "derived" else paper_conditions(g)
     box = {gname: b for gname, b in zip(schema.box, bounds)}

@@ -59,7 +59,7 @@ from typing import Any
 
 import numpy as np
 
-from formsync_design.errors import InputError
+from formsync_design.errors import DerivationError, InputError
 from formsync_design.models.disturbances import Orbit
 from formsync_design.sim.agents import AgentFormation, AgentOptions, Reference
 from formsync_design.sim.formation import Gains
@@ -74,7 +74,7 @@ from formsync_design.verify.case import (
 )
 
 __all__ = ["AgentCase", "load_agent_case", "parse_agent_case", "euler321_to_quat",
-           "case_design_ref", "shipped_agent_case"]
+           "case_design_ref", "case_is_agent", "shipped_agent_case"]
 
 _TABLES: dict[str, set[str] | None] = {
     "case": {"name", "title", "source", "kind", "design", "assumptions", "graph"},
@@ -167,6 +167,21 @@ class AgentCase:
                              f"received {g.name!r} with {g.n}")
         return g
 
+    def cycled(self, n: int) -> AgentCase:
+        """The case resized to ``n`` spacecraft: spacecraft ``i`` takes the inertia, initial
+        attitude, rate and controller states of the case's spacecraft ``i % self.n`` (as a
+        sweep's Lagrangian Monte-Carlo cycles inertias); the graph is then given to
+        :meth:`formation` (the case's own graph keeps its size).
+
+        >>> from formsync_design.resources import case_file
+        >>> c = load_agent_case(case_file("ma_so3")).cycled(7)
+        >>> c.n, bool((c.inertias[5] == c.inertias[0]).all())
+        (7, True)
+        """
+        idx = [i % self.n for i in range(n)]
+        return replace(self, inertias=self.inertias[idx], attitudes=self.attitudes[idx],
+                       rates=self.rates[idx], states={k: v[idx] for k, v in self.states.items()})
+
     def formation(self, graph: Any = None, gains: Gains | None = None,
                   disturbance: str | None = None) -> AgentFormation:
         """The :class:`AgentFormation` (optionally another graph, gains or disturbance model)."""
@@ -199,6 +214,24 @@ def case_design_ref(path: str | Path) -> str | None:
     meta = load_toml(p, "case TOML file").get("case", {})
     ref = meta.get("design", meta.get("spec")) if isinstance(meta, dict) else None
     return ref if isinstance(ref, str) else None
+
+
+def case_is_agent(path: str | Path) -> bool:
+    """Whether the case file's ``[case] design`` names an agent design (``FORM = "agent"``);
+    ``False`` for a Lagrangian design, a missing file or a design that does not load.
+
+    >>> from formsync_design.resources import case_file
+    >>> case_is_agent(case_file("ma_so3")), case_is_agent(case_file("liang2016"))
+    (True, False)
+    """
+    ref = case_design_ref(path)
+    if ref is None:
+        return False
+    try:
+        _resolve_design(ref, str(path))
+    except (InputError, DerivationError):
+        return False
+    return True
 
 
 def shipped_agent_case(design: Any) -> Path | None:
