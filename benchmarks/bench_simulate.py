@@ -69,8 +69,7 @@ from formsync_design.sim.montecarlo import (  # noqa: E402
 from formsync_design.sim.simulator import SimOptions, simulate  # noqa: E402
 from formsync_design.spec.loader import load_spec  # noqa: E402
 from formsync_design.verify.case import load_case  # noqa: E402
-from tests import numpy_reference as R  # noqa: E402
-from tests import numpy_vectorized as V  # noqa: E402
+from tests import numpy_reference as R, numpy_vectorized as V  # noqa: E402
 
 
 def load() -> str:

@@ -18,8 +18,11 @@ C_START = time.process_time()
 
 from formsync_design.certify import engine, multipliers  # noqa: E402
 from formsync_design.cli.main import main as formsync  # noqa: E402
-from formsync_design.derive import compare, conditions  # noqa: E402
-from formsync_design.derive import report as derive_report  # noqa: E402
+from formsync_design.derive import (  # noqa: E402
+    compare,
+    conditions,
+    report as derive_report,  # noqa: E402
+)
 from formsync_design.sim import simulator  # noqa: E402
 from formsync_design.verify import verification  # noqa: E402
 

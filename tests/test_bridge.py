@@ -17,8 +17,7 @@ from formsync_design.sim.bridge import (
     sympy_to_casadi,
 )
 
-from .numpy_reference import skew
-from .numpy_reference import switch as np_switch
+from .numpy_reference import skew, switch as np_switch
 
 
 def _random_state(rng: np.random.Generator):

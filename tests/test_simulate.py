@@ -31,8 +31,7 @@ from formsync_design.sim.simulator import (
 )
 from formsync_design.verify.case import load_case
 
-from . import numpy_reference as R
-from . import numpy_vectorized as V
+from . import numpy_reference as R, numpy_vectorized as V
 
 
 def _Q(q: np.ndarray) -> np.ndarray:

@@ -15,14 +15,16 @@ import traceback
 from collections.abc import Sequence
 
 from formsync_design import __version__
-from formsync_design.cli import certify as cmd_certify
-from formsync_design.cli import derive as cmd_derive
-from formsync_design.cli import design as cmd_design
-from formsync_design.cli import montecarlo as cmd_montecarlo
-from formsync_design.cli import region as cmd_region
-from formsync_design.cli import simulate as cmd_simulate
-from formsync_design.cli import sweep as cmd_sweep
-from formsync_design.cli import verify as cmd_verify
+from formsync_design.cli import (
+    certify as cmd_certify,
+    derive as cmd_derive,
+    design as cmd_design,
+    montecarlo as cmd_montecarlo,
+    region as cmd_region,
+    simulate as cmd_simulate,
+    sweep as cmd_sweep,
+    verify as cmd_verify,
+)
 from formsync_design.cli.options import (
     EXIT_FAILURE,
     EXIT_INTERRUPTED,

@@ -45,8 +45,7 @@ def load_design(ref: Any = None, base: str | Path = ".") -> Any:
     >>> load_design("pd_consensus").name, load_design().name, load_design("ma_so3").form
     ('pd_consensus', 'liang2016', 'agent')
     """
-    from formsync_design.spec.loader import Spec
-    from formsync_design.spec.loader import load_design as load_spec
+    from formsync_design.spec.loader import Spec, load_design as load_spec
 
     if isinstance(ref, Spec) or getattr(ref, "form", None) == "agent":
         return ref

@@ -23,8 +23,9 @@ from pathlib import Path
 from typing import Any
 
 from formsync_design.graphs.build import Graph
-from formsync_design.sweep.campaign import Campaign, case_text
+from formsync_design.sweep.campaign import Campaign
 from formsync_design.sweep.graphsets import GraphEntry
+from formsync_design.sweep.mccase import case_text
 from formsync_design.sweep.schema import SweepSchema, fmt_cell, rational_text
 
 __all__ = ["build_tasks", "run_task", "agent_mc_inputs"]
