@@ -154,14 +154,18 @@ class LawInputs:
     phi: Any
     bind: dict[Any, Any]
     phi_symbol: sp.Symbol
+    expressions: dict[str, Any]
 
     def translate(self, expr: Any, switch: str, memo: dict) -> Any:
         return sympy_to_casadi(_switch(sp.sympify(expr), switch, self.phi_symbol), self.bind,
                                memo)
 
 
-def law_inputs(design: AgentDesign, v: AgentView, m: int) -> LawInputs:
-    """The inputs and bindings of the view ``v`` of a spacecraft with ``m`` in-neighbours."""
+def law_inputs(design: AgentDesign, m: int) -> LawInputs:
+    """The inputs and bindings of a spacecraft with ``m`` in-neighbours, with the design's
+    expressions on its view (:func:`~formsync_design.spec.agent.agent_expressions`)."""
+    ex = agent_expressions(design, m)
+    v: AgentView = ex["view"]
     na = ATTITUDE_SIZE[design.representation]
     states = design.decl.states
     nz = design.decl.state_size
@@ -208,7 +212,7 @@ def law_inputs(design: AgentDesign, v: AgentView, m: int) -> LawInputs:
         for k in range(3):
             bind[v.ref.w[k]] = ref[na + k]
             bind[v.ref.wdot[k]] = ref[na + 3 + k]
-    return LawInputs(own, held, J, t, nb, a, b, ref, gains, phi, bind, phi_s)
+    return LawInputs(own, held, J, t, nb, a, b, ref, gains, phi, bind, phi_s, ex)
 
 
 _LAWS: dict[tuple[str, int, str], AgentLaw] = {}
@@ -227,9 +231,8 @@ def agent_law(design: AgentDesign, m: int, switch: str = "sgn") -> AgentLaw:
     hit = _LAWS.get(ck)
     if hit is not None:
         return hit
-    ex = agent_expressions(design, m)
-    v: AgentView = ex["view"]
-    li = law_inputs(design, v, m)
+    li = law_inputs(design, m)
+    ex = li.expressions
     states = design.decl.states
     memo: dict = {}
 

@@ -35,7 +35,7 @@ from typing import Any
 import casadi as ca
 
 from formsync_design.sim.agent_kernel import law_inputs
-from formsync_design.spec.agent import AgentDesign, AgentView, agent_expressions
+from formsync_design.spec.agent import AgentDesign, AgentView
 
 __all__ = ["KeptTriggers", "kept_trigger_functions", "kept_size"]
 
@@ -66,9 +66,9 @@ def kept_trigger_functions(design: AgentDesign, m: int, switch: str = "sgn") -> 
     hit = _CACHE.get(ck)
     if hit is not None:
         return hit
-    ex = agent_expressions(design, m)
+    li = law_inputs(design, m)
+    ex = li.expressions
     v: AgentView = ex["view"]
-    li = law_inputs(design, v, m)
     bind = li.bind
     kept = ca.SX.sym("kept", max(kept_size(design), 1))
     off = 0
