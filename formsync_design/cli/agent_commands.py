@@ -50,13 +50,14 @@ def agent_design_or_none(design_arg: Any, case_arg: Any = None) -> Any:
     """The agent design a command is asked for (``--design``, else the ``--case`` file's
     ``[case] design``), or ``None`` for a Lagrangian design (the command's own path)."""
     from formsync_design.spec.loader import load_design
+    from formsync_design.verify.agentcase import case_design_ref
 
     if design_arg is not None:
         d = load_design(design_arg)
         return d if getattr(d, "form", None) == "agent" else None
     if case_arg is None:
         return None
-    ref = _case_design_ref(case_arg)
+    ref = case_design_ref(_case_path(case_arg))
     if ref is None:
         return None
     path = _case_path(case_arg)
@@ -81,23 +82,21 @@ def _case_path(case_arg: Any) -> Path:
     return p
 
 
-def _case_design_ref(case_arg: Any) -> str | None:
-    from formsync_design.verify.agentcase import case_design_ref
-
-    return case_design_ref(_case_path(case_arg))
-
-
 def agent_case_for(design: Any, case_arg: Any, gains: Any) -> Any:
     """The :class:`~formsync_design.verify.agentcase.AgentCase` of a run (module docstring),
     with ``--gain`` values over the case's."""
     from dataclasses import replace
 
-    from formsync_design.verify.agentcase import load_agent_case, parse_agent_case
+    from formsync_design.verify.agentcase import (
+        load_agent_case,
+        parse_agent_case,
+        shipped_agent_case,
+    )
 
     if case_arg is not None:
         case = load_agent_case(_case_path(case_arg), design=design)
     else:
-        shipped = _shipped_case(design)
+        shipped = shipped_agent_case(design)
         if shipped is not None:
             case = load_agent_case(shipped, design=design)
         else:
@@ -107,12 +106,6 @@ def agent_case_for(design: Any, case_arg: Any, gains: Any) -> Any:
 
         case = replace(case, gains=design_gains(design, case.gains, gains))
     return case
-
-
-def _shipped_case(design: Any) -> Path | None:
-    from formsync_design.verify.agentcase import shipped_agent_case
-
-    return shipped_agent_case(design)
 
 
 def _paper_spacecraft_case(design: Any, gains: Any, parse: Any) -> Any:
@@ -312,6 +305,7 @@ def run_agent_derive(args: argparse.Namespace, design: Any) -> int:
     on ``--graph`` (default: its shipped case's graph, else ring:8), or its JSON summary."""
     from formsync_design.derive.agent_report import agent_derivation, write_agent_derivation_report
     from formsync_design.graphs.theorem import check_theorem_graph, load_graph
+    from formsync_design.verify.agentcase import shipped_agent_case
 
     _refuse(args, ("ko", "kq", "beta"), design)
     if getattr(args, "gain", None):
@@ -321,7 +315,7 @@ def run_agent_derive(args: argparse.Namespace, design: Any) -> int:
     if args.graph is not None:
         graph = load_graph(args.graph)
     else:
-        shipped = _shipped_case(design)
+        shipped = shipped_agent_case(design)
         if shipped is not None:
             from formsync_design.verify.agentcase import load_agent_case
 

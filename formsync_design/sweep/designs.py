@@ -16,7 +16,8 @@ setting only (``[montecarlo] K_v`` for liang2016).  Defaults:
 An agent design (``FORM = "agent"``, :mod:`formsync_design.spec.agent`) is swept as
 ``formsync certify``, ``region`` and ``design`` run it (:mod:`formsync_design.certify.agent`):
 it needs a ``conditions(c)`` hook, each box at most three free axes counting the searched
-multipliers (:func:`check_agent_box`), and no ``[montecarlo]`` (not supported yet).
+multipliers (:func:`check_agent_box`); its ``[montecarlo]`` runs its agent case
+(:mod:`formsync_design.sweep.mccase`).
 """
 
 from __future__ import annotations
@@ -45,20 +46,20 @@ def load_design(ref: Any = None, base: str | Path = ".") -> Any:
     >>> load_design("pd_consensus").name, load_design().name, load_design("ma_so3").form
     ('pd_consensus', 'liang2016', 'agent')
     """
-    from formsync_design.spec.loader import Spec, load_design as load_spec
+    from formsync_design.spec.loader import Spec, load_design as load_any
 
     if isinstance(ref, Spec) or getattr(ref, "form", None) == "agent":
         return ref
     if ref is None or (isinstance(ref, str) and not ref.strip()):
-        return load_spec(None)
+        return load_any(None)
     if not isinstance(ref, (str, Path)):
-        return load_spec(ref)  # refuses the type (one line)
+        return load_any(ref)  # refuses the type (one line)
     p = Path(ref)
     if not p.is_absolute():
         p = Path(base) / p
     if isinstance(ref, str) and ref.isidentifier() and not p.exists():
-        return load_spec(ref)  # a shipped design's name (or a one-line error listing them)
-    return load_spec(p)
+        return load_any(ref)  # a shipped design's name (or a one-line error listing them)
+    return load_any(p)
 
 
 def is_default_design(spec: Any) -> bool:

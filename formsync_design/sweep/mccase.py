@@ -125,6 +125,7 @@ def _agent_case_text(mc: MonteCarloSpec, design: Any) -> tuple[str, str]:
                          f"montecarlo.case for the agent design {design.name}, received the "
                          f"Lagrangian case {mc.case}")
     case = load_agent_case(p, design=design)  # validates (InputError for a missing file)
+    # the campaign's options must be valid for the case (AgentOptions validates; exit 2)
     replace(case.options, **{k: v for k in ("tf", "step", "output_step")
                              if (v := getattr(mc, k)) is not None})
     return str(p), p.read_text(encoding="utf-8")

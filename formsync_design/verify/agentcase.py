@@ -59,7 +59,7 @@ from typing import Any
 
 import numpy as np
 
-from formsync_design.errors import DerivationError, InputError
+from formsync_design.errors import InputError
 from formsync_design.models.disturbances import Orbit
 from formsync_design.sim.agents import AgentFormation, AgentOptions, Reference
 from formsync_design.sim.formation import Gains
@@ -218,20 +218,15 @@ def case_design_ref(path: str | Path) -> str | None:
 
 def case_is_agent(path: str | Path) -> bool:
     """Whether the case file's ``[case] design`` names an agent design (``FORM = "agent"``);
-    ``False`` for a Lagrangian design, a missing file or a design that does not load.
+    ``False`` for a Lagrangian design or a missing file; a design that does not load raises
+    its one-line error.
 
     >>> from formsync_design.resources import case_file
     >>> case_is_agent(case_file("ma_so3")), case_is_agent(case_file("liang2016"))
     (True, False)
     """
     ref = case_design_ref(path)
-    if ref is None:
-        return False
-    try:
-        _resolve_design(ref, str(path))
-    except (InputError, DerivationError):
-        return False
-    return True
+    return ref is not None and getattr(_design_of(ref, str(path)), "form", None) == "agent"
 
 
 def shipped_agent_case(design: Any) -> Path | None:
@@ -251,15 +246,18 @@ def shipped_agent_case(design: Any) -> Path | None:
     return None
 
 
-def _resolve_design(ref: str, path: str) -> Any:
+def _design_of(ref: str, path: str) -> Any:
+    """The design a case file at ``path`` names: a shipped name, else a file relative to it."""
     from formsync_design.resources import design_names
     from formsync_design.spec.loader import load_design
 
     if ref.isidentifier() and ref in design_names():
-        d = load_design(ref)
-    else:
-        f = Path(ref) if Path(ref).is_absolute() else Path(path).parent / ref
-        d = load_design(f)
+        return load_design(ref)
+    return load_design(Path(ref) if Path(ref).is_absolute() else Path(path).parent / ref)
+
+
+def _resolve_design(ref: str, path: str) -> Any:
+    d = _design_of(ref, path)
     if getattr(d, "form", None) != "agent":
         raise InputError(f"expected an agent design (FORM = 'agent') in [case] design of {path}, "
                          f"received the Lagrangian design {d.name!r}")
