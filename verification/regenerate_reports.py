@@ -37,8 +37,9 @@ integrator's trigger evaluations, a Riccati residual, the vertex a degenerate LP
 numpy and OpenBLAS pick their kernels by CPU: AVX-512 kernels sum in another order than AVX2
 ones.  So the script runs itself in one numeric environment (:func:`canonical_environment`):
 numpy's AVX-512 dispatch targets off, OpenBLAS's core type ``Haswell`` (AVX2 + FMA), so that
-every x86-64 machine with AVX2 and FMA writes the same bytes (checked on an AVX-512 machine
-against reports written on an AVX2 one).  The compiled kernels use ``-march=native``; gcc
+x86-64 machines with AVX2 and FMA are meant to write the same bytes (checked once: an AVX-512
+machine in this environment reproduced the reports written on a machine whose numpy ran
+without AVX-512; without the environment it changed digits in 8 files).  The compiled kernels use ``-march=native``; gcc
 contracts to FMA on both classes alike.  A machine without AVX2/FMA, another gcc or glibc may
 still differ in such digits.
 """
