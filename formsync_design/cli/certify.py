@@ -346,6 +346,12 @@ def add_parser(sub: Any) -> None:
                    help="TOML case file (e.g. verification/liang2016.toml): inertias, disturbance "
                    "model (its per-spacecraft bound is used unless --ud is given) and K_v")
     p.add_argument("--kv", default=None, metavar="X", help="switching gain K_v (> 0) for the K_v check")
+    p.add_argument("--switch", choices=("sgn", "sat", "tanh"), default=None,
+                   help="agent designs: how the formation certificate realises sgn (default sat: "
+                   "the boundary-layer law; the ideal sgn is covered only where the law stays "
+                   "differentiable at consensus)")
+    p.add_argument("--boundary-layer", metavar="PHI", default=None,
+                   help="agent designs: the boundary layer of sat/tanh (default 0.01)")
     add_certificate_options(p)
     add_format_option(p)
     p.set_defaults(func=run)

@@ -74,7 +74,7 @@ from formsync_design.verify.case import (
 )
 
 __all__ = ["AgentCase", "load_agent_case", "parse_agent_case", "euler321_to_quat",
-           "case_design_ref", "case_is_agent", "shipped_agent_case"]
+           "case_design_ref", "case_is_agent", "shipped_agent_case", "formation_case_path"]
 
 _TABLES: dict[str, set[str] | None] = {
     "case": {"name", "title", "source", "kind", "design", "assumptions", "graph"},
@@ -243,6 +243,30 @@ def shipped_agent_case(design: Any) -> Path | None:
         ref = case_design_ref(case_file(name))
         if ref == design.name or (ref is not None and Path(ref).stem == design.name):
             return case_file(name)
+    return None
+
+
+def formation_case_path(design: Any) -> Path | None:
+    """The shipped case that simulates ``design``: its own (:func:`shipped_agent_case`), else
+    a shipped agent case comparing it (``[claims.compare.X] design``); ``None`` when none.
+
+    >>> from formsync_design.spec.loader import load_design
+    >>> formation_case_path(load_design("ma_quat_smc")).name
+    'ma_so3.toml'
+    """
+    own = shipped_agent_case(design)
+    if own is not None:
+        return own
+    from formsync_design.resources import case_file, case_names
+
+    for name in case_names():
+        path = case_file(name)
+        compare = load_toml(path, "case TOML file").get("claims", {})
+        compare = compare.get("compare", {}) if isinstance(compare, dict) else {}
+        if isinstance(compare, dict) and any(
+                isinstance(c, dict) and c.get("design") == design.name for c in compare.values()):
+            if case_is_agent(path):
+                return path
     return None
 
 
