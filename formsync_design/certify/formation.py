@@ -553,30 +553,94 @@ def certify_formation(design: Any, graph: Any, inertias: Any, box: Any, *, switc
         return FormationCertificate(Status.UNDECIDED, scope, reason="the linearisation is not "
                                     "multi-affine in the free gains: every vertex is stable, the "
                                     "box is not proven", evidence=ev)
+    ranges = {g: (Fraction(box[g].lo), Fraction(box[g].hi)) for g in free}
+    got = _box(qterms, gains, q.dim, ranges, depth=0)
+    ev.update(method=f"common Lyapunov matrix per sub-box, proven at its vertices (multi-affine; "
+              f"{got[2]} sub-box(es))", points=got[3], seconds=time.perf_counter() - t0)
+    if got[0] == Status.CERTIFIED:
+        return FormationCertificate(Status.CERTIFIED, scope, decay=got[1], evidence=ev)
+    if got[0] == Status.REFUTED:
+        pt, d, A = got[4]
+        lam_q = np.linalg.eigvals(A)
+        lam, res, mode = _mode(loop, pt, complex(lam_q[int(np.argmax(lam_q.real))]))
+        w = FormationWitness({**full_point, **pt}, d["sigma"], d["ell"], d["k"], lam, res, mode)
+        return FormationCertificate(Status.REFUTED, scope, witness=w, evidence=ev)
+    return FormationCertificate(Status.UNDECIDED, scope, reason="every vertex is stable but no "
+                                "common Lyapunov matrix was proven on every sub-box (depth "
+                                f"{_MAX_DEPTH})", evidence=ev)
+
+
+_MAX_DEPTH = 4
+
+
+def _common_p(mats: list[np.ndarray]) -> np.ndarray | None:
+    """A common Lyapunov matrix of ``mats`` by an SDP (a hint: re-checked by the caller)."""
+    import cvxpy as cp
+
+    n = mats[0].shape[0]
+    P = cp.Variable((n, n), symmetric=True)
+    cons = [P >> np.eye(n)] + [A.T @ P + P @ A << -np.eye(n) for A in mats]
+    try:
+        cp.Problem(cp.Minimize(cp.trace(P)), cons).solve(solver=cp.CLARABEL)
+    except (cp.SolverError, ValueError, ArithmeticError):
+        return None
+    if P.value is None or not np.all(np.isfinite(P.value)):
+        return None
+    return np.asarray((P.value + P.value.T) / 2)
+
+
+def _box(qterms: Any, gains: tuple[str, ...], dim: int, ranges: dict[str, tuple[Fraction, Fraction]],
+         depth: int) -> tuple[Any, ...]:
+    """``(status, decay, sub-boxes, points, refuting (point, decision, A))`` of a box of the
+    free gains: a common ``P`` proven at its vertices, else the box split along its widest
+    axis (at most :data:`_MAX_DEPTH` levels)."""
     from formsync_design.certify.lyapunov import lyapunov_lower_bound, pd_lower_bound
 
-    Ac, _ = _at(qterms, gains, center, q.dim)
-    cands = []
+    names = tuple(ranges)
+    verts = [dict(zip(names, pt)) for pt in itertools.product(
+        *[[lo] if lo == hi else [lo, hi] for lo, hi in ranges.values()])]
+    mats = []
+    for pt in verts:
+        A, dA = _at(qterms, gains, pt, dim)
+        d = decide_point(A, dA)
+        if d["status"] == Status.REFUTED:
+            return (Status.REFUTED, None, 1, len(verts), (pt, d, A))
+        if d["status"] != Status.CERTIFIED:
+            return (Status.UNDECIDED, None, 1, len(verts), None)
+        mats.append((A, dA, d["P"]))
+    center = {g: (lo + hi) / 2 for g, (lo, hi) in ranges.items()}
+    Ac, _ = _at(qterms, gains, center, dim)
+    cands: list[Any] = []
     dc = decide_point(Ac, np.abs(Ac) * 2.0**-52)
     if dc["status"] == Status.CERTIFIED:
         cands.append(dc["P"])
-    cands.append(sum(d["P"] / np.abs(d["P"]).max() for _, _, _, d in results))
+    cands.append(sum(P / np.abs(P).max() for _, _, P in mats))
+    if dim <= 60:
+        cands.append(_common_p([A for A, _, _ in mats]))
     for P in cands:
+        if P is None:
+            continue
         P = (P + P.T) / 2
         if pd_lower_bound(P) <= 0:
             continue
-        ells = [lyapunov_lower_bound(A, dA, P) for _, A, dA, _ in results]
+        ells = [lyapunov_lower_bound(A, dA, P) for A, dA, _ in mats]
         if min(ells) > 0:
             pmax = float(np.abs(P).sum(axis=1).max()) * (1 + 1e-12)
-            ev.update(method="common Lyapunov matrix proven at every vertex (multi-affine)",
-                      seconds=time.perf_counter() - t0)
-            return FormationCertificate(Status.CERTIFIED, scope, decay=min(ells) / (2 * pmax),
-                                        evidence=ev)
-    ev.update(method="vertex point checks", seconds=time.perf_counter() - t0)
-    return FormationCertificate(Status.UNDECIDED, scope, reason="every vertex is stable but no "
-                                "common Lyapunov matrix was proven over the box (split the box)",
-                                evidence=ev)
-
+            return (Status.CERTIFIED, min(ells) / (2 * pmax), 1, len(verts), None)
+    if depth >= _MAX_DEPTH:
+        return (Status.UNDECIDED, None, 1, len(verts), None)
+    g = max(names, key=lambda k: ranges[k][1] - ranges[k][0])
+    lo, hi = ranges[g]
+    mid = (lo + hi) / 2
+    decay, boxes, points = np.inf, 0, len(verts)
+    for part in ((lo, mid), (mid, hi)):
+        got = _box(qterms, gains, dim, {**ranges, g: part}, depth + 1)
+        boxes += got[2]
+        points += got[3]
+        if got[0] != Status.CERTIFIED:
+            return (got[0], None, boxes, points, got[4])
+        decay = min(decay, got[1])
+    return (Status.CERTIFIED, decay, boxes, points, None)
 
 def lagrangian_scope(graph: Any, spec: Any, kv_checked: bool) -> Scope:
     """The scope of a Lagrangian design's ``Theta_i``/``Pi`` certificate on ``graph``: the

@@ -285,15 +285,21 @@ def formation_inputs(args: argparse.Namespace, design: Any, graph: Any) -> tuple
         return g, np.array(read_inertias(args.inertia, g.n)), f"inertias from {args.inertia}"
     path = formation_case_path(design)
     if path is None:
-        raise InputError(f"expected --inertia FILE for the formation certificate of "
-                         f"{design.name} (no shipped case simulates it), received none")
-    case = load_agent_case(path)
-    note = f"inertias of {path.parent.name}/{path.name}"
-    if case.n != g.n:
-        note += f" cycled to N = {g.n} (spacecraft i takes J of {(case.n)}-spacecraft case's i mod {case.n})"
-    if design.decl.leader and not g.has_leader:
-        g = make_digraph(g, pinning=case.graph().pinning if case.n == g.n else None)
-    return g, case.cycled(g.n).inertias, note
+        from formsync_design.verify.case import load_case
+
+        paper = load_case()
+        J = np.asarray(paper.inertias, dtype=float)
+        note = (f"inertias of the {paper.name} case (no shipped case simulates "
+                f"{design.name}; --inertia FILE to give them)")
+    else:
+        case = load_agent_case(path)
+        J = np.asarray(case.inertias, dtype=float)
+        note = f"inertias of {path.parent.name}/{path.name}"
+        if design.decl.leader and not g.has_leader and case.n == g.n:
+            g = make_digraph(g, pinning=case.graph().pinning)
+    if len(J) != g.n:
+        note += f", cycled to N = {g.n} (spacecraft i takes J_(i mod {len(J)}))"
+    return g, J[np.arange(g.n) % len(J)], note
 
 
 def run_agent_certify(args: argparse.Namespace, design: Any) -> int:

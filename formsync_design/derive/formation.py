@@ -24,9 +24,13 @@ held values equal to the current ones).
 
 >>> from formsync_design.spec.loader import load_design
 >>> lin = linearize_formation(load_design("ma_mrp_ft"), "ring:3", [[[1, 0, 0], [0, 1, 0], [0, 0, 1]]] * 3,
-...                           switch="sat", phi="1/100")
+...                           switch="sat", phi="1/100", fixed={"eps": "1/100"})
 >>> lin.loop.nx, lin.loop.gains, lin.covered
-(18, ('k1', 'k2', 'k3', 'k4'), True)
+(18, ('K1', 'K2', 'P1', 'P2'), True)
+>>> ideal = linearize_formation(load_design("ma_mrp_ft"), "ring:3", [[[1, 0, 0], [0, 1, 0], [0, 0, 1]]] * 3,
+...                             switch="sgn")
+>>> ideal.covered, ideal.why.split(":")[0]
+(False, 'u_1')
 """
 
 from __future__ import annotations
@@ -156,7 +160,7 @@ def _agent_rows(design: Any, m: int, switch: str, phi: Fraction | None) -> Any:
             return out
         if not lp.is_zero(r.v0):
             raise DerivationError(f"{design.path}: expected consensus at rest to be an "
-                                  f"equilibrium, received {what} = {str(r.v0)[:120]} there")
+                                  f"equilibrium, received {what} = {r.v0} there")
         rows.append(r.lin)
     out = ("ok", rows, v, p)
     _CACHE[key] = out

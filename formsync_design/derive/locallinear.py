@@ -90,6 +90,15 @@ class Local:
         return self.order == math.inf
 
 
+def _short(e: Any, width: int = 100) -> str:
+    """A short text of ``e`` that never walks a large tree (deeply composed laws)."""
+    from formsync_design.spec.dag import dag_size
+
+    if dag_size(e) <= 40:
+        return str(e)[:width]
+    return f"{type(e).__name__}(...) of {dag_size(e)} distinct sub-expressions"
+
+
 def _const(v: Any) -> Local:
     return Local(sp.sympify(v), {}, math.inf)
 
@@ -138,11 +147,37 @@ class LinearPart:
     # ------------------------------------------------------------------ decisions
 
     def is_zero(self, e: Any) -> bool:
+        """Whether ``e`` is zero at the equilibrium (undecidable: ``DerivationError``)."""
+        z = self.maybe_zero(e)
+        if z is None:
+            raise DerivationError(f"expected a value that is decidably zero or not at the "
+                                  f"equilibrium, received {_short(sp.sympify(e), 200)}")
+        return z
+
+    def maybe_zero(self, e: Any) -> bool | None:
+        """Whether ``e`` is zero at the equilibrium, ``None`` when SymPy cannot decide."""
+        try:
+            return self._decide_zero(e)
+        except DerivationError:
+            return None
+
+    def _decide_zero(self, e: Any) -> bool:
         e = sp.sympify(e)
         if e.is_Number:
             return bool(e == 0)
         if e in self._zero:
             return self._zero[e]
+        side = e.free_symbols & set(self.signs.values())
+        if side:
+            import itertools
+
+            vals = [self.is_zero(e.xreplace(dict(zip(side, combo))))
+                    for combo in itertools.product((1, -1), repeat=len(side))]
+            if all(vals) or not any(vals):
+                self._zero[e] = vals[0]
+                return vals[0]
+            raise DerivationError(f"expected a value that is zero on both sides of a switching "
+                                  f"surface or on neither, received {_short(e, 200)}")
         z = e.is_zero
         if z is None:
             red = self.reduce(sp.expand(e))
@@ -151,11 +186,11 @@ class LinearPart:
             z = True if sp.simplify(e) == 0 else None
         if z is None:
             raise DerivationError(f"expected a value that is decidably zero or not at the "
-                                  f"equilibrium, received {str(e)[:200]}")
+                                  f"equilibrium, received {_short(e, 200)}")
         self._zero[e] = bool(z)
         return bool(z)
 
-    def sign(self, e: Any, what: str) -> int:
+    def sign(self, e: Any, what: Any) -> int:
         e = sp.sympify(e)
         if self.is_zero(e):
             return 0
@@ -164,10 +199,11 @@ class LinearPart:
                 return 1
             if cand.is_negative:
                 return -1
+        what = what() if callable(what) else what
         raise DerivationError(f"expected the sign of {what} at the equilibrium to be decidable, "
-                              f"received {str(e)[:200]}")
+                              f"received {_short(e, 200)}")
 
-    def compare(self, a: Any, b: Any, what: str) -> int:
+    def compare(self, a: Any, b: Any, what: Any) -> int:
         return self.sign(sp.sympify(a) - sp.sympify(b), what)
 
     def reduce(self, e: Any) -> Any:
@@ -208,14 +244,14 @@ class LinearPart:
         ss = set(self.signs.values())
         v0 = self.reduce(sp.expand(r.v0)) if ss else r.v0
         if ss and (sp.sympify(v0).free_symbols & ss):
-            return _rough(v0, 0.0, f"a jump at the equilibrium in {str(expr)[:120]}")
+            return _rough(v0, 0.0, f"a jump at the equilibrium in {_short(expr)}")
         if r.lin is None:
             return Local(v0, None, r.order, r.why)
         lin: dict[int, Any] = {}
         for k, c in r.lin.items():
             c2 = self.reduce(sp.expand(c)) if ss else sp.expand(c)
             if ss and (c2.free_symbols & ss):
-                return _rough(v0, 1.0, f"a kink at the equilibrium in {str(expr)[:120]}")
+                return _rough(v0, 1.0, f"a kink at the equilibrium in {_short(expr)}")
             if c2 != 0:
                 lin[k] = c2
         return Local(v0, lin, r.order)
@@ -233,7 +269,7 @@ class LinearPart:
             try:
                 return _const(e.func(*[a.v0 for a in args]))
             except (TypeError, ValueError) as exc:
-                raise DerivationError(f"expected {str(e)[:120]} to be defined at the "
+                raise DerivationError(f"expected {_short(e)} to be defined at the "
                                       f"equilibrium, received {exc}") from None
         if e.is_Add:
             return self._add(args)
@@ -277,7 +313,7 @@ class LinearPart:
         lin = {}
         orders: list[tuple[float, str]] = []
         for a, b in ((f, g), (g, f)):   # the term a0 (b - b0)
-            if b.constant or self.is_zero(a.v0):
+            if b.constant or self.maybe_zero(a.v0):   # undecidable: kept (conservative)
                 continue
             if b.lin is None:
                 orders.append((b.order, b.why))
@@ -293,28 +329,28 @@ class LinearPart:
 
     def _pow(self, b: Local, x: Local, e: Any) -> Local:
         if not x.constant:
-            raise DerivationError(f"expected a constant exponent in {str(e)[:120]}")
+            raise DerivationError(f"expected a constant exponent in {_short(e)}")
         r = x.v0
         if not self.is_zero(b.v0):
-            if not r.is_integer and self.sign(b.v0, f"the base of {str(e)[:80]}") < 0:
+            if not r.is_integer and self.sign(b.v0, lambda: f"the base of {_short(e, 80)}") < 0:
                 raise DerivationError(f"expected a positive base for the fractional power "
-                                      f"{str(e)[:120]} at the equilibrium, received a negative one")
+                                      f"{_short(e)} at the equilibrium, received a negative one")
             if b.lin is None:
                 return _rough(b.v0**r, b.order, b.why)
             return Local(b.v0**r, _scale(b.lin, r * b.v0 ** (r - 1)), 1.0)
         if not (r.is_number and r.is_positive):
-            raise DerivationError(f"expected {str(e)[:120]} to be defined at the equilibrium, "
+            raise DerivationError(f"expected {_short(e)} to be defined at the equilibrium, "
                                   "received a non-positive power of 0")
         if r == 1:
             return b
         o = float(r) * b.order
         if o > 1:
             return Local(sp.Integer(0), {}, 1.0)
-        return _rough(sp.Integer(0), o, b.why or f"{str(e)[:120]} (a power {r} at 0)")
+        return _rough(sp.Integer(0), o, b.why or f"{_short(e)} (a power {r} at 0)")
 
     def _abs(self, a: Local, arg: Any) -> Local:
         if not self.is_zero(a.v0):
-            s = self.sign(a.v0, f"|{str(arg)[:80]}|")
+            s = self.sign(a.v0, lambda: f"|{_short(arg, 80)}|")
             return Local(s * a.v0, None if a.lin is None else _scale(a.lin, s), a.order, a.why)
         if a.lin is None:
             return _rough(sp.Integer(0), a.order, a.why)
@@ -323,9 +359,9 @@ class LinearPart:
 
     def _sign(self, a: Local, arg: Any) -> Local:
         if not self.is_zero(a.v0):
-            return _const(self.sign(a.v0, f"sign({str(arg)[:80]})"))
+            return _const(self.sign(a.v0, lambda: f"sign({_short(arg, 80)})"))
         if a.lin is None or not a.lin:
-            return _rough(sp.Integer(0), 0.0, f"sign({str(arg)[:80]}) at 0")
+            return _rough(sp.Integer(0), 0.0, f"sign({_short(arg, 80)}) at 0")
         return Local(self.side(arg), {}, math.inf)
 
     def _boundary_layer(self, a: Local, e: Any) -> Local:
@@ -335,11 +371,11 @@ class LinearPart:
             if a.lin is None:
                 return _rough(v0, a.order, a.why)
             return Local(v0, _scale(a.lin, (1 - v0**2) / phi), 1.0)
-        inside = self.compare(sp.Abs(a.v0), phi, f"|{str(e)[:80]}| against phi")
+        inside = self.compare(sp.Abs(a.v0), phi, lambda: f"|{_short(e, 80)}| against phi")
         if inside > 0:
-            return _const(self.sign(a.v0, str(e)[:80]))
+            return _const(self.sign(a.v0, lambda: _short(e, 80)))
         if inside == 0:
-            return _rough(a.v0 / phi, 1.0, f"{str(e)[:80]} on the boundary layer's edge")
+            return _rough(a.v0 / phi, 1.0, f"{_short(e, 80)} on the boundary layer's edge")
         if a.lin is None:
             return _rough(a.v0 / phi, a.order, a.why)
         return Local(a.v0 / phi, _scale(a.lin, 1 / phi), 1.0)
@@ -347,7 +383,7 @@ class LinearPart:
     def _minmax(self, args: list[Local], e: Any) -> Local:
         best = [args[0]]
         for a in args[1:]:
-            c = self.compare(a.v0, best[0].v0, str(e)[:80])
+            c = self.compare(a.v0, best[0].v0, lambda: _short(e, 80))
             c = c if isinstance(e, sp.Max) else -c
             if c > 0:
                 best = [a]
@@ -361,14 +397,14 @@ class LinearPart:
                     for k in set(b.lin) | set(first.lin or {})) for b in best):  # type: ignore[arg-type]
             return first
         return _rough(first.v0, min(1.0, *(b.order for b in best)),
-                      f"{str(e)[:80]}: a tie of different branches at the equilibrium")
+                      f"{_short(e, 80)}: a tie of different branches at the equilibrium")
 
     def _piecewise(self, e: Any) -> Local:
         for val, cond in e.args:
             c = self._condition(cond, e)
             if c:
                 return self.local(val)
-        raise DerivationError(f"expected a branch of {str(e)[:120]} at the equilibrium")
+        raise DerivationError(f"expected a branch of {_short(e)} at the equilibrium")
 
     def _condition(self, cond: Any, e: Any) -> bool:
         if cond is sp.true:
@@ -382,14 +418,14 @@ class LinearPart:
             return not self._condition(cond.args[0], e)
         if isinstance(cond, sp.core.relational.Relational):
             lhs, rhs = self.local(cond.lhs), self.local(cond.rhs)
-            c = self.compare(lhs.v0, rhs.v0, f"the condition {cond} of {str(e)[:80]}")
+            c = self.compare(lhs.v0, rhs.v0, lambda: f"the condition {cond} of {_short(e, 80)}")
             if c == 0 and not (lhs.constant and rhs.constant):
                 raise DerivationError(f"expected the equilibrium strictly inside a branch of "
-                                      f"{str(e)[:120]}, received it on the boundary {cond}")
+                                      f"{_short(e)}, received it on the boundary {cond}")
             op = cond.rel_op
             return {"<": c < 0, "<=": c <= 0, ">": c > 0, ">=": c >= 0, "==": c == 0,
                     "!=": c != 0}[op]
-        raise DerivationError(f"expected a relational condition in {str(e)[:120]}, "
+        raise DerivationError(f"expected a relational condition in {_short(e)}, "
                               f"received {cond}")
 
     def _function(self, e: Any, args: list[Local]) -> Local:
@@ -413,7 +449,7 @@ class LinearPart:
                 d = sp.nan
             if d.has(sp.zoo, sp.oo, -sp.oo, sp.nan) or d.has(sp.Derivative, sp.Subs):
                 raise DerivationError(f"expected {type(e).__name__} to be differentiable at the "
-                                      f"equilibrium, received {str(e)[:120]}")
+                                      f"equilibrium, received {_short(e)}")
             _add_into(lin, _scale(a.lin or {}, d))
         return Local(v0, lin, 1.0)
 
