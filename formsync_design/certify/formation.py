@@ -418,10 +418,11 @@ def decide_point(A: np.ndarray, dA: np.ndarray, P: np.ndarray | None = None) -> 
         return {"status": Status.UNDECIDED, "abscissa": alpha,
                 "reason": "stable in floating point but the Lyapunov re-check did not pass"}
     if alpha > _TOL:
-        re = np.sort(lam.real)[::-1]
-        below = re[re < alpha - 1e-12]
-        sigma = float(alpha / 2 if not below.size or below[0] < alpha / 2
-                      else (alpha + below[0]) / 2)
+        # the shift: in (0, alpha), as far as possible from every eigenvalue's real part
+        # (the Lyapunov equation of the shifted matrix is then well conditioned)
+        re = np.unique(np.concatenate([[0.0, alpha], lam.real[(lam.real > 0) & (lam.real < alpha)]]))
+        k = int(np.argmax(np.diff(re)))
+        sigma = float((re[k] + re[k + 1]) / 2)
         try:
             Pc = solve_lyapunov_float(A, shift=sigma, sign=1)
         except (np.linalg.LinAlgError, ValueError):
@@ -431,8 +432,9 @@ def decide_point(A: np.ndarray, dA: np.ndarray, P: np.ndarray | None = None) -> 
             diag = np.diag(Pc)
             k = int(np.argmax(diag))
             if ell > 0 and diag[k] > 0:
+                top = complex(lam[int(np.argmax(lam.real))])
                 return {"status": Status.REFUTED, "abscissa": alpha, "sigma": sigma, "ell": ell,
-                        "k": k}
+                        "k": k, "top": top}
         return {"status": Status.UNDECIDED, "abscissa": alpha,
                 "reason": "unstable in floating point but the inertia re-check did not pass"}
     return {"status": Status.UNDECIDED, "abscissa": alpha,
@@ -528,9 +530,7 @@ def certify_formation(design: Any, graph: Any, inertias: Any, box: Any, *, switc
         d = decide_point(A, dA)
         results.append((pt, A, dA, d))
         if d["status"] == Status.REFUTED:
-            lam_q = np.linalg.eigvals(A)
-            top = complex(lam_q[int(np.argmax(lam_q.real))])
-            lam, res, mode = _mode(loop, pt, top)
+            lam, res, mode = _mode(loop, pt, d["top"])
             w = FormationWitness({**full_point, **pt}, d["sigma"], d["ell"], d["k"], lam, res, mode)
             ev.update(method="inertia certificate at a vertex", points=len(results),
                       spectral_abscissa=d["abscissa"], seconds=time.perf_counter() - t0)
@@ -561,8 +561,7 @@ def certify_formation(design: Any, graph: Any, inertias: Any, box: Any, *, switc
         return FormationCertificate(Status.CERTIFIED, scope, decay=got[1], evidence=ev)
     if got[0] == Status.REFUTED:
         pt, d, A = got[4]
-        lam_q = np.linalg.eigvals(A)
-        lam, res, mode = _mode(loop, pt, complex(lam_q[int(np.argmax(lam_q.real))]))
+        lam, res, mode = _mode(loop, pt, d["top"])
         w = FormationWitness({**full_point, **pt}, d["sigma"], d["ell"], d["k"], lam, res, mode)
         return FormationCertificate(Status.REFUTED, scope, witness=w, evidence=ev)
     return FormationCertificate(Status.UNDECIDED, scope, reason="every vertex is stable but no "

@@ -334,7 +334,7 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
     ctrl = GainBox(tuple(r for r in box.ranges if r.name not in design.decl.multipliers))
     form = certify_formation(design, g, inertias, ctrl, switch=switch, phi=phi)
     res = None
-    if "conditions" in design.functions:
+    if callable(design.module.get("conditions")):
         res = certify_agent(design, agent_conditions(design, graph), box,
                             margin=getattr(args, "margin", None) or 0)
     if args.format == "json":
