@@ -276,30 +276,24 @@ def formation_inputs(args: argparse.Namespace, design: Any, graph: Any) -> tuple
     certificate of ``design`` on ``graph`` (``--inertia FILE``, else the shipped case that
     simulates the design, its spacecraft cycled ``i mod n`` to the graph's size)."""
     from formsync_design.graphs.digraph_io import make_digraph
-    from formsync_design.verify.agentcase import formation_case_path, load_agent_case
+    from formsync_design.verify.agentcase import (
+        formation_case_path,
+        formation_inertias,
+        load_agent_case,
+    )
 
     g = make_digraph(graph)
     if getattr(args, "inertia", None):
         from formsync_design.cli.certify import read_inertias
 
         return g, np.array(read_inertias(args.inertia, g.n)), f"inertias from {args.inertia}"
+    J, note = formation_inertias(design, g.n)
     path = formation_case_path(design)
-    if path is None:
-        from formsync_design.verify.case import load_case
-
-        paper = load_case()
-        J = np.asarray(paper.inertias, dtype=float)
-        note = (f"inertias of the {paper.name} case (no shipped case simulates "
-                f"{design.name}; --inertia FILE to give them)")
-    else:
+    if design.decl.leader and not g.has_leader and path is not None:
         case = load_agent_case(path)
-        J = np.asarray(case.inertias, dtype=float)
-        note = f"inertias of {path.parent.name}/{path.name}"
-        if design.decl.leader and not g.has_leader and case.n == g.n:
+        if case.n == g.n:
             g = make_digraph(g, pinning=case.graph().pinning)
-    if len(J) != g.n:
-        note += f", cycled to N = {g.n} (spacecraft i takes J_(i mod {len(J)}))"
-    return g, J[np.arange(g.n) % len(J)], note
+    return g, J, note
 
 
 def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
