@@ -303,12 +303,12 @@ def consensus_quotient(loop: Any, terms: Mapping[tuple[int, ...], Sparse], leade
     last_i = n - 1
     for i in range(n - 1 if r else n):
         for c in range(p):
-            row = {idx(i, c): Fraction(1)}
+            comb = {idx(i, c): Fraction(1)}
             if r:
                 for b in range(p):
                     if K[c][b]:
-                        row[idx(last_i, b)] = row.get(idx(last_i, b), Fraction(0)) - K[c][b]
-            prow.append({k: v for k, v in row.items() if v})
+                        comb[idx(last_i, b)] = comb.get(idx(last_i, b), Fraction(0)) - K[c][b]
+            prow.append({k: v for k, v in comb.items() if v})
             pcol.append(idx(i, c))
     if r:
         for k, c in enumerate(chosen):
@@ -423,6 +423,7 @@ def decide_point(A: np.ndarray, dA: np.ndarray, P: np.ndarray | None = None) -> 
         re = np.unique(np.concatenate([[0.0, alpha], lam.real[(lam.real > 0) & (lam.real < alpha)]]))
         k = int(np.argmax(np.diff(re)))
         sigma = float((re[k] + re[k + 1]) / 2)
+        Pc: np.ndarray | None
         try:
             Pc = solve_lyapunov_float(A, shift=sigma, sign=1)
         except (np.linalg.LinAlgError, ValueError):
@@ -522,7 +523,6 @@ def certify_formation(design: Any, graph: Any, inertias: Any, box: Any, *, switc
     if len(verts) > MAX_VERTICES:
         return FormationCertificate(Status.UNDECIDED, scope, reason=f"{len(verts)} vertices "
                                     f"exceed the limit {MAX_VERTICES}", evidence=ev)
-    center = {g: (Fraction(box[g].lo) + Fraction(box[g].hi)) / 2 for g in free}
     full_point = {**{g: v for g, v in fixed.items()}}
     results = []
     for pt in verts:
