@@ -423,14 +423,14 @@ def decide_point(A: np.ndarray, dA: np.ndarray, P: np.ndarray | None = None) -> 
         re = np.unique(np.concatenate([[0.0, alpha], lam.real[(lam.real > 0) & (lam.real < alpha)]]))
         k = int(np.argmax(np.diff(re)))
         sigma = float((re[k] + re[k + 1]) / 2)
-        Pc: np.ndarray | None
+        Pr: np.ndarray | None
         try:
-            Pc = solve_lyapunov_float(A, shift=sigma, sign=1)
+            Pr = solve_lyapunov_float(A, shift=sigma, sign=1)
         except (np.linalg.LinAlgError, ValueError):
-            Pc = None
-        if Pc is not None and np.all(np.isfinite(Pc)):
-            ell = lyapunov_lower_bound(A, dA, Pc, sign=1, shift=sigma)
-            diag = np.diag(Pc)
+            Pr = None
+        if Pr is not None and np.all(np.isfinite(Pr)):
+            ell = lyapunov_lower_bound(A, dA, Pr, sign=1, shift=sigma)
+            diag = np.diag(Pr)
             k = int(np.argmax(diag))
             if ell > 0 and diag[k] > 0:
                 top = complex(lam[int(np.argmax(lam.real))])
