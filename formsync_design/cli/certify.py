@@ -445,11 +445,20 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"expected no K_v check (--ud/--inertia/--case/--kv) for design "
                          f"{spec.name}: it has no switching term")
     res = certify_design(conds, box, spec, margin=margin, kv=kv)
+    from formsync_design.certify.formation import lagrangian_scope
+
+    scope = lagrangian_scope(conds.graph, spec, kv is not None)
+    if args.conditions == "paper":
+        import dataclasses
+
+        scope = dataclasses.replace(scope, covers="the paper's printed Theta_i and Pi (not the "
+                                    "derivation): a check of the paper's conditions")
     if args.format == "json":
         emit_json({**({"outside_theorem": theorem.to_dict()} if not theorem.inside else {}),
-                   **res.to_dict()})
+                   **res.to_dict(), "scope": scope.to_dict()})
     else:
-        print(("" if theorem.inside else theorem.note() + "\n") + format_result(res))
+        print(("" if theorem.inside else theorem.note() + "\n") + format_result(res)
+              + f"\nscope: {scope.text()}")
     return EXIT_OK if res.certified else EXIT_NEGATIVE
 
 
