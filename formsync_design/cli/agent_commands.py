@@ -39,6 +39,7 @@ __all__ = [
     "agent_case_for",
     "run_agent_simulate",
     "run_agent_certify",
+    "formation_inputs",
     "run_agent_derive",
     "run_agent_montecarlo_cli",
     "run_agent_region",
@@ -270,34 +271,81 @@ def _text(case: Any, graph: Any, f: Any, opt: Any, r: Any, design: Any, written:
     return "\n".join(lines)
 
 
+def formation_inputs(args: argparse.Namespace, design: Any, graph: Any) -> tuple[Any, Any, str]:
+    """The digraph, the inertias and a note saying where they came from, for the formation
+    certificate of ``design`` on ``graph`` (``--inertia FILE``, else the shipped case that
+    simulates the design, its spacecraft cycled ``i mod n`` to the graph's size)."""
+    from formsync_design.graphs.digraph_io import make_digraph
+    from formsync_design.verify.agentcase import (
+        formation_case_path,
+        formation_inertias,
+        load_agent_case,
+    )
+
+    g = make_digraph(graph)
+    if getattr(args, "inertia", None):
+        from formsync_design.cli.certify import read_inertias
+
+        return g, np.array(read_inertias(args.inertia, g.n)), f"inertias from {args.inertia}"
+    J, note = formation_inertias(design, g.n)
+    path = formation_case_path(design)
+    if design.decl.leader and not g.has_leader and path is not None:
+        case = load_agent_case(path)
+        if case.n == g.n:
+            g = make_digraph(g, pinning=case.graph().pinning)
+    return g, J, note
+
+
 def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
-    """``formsync certify`` of an agent design: its ``conditions(c)`` families on ``--graph``,
-    decided over the ``--gain`` box (multipliers searched over their declared ranges)."""
+    """``formsync certify`` of an agent design: the **formation-level** certificate on
+    ``--graph`` (its exact linearisation at consensus, the disagreement decided over the
+    ``--gain`` box: :func:`~formsync_design.certify.formation.certify_formation`) decides the
+    exit status; the design's own ``conditions(c)`` families, when it has them, are decided
+    too and reported with their own scope (multipliers searched over their declared ranges)."""
     from formsync_design.certify.agent import certify_agent
+    from formsync_design.certify.formation import certify_formation, conditions_scope
     from formsync_design.cli.certify import format_result
     from formsync_design.cli.options import design_box
     from formsync_design.derive.agent import agent_conditions
+    from formsync_design.gains import GainBox
     from formsync_design.graphs.theorem import check_theorem_graph, load_graph
 
-    _refuse(args, ("ko", "kq", "beta", "ud", "kv", "inertia", "case", "delay", "decay", "settle",
+    _refuse(args, ("ko", "kq", "beta", "ud", "kv", "case", "delay", "decay", "settle",
                    "torque_limit", "graphs_set"), design)
     if getattr(args, "certificate", "paper") != "paper" or getattr(args, "conditions",
                                                                   "derived") != "derived":
         raise InputError(f"expected no --certificate/--conditions for the agent design "
-                         f"{design.name} (its certificate is its conditions(c) hook), received one")
+                         f"{design.name} (its certificates are the formation certificate and its "
+                         "conditions(c) hook), received one")
     graph = load_graph(args.graph)
     theorem = check_theorem_graph(graph, design.decl.graphs,
                                   allow_outside=getattr(args, "allow_outside_theorem", False),
                                   design=design.name)
     box = design_box(design, args.gain)
-    res = certify_agent(design, agent_conditions(design, graph), box,
-                        margin=getattr(args, "margin", None) or 0)
+    g, inertias, note = formation_inputs(args, design, graph)
+    switch = getattr(args, "switch", None) or "sat"
+    phi = getattr(args, "boundary_layer", None) or "1/100"
+    ctrl = GainBox(tuple(r for r in box.ranges if r.name not in design.decl.multipliers))
+    form = certify_formation(design, g, inertias, ctrl, switch=switch, phi=phi)
+    res = None
+    if callable(design.module.get("conditions")):
+        res = certify_agent(design, agent_conditions(design, graph), box,
+                            margin=getattr(args, "margin", None) or 0)
     if args.format == "json":
-        emit_json({**({"outside_theorem": theorem.to_dict()} if not theorem.inside else {}),
-                   "design": design.name, **res.to_dict()})
+        doc: dict[str, Any] = {**({"outside_theorem": theorem.to_dict()} if not theorem.inside
+                                  else {}), "design": design.name, "status": str(form.status),
+                               "formation": {**form.to_dict(), "inputs": note}}
+        if res is not None:
+            doc["design_conditions"] = {**res.to_dict(), "scope": conditions_scope(design).to_dict()}
+        emit_json(doc)
     else:
-        print(("" if theorem.inside else theorem.note() + "\n") + format_result(res))
-    return EXIT_OK if res.certified else EXIT_NEGATIVE
+        lines = [] if theorem.inside else [theorem.note()]
+        lines += [form.text(), f"  inputs: {note}"]
+        if res is not None:
+            lines += ["", "design conditions (" + conditions_scope(design).text() + "):",
+                      format_result(res)]
+        print("\n".join(lines))
+    return EXIT_OK if form.certified else EXIT_NEGATIVE
 
 
 def run_agent_derive(args: argparse.Namespace, design: Any) -> int:

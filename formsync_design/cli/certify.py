@@ -346,6 +346,12 @@ def add_parser(sub: Any) -> None:
                    help="TOML case file (e.g. verification/liang2016.toml): inertias, disturbance "
                    "model (its per-spacecraft bound is used unless --ud is given) and K_v")
     p.add_argument("--kv", default=None, metavar="X", help="switching gain K_v (> 0) for the K_v check")
+    p.add_argument("--switch", choices=("sgn", "sat", "tanh"), default=None,
+                   help="agent designs: how the formation certificate realises sgn (default sat: "
+                   "the boundary-layer law; the ideal sgn is covered only where the law stays "
+                   "differentiable at consensus)")
+    p.add_argument("--boundary-layer", metavar="PHI", default=None,
+                   help="agent designs: the boundary layer of sat/tanh (default 0.01)")
     add_certificate_options(p)
     add_format_option(p)
     p.set_defaults(func=run)
@@ -439,11 +445,20 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"expected no K_v check (--ud/--inertia/--case/--kv) for design "
                          f"{spec.name}: it has no switching term")
     res = certify_design(conds, box, spec, margin=margin, kv=kv)
+    from formsync_design.certify.formation import lagrangian_scope
+
+    scope = lagrangian_scope(conds.graph, spec, kv is not None)
+    if args.conditions == "paper":
+        import dataclasses
+
+        scope = dataclasses.replace(scope, covers="the paper's printed Theta_i and Pi (not the "
+                                    "derivation): a check of the paper's conditions")
     if args.format == "json":
         emit_json({**({"outside_theorem": theorem.to_dict()} if not theorem.inside else {}),
-                   **res.to_dict()})
+                   **res.to_dict(), "scope": scope.to_dict()})
     else:
-        print(("" if theorem.inside else theorem.note() + "\n") + format_result(res))
+        print(("" if theorem.inside else theorem.note() + "\n") + format_result(res)
+              + f"\nscope: {scope.text()}")
     return EXIT_OK if res.certified else EXIT_NEGATIVE
 
 

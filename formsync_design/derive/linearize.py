@@ -45,7 +45,7 @@ import sympy as sp
 
 from formsync_design.errors import DerivationError, InputError
 
-__all__ = ["PolyMatrix", "LinearLoop", "linearize_agents"]
+__all__ = ["PolyMatrix", "LinearLoop", "poly_entries", "linearize_agents"]
 
 Exponents = tuple[int, ...]
 
@@ -189,10 +189,15 @@ def _rows(design: Any, m: int) -> tuple[Any, Any, list[sp.Symbol], Any]:
     return out
 
 
-def _poly_entries(expr: Any, gens: Sequence[sp.Symbol], where: str) -> dict[Exponents, Fraction]:
+def poly_entries(expr: Any, gens: Sequence[sp.Symbol], where: str) -> dict[Exponents, Fraction]:
     e = sp.expand(expr)
     if e == 0:
         return {}
+    if not gens:
+        if not e.is_Rational:
+            raise DerivationError(f"{where}: expected rational coefficients in the "
+                                  f"linearisation, received {e}")
+        return {(): Fraction(int(e.p), int(e.q))}
     try:
         poly = sp.Poly(e, *gens)
     except sp.PolynomialError:
@@ -276,7 +281,7 @@ def linearize_agents(design: Any, graph: Any, inertias: Any, *, pinning: Any = N
         Jn = Jx.xreplace(num)
         for a in range(Jn.shape[0]):
             for b in range(Jn.shape[1]):
-                ent = _poly_entries(Jn[a, b], gens, where)
+                ent = poly_entries(Jn[a, b], gens, where)
                 for mono, coef in ent.items():
                     cell = terms.setdefault(mono, {})
                     key = (row0[a], col0[b])

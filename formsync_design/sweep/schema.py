@@ -109,7 +109,15 @@ class SweepSchema:
             ("lambda_max", "largest eigenvalue of L (LAPACK, for plots)"),
             *([("theorem", "inside: the graph has every property the design's theorem needs "
                 "(GRAPHS); else 'outside: lacks PROPERTY: reason' (the statuses then decide the "
-                "conditions(c) families only: none of the theorem's guarantees applies)")] if self.agent else []),
+                "conditions(c) families only: none of the theorem's guarantees applies)"),
+               ("formation", "formation-level verdict at the reference gains on this graph "
+                "(formsync certify: the exact linearisation at consensus, sgn as sat(x/0.01), "
+                "inertias of the design's case cycled to N): certified|refuted|undecided"),
+               ("formation_decay", "certified exponential decay rate of the disagreement (1/s; "
+                "certified only)"),
+               ("formation_unstable_re", "real part of the unstable eigenvalue of the witness "
+                "(refuted only; the inertia certificate proves one above half of it or more)")]
+              if self.agent else []),
             ("conditions", "Lyapunov conditions checked: derived (from the controller) or paper "
              "(printed)"),
             ("box", "gain-box name"),

@@ -246,6 +246,7 @@ def _agent_row(task: dict[str, Any], g: Graph, design: Any, schema: SweepSchema,
                              margin=margin)
         rm, _, _ = region_agent(design, conds, box, resolution=task["resolution"], margin=margin)
         des = design_agent(design, conds, box, grid=task["design_betas"])
+    out.update(_formation_cells(design, g, ref, schema))
     out["ref_status"] = str(cert.status)
     out["ref_margin"] = cert.margin_lower_bound if cert.certified else None
     out["ref_refuted_by"] = cert.witness.family if cert.witness is not None else None
@@ -263,6 +264,29 @@ def _agent_row(task: dict[str, Any], g: Graph, design: Any, schema: SweepSchema,
             out["cbox_half_width"] = des.scale
             out["cbox_status"] = None if des.box_result is None else str(des.box_result.status)
     return out
+
+
+def _formation_cells(design: Any, g: Graph, ref: Sequence[Fraction],
+                     schema: SweepSchema) -> dict[str, Any]:
+    """The formation-level verdict at the reference gains (as ``formsync certify`` decides
+    it: :func:`~formsync_design.certify.formation.certify_formation`)."""
+    from formsync_design.certify.formation import certify_formation
+    from formsync_design.gains import GainBox
+    from formsync_design.graphs.digraph_io import make_digraph
+    from formsync_design.verify.agentcase import formation_inertias
+
+    dg = make_digraph(g)
+    if design.decl.leader and not dg.has_leader:   # nobody pinned: the reference cannot be reached
+        dg = make_digraph(dg, pinning=[0] * dg.n)
+    J, _ = formation_inertias(design, dg.n)
+    point = {n: v for n, v in zip(schema.box, ref) if n not in design.decl.multipliers}
+    fixed = {x.name: x.range.lo for x in design.decl.gains
+             if x.name not in point and x.role == "controller" and x.range is not None
+             and x.range.lo == x.range.hi}
+    r = certify_formation(design, dg, J, GainBox.parse({**{k: (v, v) for k, v in fixed.items()},
+                                                        **{k: (v, v) for k, v in point.items()}}))
+    return {"formation": str(r.status), "formation_decay": r.decay,
+            "formation_unstable_re": None if r.witness is None else r.witness.eigenvalue.real}
 
 
 def run_task(task: dict[str, Any]) -> dict[str, str]:

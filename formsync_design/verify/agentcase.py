@@ -74,7 +74,8 @@ from formsync_design.verify.case import (
 )
 
 __all__ = ["AgentCase", "load_agent_case", "parse_agent_case", "euler321_to_quat",
-           "case_design_ref", "case_is_agent", "shipped_agent_case"]
+           "case_design_ref", "case_is_agent", "shipped_agent_case", "formation_case_path",
+           "formation_inertias"]
 
 _TABLES: dict[str, set[str] | None] = {
     "case": {"name", "title", "source", "kind", "design", "assumptions", "graph"},
@@ -244,6 +245,55 @@ def shipped_agent_case(design: Any) -> Path | None:
         if ref == design.name or (ref is not None and Path(ref).stem == design.name):
             return case_file(name)
     return None
+
+
+def formation_case_path(design: Any) -> Path | None:
+    """The shipped case that simulates ``design``: its own (:func:`shipped_agent_case`), else
+    a shipped agent case comparing it (``[claims.compare.X] design``); ``None`` when none.
+
+    >>> from formsync_design.spec.loader import load_design
+    >>> formation_case_path(load_design("ma_quat_smc")).name
+    'ma_so3.toml'
+    """
+    own = shipped_agent_case(design)
+    if own is not None:
+        return own
+    from formsync_design.resources import case_file, case_names
+
+    for name in case_names():
+        path = case_file(name)
+        compare = load_toml(path, "case TOML file").get("claims", {})
+        compare = compare.get("compare", {}) if isinstance(compare, dict) else {}
+        if isinstance(compare, dict) and any(
+                isinstance(c, dict) and c.get("design") == design.name for c in compare.values()):
+            if case_is_agent(path):
+                return path
+    return None
+
+
+def formation_inertias(design: Any, n: int) -> tuple[np.ndarray, str]:
+    """The inertias of an ``n``-spacecraft formation of ``design`` and where they come from:
+    the shipped case that simulates it (:func:`formation_case_path`), else the paper's case
+    (``verification/liang2016.toml``), cycled ``i mod`` its size when ``n`` differs.
+
+    >>> from formsync_design.spec.loader import load_design
+    >>> J, note = formation_inertias(load_design("ma_so3"), 7)
+    >>> J.shape, note
+    ((7, 3, 3), 'inertias of verification/ma_so3.toml, cycled to N = 7 (spacecraft i takes J_(i mod 5))')
+    """
+    path = formation_case_path(design)
+    if path is None:
+        from formsync_design.verify.case import load_case
+
+        paper = load_case()
+        J = np.asarray(paper.inertias, dtype=float)
+        note = f"inertias of the {paper.name} case (no shipped case simulates {design.name})"
+    else:
+        J = np.asarray(load_agent_case(path).inertias, dtype=float)
+        note = f"inertias of {path.parent.name}/{path.name}"
+    if len(J) != n:
+        note += f", cycled to N = {n} (spacecraft i takes J_(i mod {len(J)}))"
+    return J[np.arange(n) % len(J)], note
 
 
 def _design_of(ref: str, path: str) -> Any:
