@@ -50,13 +50,14 @@ def agent_design_or_none(design_arg: Any, case_arg: Any = None) -> Any:
     """The agent design a command is asked for (``--design``, else the ``--case`` file's
     ``[case] design``), or ``None`` for a Lagrangian design (the command's own path)."""
     from formsync_design.spec.loader import load_design
-    from formsync_design.verify.agentcase import case_design_ref
 
     if design_arg is not None:
         d = load_design(design_arg)
         return d if getattr(d, "form", None) == "agent" else None
     if case_arg is None:
         return None
+    from formsync_design.verify.agentcase import case_design_ref  # the verify stage only here
+
     ref = case_design_ref(_case_path(case_arg))
     if ref is None:
         return None

@@ -14,7 +14,6 @@ from formsync_design.cli.options import (
     emit_json,
 )
 from formsync_design.errors import InputError
-from formsync_design.gains import parse_gain_range
 
 __all__ = ["add_parser", "run"]
 
@@ -64,6 +63,8 @@ examples:
 
 
 def _values(text: str | None, name: str) -> list[float]:
+    from formsync_design.gains import parse_gain_range
+
     if not text:
         return []
     out = []
