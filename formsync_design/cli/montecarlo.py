@@ -263,11 +263,13 @@ def run(args: argparse.Namespace) -> int:
             print(f"status: {r.status} - {r.message()}")
         return EXIT_OK if r.converged else EXIT_NEGATIVE
     threads = _int(args.threads, "--threads", 1) if args.threads is not None else None
-    prog = Progress(1, "montecarlo", enabled=args.format == "text")
     # the certificate needs the derivation, which needs an undirected graph inside the theorem
     certify = not args.no_certify and theorem.inside and isinstance(graph, Graph)
-    res = run_montecarlo(base, box, settings, opt, threads=threads, certify=certify, spec=spec)
-    prog.update(1)
+    with Progress(settings.runs, "montecarlo", enabled=args.format == "text", unit="run") as prog:
+        # batches of about 1/20 of the campaign move the bar (the runs are the same)
+        res = run_montecarlo(base, box, settings, opt, threads=threads, certify=certify, spec=spec,
+                             batch=min(2000, max(1, -(-settings.runs // 20))) if prog.enabled
+                             else 2000, progress=prog.update)
     summ = {**flag, "case": case.name, "specification": spec.name, "graph": graph.name,
             "disturbance": base.disturbance.kind, **res.to_dict()}
     written = []

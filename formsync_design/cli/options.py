@@ -15,6 +15,7 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from formsync_design.errors import InputError
+from formsync_design.progress import Progress  # the one progress mechanism (re-exported)
 
 if TYPE_CHECKING:
     # the one gain-range type and parser live in formsync_design.gains (re-exported here,
@@ -246,40 +247,6 @@ def emit_json(obj: Any) -> None:
     """
     json.dump(to_json_value(obj), sys.stdout, indent=2, allow_nan=False)
     sys.stdout.write("\n")
-
-
-class Progress:
-    """Progress on stderr for long work (silent when ``enabled`` is False)."""
-
-    def __init__(self, total: int, label: str, enabled: bool = True) -> None:
-        import time
-
-        self.total = max(int(total), 1)
-        self.label = label
-        self.enabled = enabled and sys.stderr.isatty()
-        self.done = 0
-        self._t0 = time.perf_counter()
-        self._last = 0.0
-
-    def update(self, k: int = 1) -> None:
-        import time
-
-        self.done += k
-        if not self.enabled:
-            return
-        now = time.perf_counter()
-        if now - self._last < 0.2 and self.done < self.total:
-            return
-        self._last = now
-        el = now - self._t0
-        rate = self.done / el if el > 0 else 0.0
-        eta = (self.total - self.done) / rate if rate > 0 else float("inf")
-        sys.stderr.write(
-            f"\r{self.label}: {self.done}/{self.total} ({rate:.1f}/s, ETA {eta:.0f}s)   "
-        )
-        if self.done >= self.total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
 
 
 def write_summary_and_runs(out_dir: Any, summary: Mapping[str, Any], rows: list[Mapping[str, Any]]) -> list[str]:

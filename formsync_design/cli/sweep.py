@@ -327,8 +327,8 @@ def run(args: argparse.Namespace) -> int:
             n_workers=args.workers, timeout=timeout, progress=progress, command=_command(args),
         )
     except KeyboardInterrupt:
-        if prog is not None and prog.enabled:
-            sys.stderr.write("\n")
+        if prog is not None:
+            prog.close()  # the bar's line is cleared before the message
         journal = Path(args.out) / "journal.jsonl"
         kept = f"finished rows are kept in {journal}; " if journal.is_file() else ""
         sys.stderr.write(f"formsync sweep: interrupted (Ctrl-C); {kept}the same command with "
