@@ -2,9 +2,11 @@
 
 Each command runs in a fresh interpreter (``python -m formsync_design ...``, the same
 command line as the ``formsync`` script), ``--repeat`` times; the median and the best
-wall time are printed beside a baseline of ``python -c pass`` in the same interpreter, with
-the 1-minute load average (``os.getloadavg()``: on this shared 2-core machine other work
-skews wall times, so the ratio to the baseline is printed too).  Targets (idle machine):
+wall time and the median CPU time (user + system of the child, ``resource.getrusage``) are
+printed beside a baseline of ``python -c pass`` in the same interpreter, with the 1-minute
+load average (``os.getloadavg()``: on this shared 2-core machine other work stretches wall
+times, far less CPU times; the ratio to the baseline is printed too).  Targets (wall, idle
+machine):
 
 * ``formsync --version`` and ``formsync --help``: under 0.3 s;
 * ``formsync certify --graph ring:8 --ko 1.6 --kq 0.4 --beta 0.3`` (the paper's case, a
@@ -22,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -50,13 +53,27 @@ def _argv(args: tuple[str, ...], label: str) -> list[str]:
     return [sys.executable, "-m", "formsync_design", *args]
 
 
-def _time(argv: list[str]) -> float:
-    t0 = time.perf_counter()
+def _cpu() -> float:
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
+def _time(argv: list[str]) -> tuple[float, float]:
+    """Wall and CPU seconds of one fresh process."""
+    c0, t0 = _cpu(), time.perf_counter()
     r = subprocess.run(argv, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    dt = time.perf_counter() - t0
+    dt, dc = time.perf_counter() - t0, _cpu() - c0
     if r.returncode not in (0, 1):
         raise SystemExit(f"{' '.join(argv)} failed (exit {r.returncode}): {r.stderr.strip()}")
-    return dt
+    return dt, dc
+
+
+def _line(label: str, times: list[tuple[float, float]], base: float) -> str:
+    wall = [w for w, _ in times]
+    med = statistics.median(wall)
+    cpu = statistics.median(c for _, c in times)
+    return (f"  {label:<34} wall median {med:6.3f} s  best {min(wall):6.3f} s  cpu {cpu:6.3f} s  "
+            f"({med / base:5.1f}x baseline)  load {os.getloadavg()[0]:.1f}")
 
 
 def _importtime(argv: list[str], top: int = 10) -> list[str]:
@@ -81,19 +98,17 @@ def main(argv: list[str] | None = None) -> int:
     env_note = f"python {sys.version.split()[0]}, {os.cpu_count()} CPUs"
     print(f"start-up of formsync ({env_note}); {a.repeat} fresh processes per command")
     base = [_time([sys.executable, "-c", "pass"]) for _ in range(a.repeat)]
-    b_med = statistics.median(base)
-    print(f"  {'python -c pass (baseline)':<34} median {b_med:6.3f} s  best {min(base):6.3f} s  "
-          f"load {os.getloadavg()[0]:.1f}")
+    b_med = statistics.median(w for w, _ in base)
+    print(_line("python -c pass (baseline)", base, b_med))
     commands = COMMANDS + ([MONTECARLO_1000] if a.montecarlo else [])
     for label, args, target, heavy in commands:
         cmd = _argv(args, label)
         _time(cmd)  # warm the disk caches (bytecode, derivations, compiled kernels)
         times = [_time(cmd) for _ in range(1 if heavy else a.repeat)]
-        med = statistics.median(times)
+        med = statistics.median(w for w, _ in times)
         verdict = "" if target is None else (
             f"  target < {target:g} s: {'met' if med < target else 'MISSED'}")
-        print(f"  {label:<34} median {med:6.3f} s  best {min(times):6.3f} s  "
-              f"({med / b_med:5.1f}x baseline)  load {os.getloadavg()[0]:.1f}{verdict}")
+        print(_line(label, times, b_med) + verdict)
         if a.importtime:
             print("\n".join(_importtime(cmd)))
     return 0

@@ -456,7 +456,7 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     mult = agent_multipliers(design, box)
     out = Path(args.out)
     maps, notes = [], []
-    prog = Progress(len(args.graph), "region", enabled=not args.no_progress)
+    prog = Progress(len(args.graph), "region", enabled=not args.no_progress and args.format == "text")
     for gspec in args.graph:
         g = load_graph(gspec)
         theorem = check_theorem_graph(g, design.decl.graphs,

@@ -318,7 +318,7 @@ def run(args: argparse.Namespace) -> int:
     def progress(done: int, total: int) -> None:
         nonlocal prog
         if prog is None:
-            prog = Progress(total, "sweep tasks", enabled=not args.no_progress)
+            prog = Progress(total, "sweep tasks", enabled=not args.no_progress and args.format == "text")
         prog.update(done - prog.done)
 
     try:
