@@ -1,6 +1,6 @@
 """Benchmark of box certification and region maps (prints numbers; no assertions).
 
-    /work/venv/bin/python benchmarks/bench_certify.py [--quick]
+    .venv/bin/python benchmarks/bench_certify.py [--quick]
 
 1. The full region map for ring:8 over K_o in [0.05, 5], K_q in [0.05, 5],
    beta in [0.01, 1] at resolution 64 with every re-check (target < 10 s on

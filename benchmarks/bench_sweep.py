@@ -1,6 +1,6 @@
 """Benchmark of ``formsync sweep`` executors (prints numbers and ratios; no assertions).
 
-    /work/venv/bin/python benchmarks/bench_sweep.py [--quick] [--design pd_consensus]
+    .venv/bin/python benchmarks/bench_sweep.py [--quick] [--design pd_consensus]
 
 The same campaign (connected atlas graphs, the design's standard box, region
 resolution 8, 5 values of the swept gain; liang2016 by default, any design with

@@ -1,6 +1,6 @@
 """Self-triggered MRP attitude coordination with a leader under disturbances (seed 001).
 
-Source: the patent text ``/work/shared/seeds/001_de7425a80ad5ec92.txt`` (self-triggered
+Source: the patent text of seed 001 (``001_de7425a80ad5ec92.txt``, not shipped; self-triggered
 attitude cooperative control of a spacecraft formation under disturbances).  Its words
 survive, every formula was lost in extraction; each formula below is a **reconstruction**
 (R1-R7), written down with its source and checked by the derivation

@@ -64,7 +64,7 @@ function of the package selects a matplotlib backend.
 from __future__ import annotations
 
 from importlib import import_module
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from formsync_design.errors import (
     ClusterError,
@@ -77,7 +77,6 @@ from formsync_design.errors import (
     SimulationError,
     SolverError,
 )
-from formsync_design.graphs import Graph, make_graph
 
 __version__ = "0.1.0"
 
@@ -85,7 +84,9 @@ __version__ = "0.1.0"
 # subpackage is named where it re-exports the name, so modules may move inside
 # a stage without changing the surface.
 _LAZY: dict[str, str | tuple[str, str]] = {
-    # graphs beyond the undirected Graph
+    # graphs
+    "Graph": "formsync_design.graphs",
+    "make_graph": "formsync_design.graphs",
     "Digraph": "formsync_design.graphs",
     "load_graph": "formsync_design.graphs",
     "check_theorem_graph": "formsync_design.graphs",
@@ -186,10 +187,11 @@ __all__ = [
     "CompilerError",
     "ClusterError",
     "PackagingError",
-    "Graph",
-    "make_graph",
     *_LAZY,
 ]
+
+if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
+    from formsync_design.graphs import Graph as Graph, make_graph as make_graph
 
 
 def __getattr__(name: str) -> Any:

@@ -10,6 +10,7 @@ checked as theorems against the combinatorial answers.  The paper 002 formation
 
 from __future__ import annotations
 
+import re
 from fractions import Fraction
 
 import networkx as nx
@@ -186,7 +187,7 @@ def test_bad_edge_list_lines(tmp_path):
     with pytest.raises(GraphError, match=r"expected 'i j' or 'i j w'.*bad.txt:1"):
         read_edge_list(p)
     p.write_text("1 2 abc\n")
-    with pytest.raises(GraphError, match="expected a numeric weight w"):
+    with pytest.raises(GraphError, match=r"expected a number for weight a_1,2, received 'abc' in '1 2 abc' at .*bad.txt:1"):
         read_edge_list(p)
     p.write_text("# nothing\n")
     with pytest.raises(GraphError, match="expected at least one arc"):
@@ -205,3 +206,65 @@ def test_undirected_networkx_with_leader_node():
     g = make_digraph(G, leader="L")
     assert g.n == 3 and g.is_undirected and g.pinning == (Fraction(1), Fraction(0), Fraction(0))
     assert g.leader_reachable and np.min(g.pinned_eigenvalues.real) > 0
+
+
+#: The weighted edge lists the digraph reader refuses (issue 25): the line, what it says
+#: (the reason, with the offending line and ``file:line``), one file each.
+BAD_WEIGHTED_EDGE_LISTS = [
+    ("zero-weight", "1 2 0\n2 1 1\n", r"expected a positive weight a_1,2 \(leave out an arc of "
+     r"weight 0\), received '0' in '1 2 0' at \S+:1$"),
+    ("negative-weight", "1 2 1\n2 1 -0.5\n", r"expected a positive weight a_2,1, received '-0.5' in "
+     r"'2 1 -0.5' at \S+:2$"),
+    ("nan-weight", "1 2 nan\n2 1 1\n", r"expected a finite number for weight a_1,2, received 'nan' "
+     r"in '1 2 nan' at \S+:1$"),
+    ("self-loop", "1 2 1\n2 2 1\n", r"expected no self-loops, received arc \(2, 2\) in '2 2 1' at \S+:2$"),
+    ("duplicate-arc", "1 2 1\n2 1 1\n1 2 0.5\n", r"expected each arc once \(a_1,2\), received a "
+     r"second one in '1 2 0.5' at \S+:3 \(the first at \S+:1\)$"),
+    ("negative-pinning", "1 2 1\n2 1 1\n1 0 -2\n", r"expected a positive pinning gain b_1 \('i 0 b'\), "
+     r"received '-2' in '1 0 -2' at \S+:3$"),
+    ("zero-based", "0 1 1\n1 0 1\n", r"expected 1-based spacecraft numbers i >= 1, j >= 1 .*received "
+     r"'0 1 1' at \S+:1 \(a 0-based file\? number the spacecraft from 1\)$"),
+    ("beyond-size-limit", "1 2 1\n2 1 1\n2001 1 0.5\n", r"expected at most 2000 spacecraft .*received "
+     r"N=2001 in '\S+:3'$"),
+]
+
+
+@pytest.mark.parametrize("text, reason", [pytest.param(t, r, id=k) for k, t, r in BAD_WEIGHTED_EDGE_LISTS])
+def test_weighted_edge_list_is_refused_with_the_digraph_readers_reason(tmp_path, text, reason):
+    """The reader of the file's format (three columns: the digraph reader) gives the reason,
+    not the undirected reader's "one 'i j' pair per line"."""
+    from formsync_design.graphs.theorem import load_graph
+
+    p = tmp_path / "edges.txt"
+    p.write_text(text)
+    for read in (read_edge_list, make_digraph, load_graph):
+        with pytest.raises(GraphError) as e:
+            read(p)
+        assert re.search(reason, str(e.value)), (read.__name__, str(e.value))
+        assert "'i j' pair" not in str(e.value)
+
+
+@pytest.mark.parametrize("text, reason", [pytest.param(t, r, id=k) for k, t, r in BAD_WEIGHTED_EDGE_LISTS])
+def test_weighted_edge_list_bad_input_is_exit_2_with_one_line(tmp_path, capsys, text, reason):
+    """On the command line: exit 2, one line on stderr, the digraph reader's reason."""
+    import importlib
+
+    cli_main = importlib.import_module("formsync_design.cli.main")
+    p = tmp_path / "edges.txt"
+    p.write_text(text)
+    rc = cli_main.main(["certify", "--graph", str(p), "--ko", "1.6", "--kq", "0.4", "--beta", "0.3"])
+    out = capsys.readouterr()
+    lines = out.err.splitlines()
+    assert rc == 2 and out.out == "" and len(lines) == 1, out.err
+    assert lines[0].startswith("formsync certify: error: expected ")
+    assert re.search(reason, lines[0]), lines[0]
+
+
+def test_pair_list_keeps_the_undirected_readers_reason(tmp_path):
+    """Two columns are the undirected reader's format: its reason stays."""
+    from formsync_design.graphs.theorem import load_graph
+
+    p = tmp_path / "pairs.txt"
+    p.write_text("1 2\n2 3 # a path\n0 1\n")
+    with pytest.raises(GraphError, match=r"expected 1-based spacecraft numbers \(>= 1\), received '0 1'"):
+        load_graph(p)

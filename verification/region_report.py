@@ -1,7 +1,7 @@
 """Regenerate reports/liang2016-region.md and reports/figures/liang2016-region-*
 (certified gain regions of the paper's controller; run from anywhere).
 
-    /work/venv/bin/python verification/region_report.py [--resolution R]
+    .venv/bin/python verification/region_report.py [--resolution R]
 
 Deterministic: two runs give byte-identical files.
 """

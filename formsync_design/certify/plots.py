@@ -385,7 +385,7 @@ def region_report(
       "The box is `g (1 +- s)` clipped to the ranges, certified with `certify_box`.")
     w("")
     md = rep / "liang2016-region.md"
-    w("Regenerate: `/work/venv/bin/python verification/region_report.py` (about a minute).")
+    w("Regenerate: `.venv/bin/python verification/region_report.py` (about a minute).")
     w("")
     md.write_text("\n".join(lines))
     return md

@@ -51,13 +51,14 @@ def agent_design_or_none(design_arg: Any, case_arg: Any = None) -> Any:
     """The agent design a command is asked for (``--design``, else the ``--case`` file's
     ``[case] design``), or ``None`` for a Lagrangian design (the command's own path)."""
     from formsync_design.spec.loader import load_design
-    from formsync_design.verify.agentcase import case_design_ref
 
     if design_arg is not None:
         d = load_design(design_arg)
         return d if getattr(d, "form", None) == "agent" else None
     if case_arg is None:
         return None
+    from formsync_design.verify.agentcase import case_design_ref  # the verify stage only here
+
     ref = case_design_ref(_case_path(case_arg))
     if ref is None:
         return None
@@ -503,7 +504,7 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     mult = agent_multipliers(design, box)
     out = Path(args.out)
     maps, notes = [], []
-    prog = Progress(len(args.graph), "region", enabled=not args.no_progress)
+    prog = Progress(len(args.graph), "region", enabled=not args.no_progress and args.format == "text")
     for gspec in args.graph:
         g = load_graph(gspec)
         theorem = check_theorem_graph(g, design.decl.graphs,

@@ -7,10 +7,9 @@ import math
 import sys
 from fractions import Fraction
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
+from formsync_design.cli.choices import GRAPH_SPEC_HELP
 from formsync_design.cli.options import (
     EXIT_NEGATIVE,
     EXIT_OK,
@@ -22,8 +21,11 @@ from formsync_design.cli.options import (
     emit_json,
 )
 from formsync_design.errors import InputError
-from formsync_design.gains import GainBox, parse_number
-from formsync_design.graphs.build import GRAPH_SPEC_HELP, make_graph
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from formsync_design.gains import GainBox
 
 __all__ = ["add_parser", "run", "load_conditions", "certify_design", "require_classic", "read_inertias", "add_gain_options",
            "gain_box_from_args", "add_certificate_options", "requirements_from_args",
@@ -163,6 +165,8 @@ def requirements_from_args(args: argparse.Namespace, graph: Any) -> Any:
     from formsync_design.analysis.delay import DelayModel
     from formsync_design.analysis.requirements import Requirements, parse_graph_set
     from formsync_design.cli.options import parse_positive
+    from formsync_design.gains import parse_number
+    from formsync_design.graphs.build import make_graph
 
     decay = None if args.decay is None else parse_number(args.decay, "--decay")
     if decay is not None and decay <= 0:
@@ -229,6 +233,8 @@ def parse_margin(text: str) -> Fraction:
     >>> parse_margin("0.01")
     Fraction(1, 100)
     """
+    from formsync_design.gains import parse_number
+
     m = parse_number(text, "margin")
     if m < 0:
         raise InputError(f"expected a non-negative margin EPS, received {text!r}")
@@ -242,6 +248,7 @@ def load_conditions(graph: Any, which: str, spec: str | None = None) -> Any:
     'paper'
     """
     from formsync_design.derive.conditions import derive_conditions, paper_conditions
+    from formsync_design.graphs.build import make_graph
     from formsync_design.spec.loader import load_spec
 
     if which not in ("derived", "paper"):
@@ -256,6 +263,8 @@ def load_conditions(graph: Any, which: str, spec: str | None = None) -> Any:
 
 
 def _check_J(J: np.ndarray, k: int, src: str) -> np.ndarray:
+    import numpy as np
+
     if not np.all(np.isfinite(J)):
         raise InputError(f"expected finite inertia entries, received NaN/inf for spacecraft {k} in {src}")
     if not np.allclose(J, J.T, rtol=0, atol=1e-12 * max(1.0, float(np.abs(J).max()))):
@@ -283,6 +292,8 @@ def read_inertias(path: str, n: int) -> list[np.ndarray]:
     [55.0, 55.0]
     >>> os.unlink(fh.name)
     """
+    import numpy as np
+
     p = Path(path)
     if not p.is_file():
         raise InputError(f"expected an inertia file, received {path!r} (no such file)")
@@ -315,6 +326,8 @@ def read_inertias(path: str, n: int) -> list[np.ndarray]:
 def read_case(path: str, n: int) -> dict[str, Any]:
     """Inertias, per-spacecraft disturbance bounds and K_v from a TOML case file
     (format: :mod:`formsync_design.verify.case`, e.g. ``verification/liang2016.toml``)."""
+    import numpy as np
+
     from formsync_design.verify.case import load_case, make_disturbance
 
     c = load_case(path)
@@ -360,6 +373,7 @@ def add_parser(sub: Any) -> None:
 def _kv_from_args(args: argparse.Namespace, conds: Any) -> Any:
     from formsync_design.certify.engine import check_kv
     from formsync_design.cli.options import parse_positive
+    from formsync_design.gains import parse_number
 
     n = conds.graph.n
     want = any(v is not None for v in (args.ud, args.inertia, args.case, args.kv))

@@ -6,8 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-import numpy as np
-
+from formsync_design.cli.choices import GRAPH_SPEC_HELP
 from formsync_design.cli.options import (
     EXIT_OK,
     add_design_option,
@@ -18,7 +17,6 @@ from formsync_design.cli.options import (
     parse_gain_assignments,
 )
 from formsync_design.errors import InputError
-from formsync_design.graphs.build import GRAPH_SPEC_HELP
 
 __all__ = ["add_parser", "run", "numeric_conditions"]
 
@@ -71,6 +69,8 @@ def _labels3(labels: tuple[str, ...]) -> list[str]:
 
 def numeric_conditions(conds: Any, point: tuple[float, ...]) -> dict:
     """Theta_i and Pi at a gain point as full 3-axis matrices with labels."""
+    import numpy as np
+
     thetas = []
     for fam in conds.theta:
         F = fam.evaluate(point)
@@ -92,6 +92,8 @@ def numeric_conditions(conds: Any, point: tuple[float, ...]) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_derive
     from formsync_design.cli.options import design_graph
     from formsync_design.derive.conditions import derive_conditions

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import argparse
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from formsync_design.cli.choices import DISTURBANCES, GRAPH_SPEC_HELP, MAX_RUNS, SWITCHES
 from formsync_design.cli.options import (
     EXIT_NEGATIVE,
     EXIT_OK,
@@ -19,19 +20,9 @@ from formsync_design.cli.options import (
 )
 from formsync_design.cli.simulate import check_out_dir, options_from_args, simulation_graph
 from formsync_design.errors import InputError
-from formsync_design.gains import GainBox, parse_gain_range, parse_number
-from formsync_design.graphs.build import GRAPH_SPEC_HELP, Graph
-from formsync_design.models.disturbances import DISTURBANCES
-from formsync_design.sim.bridge import SWITCHES
-from formsync_design.sim.montecarlo import (
-    MAX_RUNS,
-    MonteCarloSettings,
-    mc_box,
-    replay,
-    run_montecarlo,
-)
-from formsync_design.sim.simulator import simulate
-from formsync_design.verify.case import load_case
+
+if TYPE_CHECKING:
+    from formsync_design.gains import GainBox
 
 __all__ = ["add_parser", "run", "montecarlo_box"]
 
@@ -135,6 +126,8 @@ def _int(text: str, name: str, lo: int) -> int:
 
 
 def _float(text: str, name: str) -> float:
+    from formsync_design.gains import parse_number
+
     return float(parse_number(text, name))
 
 
@@ -165,6 +158,9 @@ def montecarlo_box(spec: Any, case_gains: Any, gains: Any = None,
     ...
     formsync_design.errors.InputError: expected --gain for the gains of design pd_consensus (k_p, k_d), received ['eps'] (eps: a multiplier of the Lyapunov candidate, never sampled; the certification searches it)
     """
+    from formsync_design.gains import parse_gain_range
+    from formsync_design.sim.montecarlo import mc_box
+
     d = spec.decl
     sw = d.switching
     allowed = tuple(d.controller_gains) + ((sw,) if sw is not None else ())
@@ -227,6 +223,10 @@ def _resolve_spec(args: argparse.Namespace, case: Any) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_montecarlo_cli
+    from formsync_design.graphs.build import Graph
+    from formsync_design.sim.montecarlo import MonteCarloSettings, replay, run_montecarlo
+    from formsync_design.sim.simulator import simulate
+    from formsync_design.verify.case import load_case
 
     agent = agent_design_or_none(args.spec, args.case)
     if agent is not None:
@@ -263,11 +263,13 @@ def run(args: argparse.Namespace) -> int:
             print(f"status: {r.status} - {r.message()}")
         return EXIT_OK if r.converged else EXIT_NEGATIVE
     threads = _int(args.threads, "--threads", 1) if args.threads is not None else None
-    prog = Progress(1, "montecarlo", enabled=args.format == "text")
     # the certificate needs the derivation, which needs an undirected graph inside the theorem
     certify = not args.no_certify and theorem.inside and isinstance(graph, Graph)
-    res = run_montecarlo(base, box, settings, opt, threads=threads, certify=certify, spec=spec)
-    prog.update(1)
+    with Progress(settings.runs, "montecarlo", enabled=args.format == "text", unit="run") as prog:
+        # batches of about 1/20 of the campaign move the bar (the runs are the same)
+        res = run_montecarlo(base, box, settings, opt, threads=threads, certify=certify, spec=spec,
+                             batch=min(2000, max(1, -(-settings.runs // 20))) if prog.enabled
+                             else 2000, progress=prog.update)
     summ = {**flag, "case": case.name, "specification": spec.name, "graph": graph.name,
             "disturbance": base.disturbance.kind, **res.to_dict()}
     written = []

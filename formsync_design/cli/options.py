@@ -12,12 +12,15 @@ import argparse
 import json
 import sys
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from formsync_design.errors import InputError
+from formsync_design.progress import Progress  # the one progress mechanism (re-exported)
 
-# the one gain-range type and parser live in formsync_design.gains (re-exported here)
-from formsync_design.gains import GainRange, json_number, parse_gain_range, parse_number
+if TYPE_CHECKING:
+    # the one gain-range type and parser live in formsync_design.gains (re-exported here,
+    # imported on first use so that building the parser does not import numpy)
+    from formsync_design.gains import GainRange, parse_gain_range, parse_number
 
 __all__ = [
     "closing_lines",
@@ -53,6 +56,20 @@ EXIT_NEGATIVE = 1
 EXIT_USAGE = 2
 EXIT_FAILURE = 3  # a failure that is not the user's input (solver, compiler, cluster)
 EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT), as shells report it
+
+_FROM_GAINS = ("GainRange", "json_number", "parse_gain_range", "parse_number")
+
+
+def __getattr__(name: str) -> Any:
+    """The re-exports of :mod:`formsync_design.gains`, imported on first use (PEP 562)."""
+    if name in _FROM_GAINS:
+        from formsync_design import gains
+
+        value = getattr(gains, name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 def add_design_option(p: argparse.ArgumentParser) -> None:
     """``--design NAME|FILE`` (alias ``--spec``), stored as ``args.spec``."""
@@ -131,7 +148,7 @@ def design_box(spec: Any, gains: Any, legacy: Mapping[str, Any] | None = None) -
     >>> str(design_box(load_spec("pd_consensus"), ["k_d=2", "eps=0.1"]))
     'k_p=0.1:2, k_d=2, eps=0.1'
     """
-    from formsync_design.gains import GainBox
+    from formsync_design.gains import GainBox, GainRange, parse_gain_range
 
     given = dict(gains) if isinstance(gains, Mapping) else parse_gain_assignments(gains)
     for name, val in (legacy or {}).items():
@@ -174,6 +191,8 @@ def design_box(spec: Any, gains: Any, legacy: Mapping[str, Any] | None = None) -
 
 def parse_positive(text: str, name: str) -> float:
     """Parse a finite, strictly positive float."""
+    from formsync_design.gains import parse_number
+
     v = parse_number(text, name)
     if v <= 0:
         raise InputError(f"expected a positive {name}, received {text!r}")
@@ -199,6 +218,8 @@ def to_json_value(obj: Any) -> Any:
     >>> to_json_value({"a": Fraction(1, 3), "b": [float("inf"), Fraction(1, 2)]})
     {'a': '1/3', 'b': ['inf', 0.5]}
     """
+    from formsync_design.gains import json_number
+
     if isinstance(obj, Mapping):
         return {str(k): to_json_value(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
@@ -226,40 +247,6 @@ def emit_json(obj: Any) -> None:
     """
     json.dump(to_json_value(obj), sys.stdout, indent=2, allow_nan=False)
     sys.stdout.write("\n")
-
-
-class Progress:
-    """Progress on stderr for long work (silent when ``enabled`` is False)."""
-
-    def __init__(self, total: int, label: str, enabled: bool = True) -> None:
-        import time
-
-        self.total = max(int(total), 1)
-        self.label = label
-        self.enabled = enabled and sys.stderr.isatty()
-        self.done = 0
-        self._t0 = time.perf_counter()
-        self._last = 0.0
-
-    def update(self, k: int = 1) -> None:
-        import time
-
-        self.done += k
-        if not self.enabled:
-            return
-        now = time.perf_counter()
-        if now - self._last < 0.2 and self.done < self.total:
-            return
-        self._last = now
-        el = now - self._t0
-        rate = self.done / el if el > 0 else 0.0
-        eta = (self.total - self.done) / rate if rate > 0 else float("inf")
-        sys.stderr.write(
-            f"\r{self.label}: {self.done}/{self.total} ({rate:.1f}/s, ETA {eta:.0f}s)   "
-        )
-        if self.done >= self.total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
 
 
 def write_summary_and_runs(out_dir: Any, summary: Mapping[str, Any], rows: list[Mapping[str, Any]]) -> list[str]:

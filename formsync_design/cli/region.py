@@ -14,7 +14,6 @@ from formsync_design.cli.options import (
     emit_json,
 )
 from formsync_design.errors import InputError
-from formsync_design.gains import parse_gain_range
 
 __all__ = ["add_parser", "run"]
 
@@ -64,6 +63,8 @@ examples:
 
 
 def _values(text: str | None, name: str) -> list[float]:
+    from formsync_design.gains import parse_gain_range
+
     if not text:
         return []
     out = []
@@ -167,7 +168,7 @@ def run(args: argparse.Namespace) -> int:
     for gr in box:
         cells *= 1 if gr.is_point else args.resolution
     nmaps = len(conds) * (2 if over else 1)
-    prog = Progress(cells * nmaps, "region", enabled=not args.no_progress)
+    prog = Progress(cells * nmaps, "region", enabled=not args.no_progress and args.format == "text")
     maps = [region_map(c, box, resolution=args.resolution, margin=margin, progress=prog.update)
             for c in conds]
     omaps = ([region_map(c, box, resolution=args.resolution, margin=margin, progress=prog.update)
@@ -228,7 +229,7 @@ def _run_design(args: argparse.Namespace, spec: Any, box: Any, margin: Any, req:
             if n not in box and (r := spec.decl.gain(n).range) is not None}
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    prog = Progress(len(args.graph), "region", enabled=not args.no_progress)
+    prog = Progress(len(args.graph), "region", enabled=not args.no_progress and args.format == "text")
     maps = []
     for gspec in args.graph:
         conds = derive_conditions(make_graph(gspec), spec)
@@ -299,7 +300,7 @@ def _run_cells(args: argparse.Namespace, spec: Any, box: Any, margin: Any, req: 
     ncell = 1
     for ax in axes:
         ncell *= len(ax)
-    prog = Progress(ncell * len(args.graph), "region", enabled=not args.no_progress)
+    prog = Progress(ncell * len(args.graph), "region", enabled=not args.no_progress and args.format == "text")
     out_maps = []
     for gspec in args.graph:
         g = make_graph(gspec)

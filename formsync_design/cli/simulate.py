@@ -8,8 +8,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from formsync_design.cli.choices import DISTURBANCES, GRAPH_SPEC_HELP, INTEGRATORS, SWITCHES
 from formsync_design.cli.options import (
     EXIT_NEGATIVE,
     EXIT_OK,
@@ -19,12 +18,6 @@ from formsync_design.cli.options import (
     emit_json,
 )
 from formsync_design.errors import InputError
-from formsync_design.gains import parse_gain_range, parse_number
-from formsync_design.graphs.build import GRAPH_SPEC_HELP
-from formsync_design.models.disturbances import DISTURBANCES
-from formsync_design.sim.bridge import SWITCHES
-from formsync_design.sim.simulator import INTEGRATORS, simulate
-from formsync_design.verify.case import load_case
 
 __all__ = ["add_parser", "run", "options_from_args", "add_spec_option", "resolve_cli_spec", "check_out_dir"]
 
@@ -157,6 +150,7 @@ def design_gains(spec: Any, case_gains: Any, given: Any) -> Any:
     ({'k_p': 0.5, 'k_d': 1.5}, ())
     """
     from formsync_design.cli.options import parse_gain_assignments
+    from formsync_design.gains import parse_gain_range
     from formsync_design.sim import Gains
 
     named = parse_gain_assignments(given)
@@ -212,6 +206,8 @@ def check_out_dir(out: str | None) -> Path | None:
 
 
 def _positive(text: str, name: str) -> float:
+    from formsync_design.gains import parse_number
+
     v = parse_number(text, name)
     if v <= 0:
         raise InputError(f"expected a positive {name}, received {text}")
@@ -265,6 +261,8 @@ def options_from_args(args: argparse.Namespace, base: Any) -> Any:
 
 
 def _text(case: Any, graph: Any, f: Any, r: Any, written: list[str], spec: Any = None) -> str:
+    import numpy as np
+
     o = r.options
     ctl = "continuous control" if o.sample_period is None else f"ZOH control Ts = {o.sample_period:g} s"
     sw = o.switch if o.switch == "sgn" else f"{o.switch} (phi = {o.phi:g})"
@@ -370,6 +368,8 @@ def _run_sampled(args: argparse.Namespace, case: Any, graph: Any, f: Any, opt: A
 
 def run(args: argparse.Namespace) -> int:
     from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_simulate
+    from formsync_design.sim.simulator import simulate
+    from formsync_design.verify.case import load_case
 
     agent = agent_design_or_none(args.spec, args.case)
     if agent is not None:

@@ -14,8 +14,6 @@ from formsync_design.cli.options import (
     Progress,
     add_format_option,
     emit_json,
-    parse_gain_range,
-    parse_number,
 )
 from formsync_design.errors import InputError
 
@@ -178,6 +176,7 @@ def _box_from_flags(args: argparse.Namespace, sp: Any, schema: Any) -> dict[str,
     """The box of ``--gain`` (and liang2016's ``--ko/--kq/--beta``) over the design's
     controller gains, a gain not given taking its default (:func:`~.sweep.designs.default_box`)."""
     from formsync_design.cli.options import parse_gain_assignments
+    from formsync_design.gains import parse_gain_range
     from formsync_design.sweep.designs import DEFAULT_BOX, gain_key_error
 
     given = parse_gain_assignments(args.gain)
@@ -211,6 +210,7 @@ def _box_from_flags(args: argparse.Namespace, sp: Any, schema: Any) -> dict[str,
 
 def _ref_from_flags(text: str, sp: Any, schema: Any) -> dict[str, str]:
     """``--ref``: ``NAME=X`` pairs or the values in the design's controller-gain order."""
+    from formsync_design.gains import parse_number
     from formsync_design.sweep.designs import gain_key_error
 
     parts = [t.strip() for t in text.split(",")]
@@ -318,7 +318,7 @@ def run(args: argparse.Namespace) -> int:
     def progress(done: int, total: int) -> None:
         nonlocal prog
         if prog is None:
-            prog = Progress(total, "sweep tasks", enabled=not args.no_progress)
+            prog = Progress(total, "sweep tasks", enabled=not args.no_progress and args.format == "text")
         prog.update(done - prog.done)
 
     try:
@@ -327,8 +327,8 @@ def run(args: argparse.Namespace) -> int:
             n_workers=args.workers, timeout=timeout, progress=progress, command=_command(args),
         )
     except KeyboardInterrupt:
-        if prog is not None and prog.enabled:
-            sys.stderr.write("\n")
+        if prog is not None:
+            prog.close()  # the bar's line is cleared before the message
         journal = Path(args.out) / "journal.jsonl"
         kept = f"finished rows are kept in {journal}; " if journal.is_file() else ""
         sys.stderr.write(f"formsync sweep: interrupted (Ctrl-C); {kept}the same command with "

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -85,6 +84,7 @@ def resolve_case(name: str) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
+    from formsync_design.progress import activity
     from formsync_design.tomlio import load_toml
     from formsync_design.verify.kinds import VerifyRequest, case_kind, verifier
     from formsync_design.verify.output import check_output, display_path
@@ -94,11 +94,8 @@ def run(args: argparse.Namespace) -> int:
     kind = case_kind(load_toml(path, "case TOML file"), display_path(path))
     check_output(args.out, path.stem, display_path(path), overwrite=args.overwrite)
 
-    def say(msg: str) -> None:
-        sys.stderr.write(f"verify: {msg}\n")
-        sys.stderr.flush()
-
-    req = VerifyRequest(path=path, case_arg=args.case, out=args.out, design=args.spec,
-                        overwrite=args.overwrite, strict=args.strict, format=args.format,
-                        progress=say)
-    return verifier(kind)(req)
+    with activity(f"verify {path.stem}", enabled=args.format == "text") as bar:
+        req = VerifyRequest(path=path, case_arg=args.case, out=args.out, design=args.spec,
+                            overwrite=args.overwrite, strict=args.strict, format=args.format,
+                            progress=bar.note)  # each stage after the elapsed time
+        return verifier(kind)(req)

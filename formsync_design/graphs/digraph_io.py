@@ -124,6 +124,7 @@ def read_edge_list(path: str | os.PathLike[str], pinning: Any = None) -> Digraph
         raise GraphError(f"expected a readable UTF-8 edge-list file, received {str(p)!r} ({e})") from None
     triples: list[tuple[int, int, Any]] = []
     declared: int | None = None
+    seen: dict[tuple[int, int], int] = {}  # (i, j) -> the line that gave it
     for lineno, raw in enumerate(text.splitlines(), start=1):
         line, _, comment = raw.partition("#")
         line = line.strip()
@@ -142,13 +143,46 @@ def read_edge_list(path: str | os.PathLike[str], pinning: Any = None) -> Digraph
             triples.append((int(f[0]), int(f[1]), f[2] if len(f) == 3 else 1))
         except ValueError:
             raise GraphError(f"expected 'i j' or 'i j w' with integer i, j, received {raw.strip()!r} at {p}:{lineno}") from None
-        try:
-            parse_number(triples[-1][2], "w")
-        except InputError:
-            raise GraphError(f"expected a numeric weight w, received {raw.strip()!r} at {p}:{lineno}") from None
+        i, j, w = triples[-1]
+        _check_line(i, j, w, seen, raw.strip(), f"{p}:{lineno}")
+        seen[(i, j)] = lineno
     if not triples:
         raise GraphError(f"expected at least one arc in {str(p)!r}, received none")
     return digraph_from_edges(triples, n=declared, pinning=pinning, name=str(p))
+
+
+def _check_line(i: int, j: int, w: Any, seen: Mapping[tuple[int, int], int], raw: str,
+                where: str) -> None:
+    """One line ``i j [w]`` of an edge-list file, checked where the user can find it
+    (``where`` = ``path:line``): 1-based numbers within the size limit, no self-loop, each
+    arc and pinning gain once, a finite positive weight or pinning gain.
+
+    >>> _check_line(1, 2, "0", {}, "1 2 0", "g.txt:1")
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.GraphError: expected a positive weight a_1,2 (leave out an arc of weight 0), received '0' in '1 2 0' at g.txt:1
+    """
+    if i < 1 or j < 0:
+        base = " (a 0-based file? number the spacecraft from 1)" if i == 0 else ""
+        raise GraphError(f"expected 1-based spacecraft numbers i >= 1, j >= 1 (j = 0: the leader "
+                         f"pins i), received {raw!r} at {where}{base}")
+    check_size(max(i, j), where)
+    if i == j:
+        raise GraphError(f"expected no self-loops, received arc ({i}, {i}) in {raw!r} at {where}")
+    what = f"pinning gain b_{i} ('i 0 b')" if j == 0 else f"weight a_{i},{j}"
+    try:
+        value = parse_number(w, what)
+    except InputError as e:
+        raise GraphError(f"{e} in {raw!r} at {where}") from None
+    if value <= 0:
+        hint = "" if value != 0 else (" (leave out the line of a spacecraft the leader does not "
+                                      "pin)" if j == 0 else " (leave out an arc of weight 0)")
+        raise GraphError(f"expected a positive {what}{hint}, received {str(w)!r} in {raw!r} at {where}")
+    if (i, j) in seen:
+        first = f"{where.rsplit(':', 1)[0]}:{seen[(i, j)]}"
+        twice = f"one pinning gain for spacecraft {i}" if j == 0 else f"each arc once (a_{i},{j})"
+        raise GraphError(f"expected {twice}, received a second one in {raw!r} at {where} (the first "
+                         f"at {first})")
 
 
 def _from_matrix(a: Any, pinning: Any, name: str) -> Digraph:

@@ -16,8 +16,10 @@ CSV, a networkx ``DiGraph``) gives a :class:`~formsync_design.graphs.digraph.Dig
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from formsync_design.errors import GraphError
@@ -55,9 +57,33 @@ def load_graph(obj: Any) -> Graph | Digraph:
     except GraphError as first:
         try:
             d = make_digraph(obj)
-        except GraphError:
-            raise first from None
+        except GraphError as second:
+            # both readers refuse: the reason is the one of the reader whose format it is
+            raise (second if _weighted_edge_list(obj) else first) from None
     return d
+
+
+def _weighted_edge_list(obj: Any) -> bool:
+    """Whether ``obj`` names an edge-list file in the digraph reader's format: a line of three
+    columns ``i j w`` (the undirected reader takes ``i j`` pairs only).
+
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "g.txt"
+    >>> _ = p.write_text("# a weighted digraph\\n1 2 0.5\\n2 1\\n")
+    >>> _weighted_edge_list(p), _weighted_edge_list("ring:4")
+    (True, False)
+    """
+    if not isinstance(obj, (str, os.PathLike)):
+        return False
+    p = Path(os.fspath(obj))
+    if p.suffix.lower() == ".csv" or not p.is_file():
+        return False
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeError):
+        return False
+    return any(len(line.split("#", 1)[0].replace(",", " ").split()) == 3
+               for line in text.splitlines())
 
 
 @dataclass(frozen=True)

@@ -26,6 +26,7 @@ from pathlib import Path
 import casadi as ca
 
 from formsync_design.errors import CompilerError
+from formsync_design.progress import activity
 
 __all__ = [
     "CFLAGS",
@@ -120,8 +121,9 @@ def build_shared(name: str, src: str, key: str, cc: str, flags: tuple[str, ...] 
             c = Path(td, f"{name}.c")
             c.write_text(src)
             tmp_so = Path(td, so.name)
-            r = subprocess.run([cc, *flags, str(c), "-o", str(tmp_so), *libs],
-                               capture_output=True, text=True)
+            with activity(f"compiling the simulation kernel {name} (once per design)"):
+                r = subprocess.run([cc, *flags, str(c), "-o", str(tmp_so), *libs],
+                                   capture_output=True, text=True)
             if r.returncode != 0:
                 said = " ".join((r.stderr or r.stdout or "").split())[-300:]
                 raise CompilerError(

@@ -36,6 +36,7 @@ import enum
 import math
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -461,6 +462,7 @@ def run_montecarlo(
     certify: bool = True,
     *,
     spec: Spec | str | Path | None = None,
+    progress: Callable[[int], None] | None = None,
 ) -> MonteCarloResult:
     """Run a seeded Monte-Carlo campaign.
 
@@ -483,6 +485,9 @@ def run_montecarlo(
     spec : Spec, str, Path or None
         The design whose controller is simulated and whose gains are sampled (default:
         the paper's); its kernel is cached under ``spec.key``.
+    progress : callable, optional
+        Called with the number of runs finished after every batch (a progress bar; a
+        smaller ``batch`` moves it more often, with identical runs).
 
     Examples
     --------
@@ -529,6 +534,8 @@ def run_montecarlo(
             S = np.stack([_reduce(run_vm(kern, n, P[j], cfg, X0[j], 0.0, Ktot), opt) for j in range(len(fb))])
         for j, f in enumerate(fb):
             runs.append(_summarize_run(b0 + j, int(seeds[b0 + j]), f, S[j], opt, bx.names, sp_spec))
+        if progress is not None:
+            progress(len(fb))
     wall = time.perf_counter() - t0
     counts = {s: sum(r.status == s for r in runs) for s in RUN_STATUSES}
     ct = np.array([r.convergence_time for r in runs if r.convergence_time is not None])

@@ -1,0 +1,118 @@
+"""Benchmark: start-up and fixed costs of the command line (issue 25, item 7).
+
+Each command runs in a fresh interpreter (``python -m formsync_design ...``, the same
+command line as the ``formsync`` script), ``--repeat`` times; the median and the best
+wall time and the median CPU time (user + system of the child, ``resource.getrusage``) are
+printed beside a baseline of ``python -c pass`` in the same interpreter, with the 1-minute
+load average (``os.getloadavg()``: on this shared 2-core machine other work stretches wall
+times, far less CPU times; the ratio to the baseline is printed too).  Targets (wall, idle
+machine):
+
+* ``formsync --version`` and ``formsync --help``: under 0.3 s;
+* ``formsync certify --graph ring:8 --ko 1.6 --kq 0.4 --beta 0.3`` (the paper's case, a
+  cold process with warm disk caches): under 1.5 s;
+* ``formsync montecarlo`` of the paper's case: 10 runs (the fixed cost before the first
+  run) and, with ``--montecarlo``, 1000 runs end to end: under 4 s wall.
+
+``--importtime`` also prints the ten slowest imports of each command
+(``python -X importtime``), the place to look when a number regresses.
+
+Run: ``.venv/bin/python benchmarks/bench_startup.py [--repeat 5] [--montecarlo] [--importtime]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+PAPER = ("--graph", "ring:8", "--ko", "1.6", "--kq", "0.4", "--beta", "0.3")
+
+#: label, arguments of ``python -m formsync_design``, target (s) or None, heavy (timed once)
+COMMANDS: list[tuple[str, tuple[str, ...], float | None, bool]] = [
+    ("formsync --version", ("--version",), 0.3, False),
+    ("formsync --help", ("--help",), 0.3, False),
+    ("formsync certify --help", ("certify", "--help"), None, False),
+    ("import formsync_design", (), None, False),
+    ("formsync certify (paper case)", ("certify", *PAPER), 1.5, False),
+    ("formsync montecarlo --runs 10", ("montecarlo", "--runs", "10"), None, True),
+]
+MONTECARLO_1000 = ("formsync montecarlo --runs 1000", ("montecarlo", "--runs", "1000"), 4.0, True)
+
+
+def _argv(args: tuple[str, ...], label: str) -> list[str]:
+    if label.startswith("import "):
+        return [sys.executable, "-c", "import formsync_design"]
+    return [sys.executable, "-m", "formsync_design", *args]
+
+
+def _cpu() -> float:
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
+def _time(argv: list[str]) -> tuple[float, float]:
+    """Wall and CPU seconds of one fresh process."""
+    c0, t0 = _cpu(), time.perf_counter()
+    r = subprocess.run(argv, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    dt, dc = time.perf_counter() - t0, _cpu() - c0
+    if r.returncode not in (0, 1):
+        raise SystemExit(f"{' '.join(argv)} failed (exit {r.returncode}): {r.stderr.strip()}")
+    return dt, dc
+
+
+def _line(label: str, times: list[tuple[float, float]], base: float) -> str:
+    wall = [w for w, _ in times]
+    med = statistics.median(wall)
+    cpu = statistics.median(c for _, c in times)
+    return (f"  {label:<34} wall median {med:6.3f} s  best {min(wall):6.3f} s  cpu {cpu:6.3f} s  "
+            f"({med / base:5.1f}x baseline)  load {os.getloadavg()[0]:.1f}")
+
+
+def _importtime(argv: list[str], top: int = 10) -> list[str]:
+    r = subprocess.run([argv[0], "-X", "importtime", *argv[1:]], cwd=ROOT,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    rows = []
+    for line in r.stderr.splitlines():
+        parts = line.split("|")
+        if len(parts) == 3 and parts[1].strip().isdigit():
+            rows.append((int(parts[1]), parts[2].rstrip()))
+    rows.sort(reverse=True)
+    return [f"      {us / 1e6:6.3f} s cumulative  {name.strip()}" for us, name in rows[:top]]
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--repeat", type=int, default=5, help="runs per command (default 5)")
+    ap.add_argument("--montecarlo", action="store_true", help="also time 1000 Monte-Carlo runs")
+    ap.add_argument("--importtime", action="store_true", help="slowest imports of each command")
+    a = ap.parse_args(argv)
+    env_note = f"python {sys.version.split()[0]}, {os.cpu_count()} CPUs"
+    print(f"start-up of formsync ({env_note}); {a.repeat} fresh processes per command")
+    base = [_time([sys.executable, "-c", "pass"]) for _ in range(a.repeat)]
+    b_med = statistics.median(w for w, _ in base)
+    print(_line("python -c pass (baseline)", base, b_med))
+    commands = COMMANDS + ([MONTECARLO_1000] if a.montecarlo else [])
+    for label, args, target, heavy in commands:
+        cmd = _argv(args, label)
+        _time(cmd)  # warm the disk caches (bytecode, derivations, compiled kernels)
+        times = [_time(cmd) for _ in range(1 if heavy else a.repeat)]
+        med = statistics.median(w for w, _ in times)
+        verdict = "" if target is None else (
+            f"  target < {target:g} s: {'met' if med < target else 'MISSED'}")
+        print(_line(label, times, b_med) + verdict)
+        if a.importtime:
+            print("\n".join(_importtime(cmd)))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
