@@ -152,3 +152,25 @@ def test_command_reference_parser_is_formsyncs_with_the_same_texts():
     trigger = next(a.help for a in _reference_parser()._subparsers._group_actions[0]
                    .choices["simulate"]._actions if "--trigger" in a.option_strings)
     assert r"\|q\_i - qhat\_i\|" in trigger
+
+
+_INCLUDE = re.compile(r"^```\{include\} (\S+)\n((?::[\w-]+:.*\n)*)```", re.M)
+
+
+def test_every_included_section_marker_is_found_once():
+    # the guide includes README/ARCHITECTURE sections between headings: a renamed heading
+    # breaks the build (-W); this names the page and the marker instead
+    checked = 0
+    for page in sorted(DOCS.rglob("*.md")):
+        if "_build" in page.parts or page.parts[len(DOCS.parts)] == "reports":
+            continue
+        for target, options in _INCLUDE.findall(page.read_text()):
+            text = (page.parent / target).resolve().read_text()
+            for key, value in re.findall(r"^:(start-after|end-before): (.*)$", options, re.M):
+                marker = value.strip()
+                if marker.startswith('"') and marker.endswith('"'):
+                    marker = marker[1:-1].replace('\\"', '"')
+                n = text.count(marker)
+                assert n == 1, f"{page.relative_to(ROOT)}: {key} {marker!r} occurs {n} times in {target}"
+                checked += 1
+    assert checked > 20
