@@ -43,8 +43,9 @@ extensions = [
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
+# docs/reports/ is a copy made by _copy_reports below (its CSV/JSON/TeX files are data);
+# docs/generated/ holds the stubs autosummary writes
 exclude_patterns = ["_build", "**/.ipynb_checkpoints"]
-# docs/reports/ is a copy made by _copy_reports below; its CSV/JSON/TeX files are data
 templates_path = ["_templates"]  # autosummary: one page per class, its documented methods
 
 # -- MyST: Markdown pages, the README/ARCHITECTURE sections they include, the reports
