@@ -311,7 +311,7 @@ class SimOptions:
         Convergence thresholds on Q_m (-) and Omega_m (rad/s), defaults 1e-4, 1e-5.
     q0_floor : float
         Singularity detection: stop when some ``q0_i <= q0_floor`` (default 0.02, where
-        ``|omega| ~ 2|q'|/q0`` is 100 |q'| and ``cond(Q) = 1/q0`` is 50).
+        ``|omega| ~ 2|q'|/q0`` is 100 ``|q'|`` and ``cond(Q) = 1/q0`` is 50).
     norm_tol : float
         Maximum tolerated quaternion norm drift (default 1e-5; the paper's case with
         ``sat`` drifts 1e-7 at the default step, ``sgn`` chattering ~1e-6 over 200 s).

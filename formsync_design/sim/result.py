@@ -30,7 +30,7 @@ class SimResult:
         not reached within the horizon (``not-converged``) or when the run stopped
         early (``singular``).
     final_omega_m, final_q_m : float
-    peak_torque : (N, 3) max |u| per spacecraft and axis (N m)
+    peak_torque : (N, 3) max ``|u|`` per spacecraft and axis (N m)
     min_q0 : (N,) over all sub-steps; singular_spacecraft (1-based) / singular_time when hit
         (both None otherwise; ``stop_time`` is the end of the trajectory either way)
     saturation_end_time : last grid time with some torque component at ``torque_limit``
