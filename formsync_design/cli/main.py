@@ -14,7 +14,7 @@ import sys
 import traceback
 from collections.abc import Sequence
 
-from formsync_design import __version__
+from formsync_design import __version__, outdir
 from formsync_design.cli import (
     certify as cmd_certify,
     derive as cmd_derive,
@@ -103,7 +103,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERRUPTED
     command = str(args.command)
     try:
-        return int(args.func(args))
+        with outdir.session():  # every --out a command claimed is released however it ends
+            return int(args.func(args))
     except BrokenPipeError:  # output piped into e.g. `head`: not an error
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_OK

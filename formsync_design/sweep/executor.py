@@ -171,10 +171,13 @@ def execute(
     n_workers: int,
     timeout: float,
     task_fn: Callable[[dict[str, Any]], dict[str, str]],
+    on_start: Callable[[], None] | None = None,
 ) -> None:
     """Run ``task_fn`` on every task, calling ``on_row`` (in this process) as rows arrive.
 
     Serial when ``n_workers == 0`` and no ``scheduler``; otherwise on Dask.
+    ``on_start`` is called once the executor is ready, before the first task runs
+    (the sweep creates its journal there).
     Raises :class:`ClusterError` for a cluster failure, the task's error class
     (module docstring) for a failed task, :class:`KeyboardInterrupt` on Ctrl-C
     after the cluster is closed.
@@ -188,6 +191,8 @@ def execute(
     if not tasks:
         return
     if n_workers == 0 and not scheduler:
+        if on_start is not None:
+            on_start()
         for t in tasks:
             try:
                 row = task_fn(t)
@@ -200,6 +205,8 @@ def execute(
     from distributed import as_completed
 
     with _client(scheduler, n_workers, timeout) as client:
+        if on_start is not None:
+            on_start()
         salt = hashlib.sha256(os.urandom(16)).hexdigest()[:12]
         futs = client.map(task_fn, list(tasks), key=[f"sweep-{salt}-{k}" for k in range(len(tasks))],
                           pure=False)
