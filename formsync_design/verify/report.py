@@ -52,6 +52,8 @@ def format_measurement(m: Measurement, spec: ClaimSpec) -> str:
     """
     if m.outcome is Outcome.SINGULAR:
         return "stopped at q0 → 0"
+    if m.outcome is Outcome.DIVERGED:
+        return "diverged"
     if m.outcome is Outcome.NEVER:
         return "never"
     if m.outcome is Outcome.UNDECIDED:
@@ -228,7 +230,8 @@ def write_verification_report(
     for t in res.topologies:
         ct = t.sim["convergence_time"]
         conv = _num(ct, "s") if ct is not None else (
-            "stopped at q0 → 0" if t.sim["status"] == "singular" else f"not within {t.horizon:g} s")
+            "stopped at q0 → 0" if t.sim["status"] == "singular" else
+            "diverged" if t.sim["status"] == "diverged" else f"not within {t.horizon:g} s")
         margin = "n/a" if t.derived_margin is None else _num(t.derived_margin)
         w(f"| `{t.graph}` | {t.lambda_max:.4g} | {t.max_degree} | {t.derived_status} | "
           f"{margin} | {t.paper_status} | {t.sim['status']} | {t.horizon:g} s | {conv} |")
