@@ -48,8 +48,8 @@ def unstable_case(tmp_path: Path) -> Path:
 
 
 def test_agent_run_that_goes_non_finite_is_diverged_with_its_time(unstable_case: Path) -> None:
-    from formsync_design.verify.agentcase import load_agent_case
     from formsync_design.sim.agents import simulate_agents
+    from formsync_design.verify.agentcase import load_agent_case
 
     case = load_agent_case(unstable_case)
     r = simulate_agents(case.design, case.formation(), case.options)

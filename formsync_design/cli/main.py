@@ -8,6 +8,7 @@ Every subcommand lives in its own module ``formsync_design.cli.<name>`` exposing
 from __future__ import annotations
 
 import argparse
+import gc
 import os
 import re
 import sys
@@ -89,10 +90,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     line on stderr; set ``FORMSYNC_TRACEBACK=1`` to see the traceback of a
     failure (exit 3).
 
+    Called as the program (``argv`` None), the objects left at the end are moved
+    out of the garbage collector's reach (``gc.freeze``): the interpreter's
+    final collections over a session's SymPy and CasADi objects otherwise take
+    seconds, and Ctrl-C must end the process within a second.
+
     >>> main(["--version"])  # doctest: +ELLIPSIS
     formsync ...
     0
     """
+    rc = _main(argv)
+    if argv is None:  # the process ends next: skip the final collections (docstring)
+        gc.freeze()
+    return rc
+
+
+def _main(argv: Sequence[str] | None) -> int:
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
