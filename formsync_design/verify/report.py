@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from matplotlib.figure import Figure
 
+from formsync_design.outdir import write_text
 from formsync_design.verify.claims import (
     EVENT_QUANTITIES,
     QUANTITIES,
@@ -327,5 +328,5 @@ def write_verification_report(
     for line in _observations(res):
         w(f"- {line}")
     w("")
-    md.write_text("\n".join(L) + "\n", encoding="utf-8")
+    write_text(md, "\n".join(L) + "\n")  # atomically: an interrupted run keeps the old report
     return md, tuple(figs)
