@@ -61,6 +61,7 @@ import numpy as np
 
 from formsync_design.errors import InputError
 from formsync_design.models.disturbances import Orbit
+from formsync_design.sim.agent_kernel import reference_rate_expressions
 from formsync_design.sim.agents import AgentFormation, AgentOptions, Reference
 from formsync_design.sim.formation import Gains
 from formsync_design.tomlio import load_toml
@@ -325,8 +326,10 @@ def parse_agent_case(data: dict, path: str = "<memory>", design: Any = None) -> 
         rate = ref_t.get("rate", ["0", "0", "0"])
         if not (isinstance(rate, list) and len(rate) == 3
                 and all(isinstance(r, (str, int, float)) and not isinstance(r, bool) for r in rate)):
-            raise InputError(f"expected reference.rate = three expressions in t, received {rate!r}")
-        reference = Reference(tuple(att), tuple(str(r) for r in rate))  # type: ignore[arg-type]
+            raise InputError(f"expected reference.rate = three expressions in t in {path}, "
+                             f"received {rate!r:.80}")
+        exprs = reference_rate_expressions([str(r) for r in rate], "reference.rate", path)
+        reference = Reference(tuple(att), exprs)  # type: ignore[arg-type]
     sim = dict(data.get("simulation", {}))
     kw: dict[str, Any] = {}
     for k, v in sim.items():
