@@ -156,9 +156,9 @@ class AgentCase:
         src = self.graph_input if spec is None else spec
         if isinstance(src, dict):
             arcs = src.get("arcs", [])
-            if not isinstance(arcs, list):
+            if not isinstance(arcs, list) or not all(isinstance(a, list) for a in arcs):
                 raise InputError(f"expected graph.arcs = [[i, j, a_ij], ...] in {self.path}, "
-                                 f"received {arcs!r}")
+                                 f"received {repr(arcs)[:60]}")
             g = digraph_from_edges([tuple(a) for a in arcs], n=src.get("n", self.n),
                                    pinning=src.get("pinning"), name=f"{self.name}-graph")
         else:

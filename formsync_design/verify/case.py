@@ -50,6 +50,7 @@ from formsync_design.models.disturbances import (
     no_disturbance,
     paper_disturbance,
 )
+from formsync_design.ranges import check_range, quantity_of
 from formsync_design.sim.simulator import Formation, Gains, SimOptions
 from formsync_design.spec.loader import load_spec
 from formsync_design.tomlio import load_toml
@@ -181,9 +182,19 @@ def make_disturbance(table: dict, inertias: np.ndarray, orbit: Orbit) -> Disturb
 
 
 def _num(v: Any, what: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+    """A finite number inside the range of its quantity (:func:`~formsync_design.ranges.quantity_of`
+    the key ``what``), checked before it is converted or used."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise InputError(f"expected a finite number for {what}, received {_shown(v)}")
+    if isinstance(v, float) and not math.isfinite(v):
         raise InputError(f"expected a finite number for {what}, received {v!r}")
+    check_range(v, quantity_of(what), what)
     return float(v)
+
+
+def _shown(v: Any) -> str:
+    text = repr(v)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def _numlist(v: Any, what: str, size: int | None = None) -> list[float]:
@@ -280,13 +291,15 @@ def check_case_tables(data: dict, tables: dict[str, set[str] | None], path: str)
             raise InputError(f"expected tables {sorted(tables)} in {path}, received unknown [{k}]")
         allowed = tables[k]
         if allowed is None:
+            if not isinstance(v, dict):
+                raise InputError(f"expected a table [{k}] in {path}, received {_shown(v)}")
             continue
         rows = v if k == "spacecraft" else [v]
         if k == "spacecraft" and not isinstance(v, list):
             raise InputError(f"expected [[spacecraft]] tables in {path}, received {type(v).__name__}")
         for row in rows:
             if not isinstance(row, dict):
-                raise InputError(f"expected a table [{k}] in {path}, received {row!r}")
+                raise InputError(f"expected a table [{k}] in {path}, received {_shown(row)}")
             extra = set(row) - allowed
             if extra:
                 raise InputError(f"expected keys {sorted(allowed)} in [{k}], received unknown {sorted(extra)}")
