@@ -188,3 +188,28 @@ def test_montecarlo_case_resolves_relative_to_the_campaign_file(tmp_path, monkey
     assert c.montecarlo is not None
     path, text = case_text(c.montecarlo, None)
     assert Path(path) == d / "mine.toml" and text == (d / "mine.toml").read_text()
+
+
+def test_a_case_names_its_graph_file_relative_to_itself(tmp_path, monkeypatch):
+    from formsync_design.verify.agentcase import load_agent_case
+    from formsync_design.verify.case import load_case
+
+    d = tmp_path / "cases"
+    d.mkdir()
+    (d / "g.txt").write_text("1 2\n2 3\n3 4\n4 1\n")
+    text = (ROOT / "verification" / "pd_consensus.toml").read_text()
+    (d / "c.toml").write_text(text.replace('graph = "ring:4"', 'graph = "g.txt"', 1))
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (elsewhere / "g.txt").write_text("1 2\n")  # a file of that name here is not the one read
+    monkeypatch.chdir(elsewhere)
+    case = load_case(d / "c.toml")
+    assert Path(case.graph_spec) == d / "g.txt" and case.graph().n == 4
+    ma = (ROOT / "verification" / "ma_so3.toml").read_text()
+    start, end = ma.index("[graph]"), ma.index("[gains]")
+    (d / "g5.txt").write_text("1 2\n2 3\n3 4\n4 5\n5 1\n")
+    no_table = ma[:start] + ma[end:]  # the [graph] table replaced by [case] graph = FILE
+    (d / "a.toml").write_text(no_table.replace('kind = "agent-comparison"',
+                                               'kind = "agent-comparison"\ngraph = "g5.txt"', 1))
+    agent = load_agent_case(d / "a.toml")
+    assert Path(agent.graph_input) == d / "g5.txt" and agent.graph().n == 5

@@ -70,6 +70,7 @@ from formsync_design.verify.case import (
     case_number,
     case_numbers,
     case_orbit,
+    case_path,
     check_case_tables,
     make_disturbance,
 )
@@ -349,8 +350,14 @@ def parse_agent_case(data: dict, path: str = "<memory>", design: Any = None) -> 
     if "graph" in data and "graph" in meta:
         raise InputError(f"expected one of [case] graph or a [graph] table in {path}, received both")
     graph_input: Any = data.get("graph", meta.get("graph", f"ring:{len(sc)}"))
-    if isinstance(graph_input, str) and (Path(path).parent / graph_input).is_file():
-        graph_input = str(Path(path).parent / graph_input)
+    if isinstance(graph_input, str):
+        if not graph_input.strip():
+            raise InputError(f"expected [case] graph as a graph spec or a graph file in {path}, "
+                             "received ''")
+        graph_input = case_path(graph_input.strip(), path)
+    elif not isinstance(graph_input, dict):
+        raise InputError(f"expected [case] graph as a graph spec or a graph file (or a [graph] "
+                         f"table) in {path}, received {repr(graph_input)[:60]}")
     case = AgentCase(
         name=str(meta.get("name", Path(path).stem)), title=str(meta.get("title", "")),
         source=str(meta.get("source", "")), path=path, kind=str(meta.get("kind", "agents")),

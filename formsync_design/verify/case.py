@@ -56,7 +56,8 @@ from formsync_design.spec.loader import load_spec
 from formsync_design.tomlio import load_toml
 
 __all__ = ["Case", "load_case", "default_case_path", "parse_case", "make_disturbance",
-           "case_number", "case_numbers", "case_matrix", "case_orbit", "check_case_tables"]
+           "case_number", "case_numbers", "case_matrix", "case_orbit", "check_case_tables",
+           "case_path"]
 
 _TABLES = {
     "case": {"name", "title", "source", "graph", "assumptions", "spec", "design", "kind"},
@@ -210,6 +211,19 @@ def _matrix(v: Any, what: str) -> np.ndarray:
     if not (isinstance(v, list) and len(v) == 3 and all(isinstance(r, list) and len(r) == 3 for r in v)):
         raise InputError(f"expected a 3x3 matrix (list of 3 lists of 3) for {what}, received {v!r}")
     return np.array([[_num(x, what) for x in r] for r in v])
+
+
+def case_path(text: str, path: str) -> str:
+    """A graph named in the case file at ``path``: a graph spec (``ring:8``, it has a ``:``)
+    or an absolute path as written, else a file relative to the case file's folder (never
+    to the current folder).
+
+    >>> case_path("ring:8", "cases/c.toml"), case_path("edges.txt", "cases/c.toml")
+    ('ring:8', 'cases/edges.txt')
+    """
+    if ":" in text or Path(text).is_absolute():
+        return text
+    return str(Path(path).parent / text)
 
 
 #: The case files' value checks, public for the other case kinds (one line on bad input).
@@ -385,13 +399,18 @@ def parse_case(data: dict, path: str = "<memory>") -> Case:
     if not (isinstance(assumptions, list) and all(isinstance(a, str) for a in assumptions)):
         raise InputError("expected case.assumptions to be a list of strings")
     dist = dict(data.get("disturbance", {"model": "paper"}))
+    graph = meta.get("graph", f"ring:{len(sc)}")
+    if not isinstance(graph, str) or not graph.strip():
+        raise InputError(f"expected case.graph as a graph spec or a graph file in {path}, "
+                         f"received {_shown(graph)}")
+    graph_spec = case_path(graph.strip(), path)
     inertias = np.array(J)
     case = Case(
         name=str(meta.get("name", Path(path).stem)),
         title=str(meta.get("title", "")),
         source=str(meta.get("source", "")),
         path=path,
-        graph_spec=str(meta.get("graph", f"ring:{len(sc)}")),
+        graph_spec=graph_spec,
         inertias=inertias,
         attitudes=np.array(A),
         rates=np.array(W),
