@@ -87,6 +87,7 @@ from typing import Any
 from formsync_design.errors import InputError
 from formsync_design.gains import GainBox, parse_number
 from formsync_design.ranges import check_range, quantity_of
+from formsync_design.sweep.campaign_fields import campaign_base, campaign_field, shown
 from formsync_design.sweep.designs import (
     DEFAULT_BOX,
     DEFAULT_REFERENCE,
@@ -366,75 +367,10 @@ def _check_agent_campaign(sp: Any, schema: SweepSchema, boxes: Sequence[GainBoxS
                          "received one")
 
 
-def _name(v: Any, base: Path) -> str:
-    if not isinstance(v, str) or not re.fullmatch(r"[A-Za-z0-9_.-]+", v):
-        raise InputError(f"expected campaign.name made of letters, digits, '_', '.', '-', "
-                         f"received {_shown(v)}")
-    return v
-
-
-def _title(v: Any, base: Path) -> str:
-    if not isinstance(v, str):
-        raise InputError(f"expected a string campaign.title, received {_shown(v)}")
-    return v
-
-
-def _graphs(v: Any, base: Path) -> tuple[str, ...]:
-    if isinstance(v, str):
-        raise InputError(f"expected campaign.graphs as a list of graph-set specs (graphs = "
-                         f"[{v!r:.40}]), received the string {v!r:.60}")
-    if not isinstance(v, list) or not v or not all(isinstance(g, str) and g.strip() for g in v):
-        raise InputError(f"expected campaign.graphs as a non-empty list of graph-set specs, "
-                         f"received {_shown(v)}")
-    return tuple(g.strip() for g in v)
-
-
-def _compare(v: Any, base: Path) -> str:
-    """``campaign.compare``: a finished sweep folder, relative to the campaign's base."""
-    if not isinstance(v, str):
-        raise InputError(f"expected campaign.compare as the path of a sweep results folder, "
-                         f"received {_shown(v)}")
-    v = v.strip()
-    if v:
-        p = Path(v) if Path(v).is_absolute() else base / v
-        if not ((p / "manifest.json").is_file() and (p / "results.csv").is_file()):
-            raise InputError(f"expected campaign.compare to name a finished sweep folder "
-                             f"(manifest.json and results.csv; relative to the campaign file), "
-                             f"received {v!r} (no such folder {str(p)!r})")
-    return v
-
-
-def _conditions(v: Any, base: Path) -> str:
-    if v not in ("derived", "paper"):
-        raise InputError(f"expected campaign.conditions derived or paper, received {_shown(v)}")
-    return str(v)
-
-
-def _margin(v: Any, base: Path) -> Fraction:
-    m = parse_number(v, "campaign.margin")
-    if m < 0:
-        raise InputError(f"expected a non-negative campaign.margin, received {float(m):g}")
-    return m
-
-
-def _design_text(v: Any, base: Path) -> Any:
-    return v  # checked with the design (_design_ref), after the fields before it
-
-
-_CAMPAIGN_FIELDS = {"name": _name, "title": _title, "graphs": _graphs, "compare": _compare,
-                    "conditions": _conditions, "margin": _margin, "design": _design_text,
-                    "spec": _design_text}
-
-
-def _shown(v: Any) -> str:
-    text = repr(v)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
 def _reference(data: dict, sp: Any, schema: SweepSchema) -> tuple[Fraction, ...]:
     ref = data["reference"] if "reference" in data else default_reference(sp, schema)
     if not isinstance(ref, dict):
-        raise InputError(f"expected a table [reference], received {_shown(ref)}")
+        raise InputError(f"expected a table [reference], received {shown(ref)}")
     if "name" in ref:
         raise InputError(f"expected only gains in [reference], received unknown {['name']}")
     ref = _gain_values(ref, "[reference]", sp, schema)
@@ -478,7 +414,7 @@ def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Pa
     # fault of the file), then the fields left out (their defaults, or "required")
     f: dict[str, Any] = {}
     for key in [*c, *(k for k in ("name", "graphs") if k not in c)]:
-        f[key] = _CAMPAIGN_FIELDS[key](c.get(key), Path(base))
+        f[key] = campaign_field(key, c.get(key), Path(base))
     ref_text, spec_arg = _design_ref(c, spec)
     sp = load_design(spec_arg) if spec_arg is not None else load_design(ref_text, spec_dir)
     schema = check_sweepable(sp)
@@ -556,26 +492,6 @@ def load_campaign(path: str | Path, spec: Any = None) -> Campaign:
     data = load_toml(p, "campaign TOML file")
     return campaign_from_dict(data, base=campaign_base(p), spec_dir=p.parent, spec=spec)
 
-
-def campaign_base(path: str | Path) -> Path:
-    """The folder a campaign file's relative paths (``compare``, ``dir:`` graph sets,
-    ``montecarlo.case``) resolve against: the file's folder; for a campaign shipped with the
-    package (``verification/NAME.toml``) the folder holding ``verification/``, the project
-    root its regeneration command names them from.
-
-    >>> from formsync_design.resources import case_file
-    >>> shipped = case_file("liang2016").parent / "sweep_pd_atlas5.toml"
-    >>> campaign_base(shipped) == shipped.parents[1]
-    True
-    >>> str(campaign_base("some/where/c.toml"))
-    'some/where'
-    """
-    from formsync_design.resources import case_file
-
-    p = Path(path)
-    if p.resolve().parent == case_file("liang2016").resolve().parent:
-        return p.parent.parent
-    return p.parent
 
 
 def resolve_spec(campaign: Campaign, spec: Any = None) -> Any:
