@@ -14,8 +14,9 @@ with an allow-list, building the SymPy expression node by node:
 
 Everything else -- attributes, calls of other names, subscripts, lambdas, comprehensions,
 strings, keywords, starred arguments, comparisons, boolean operators, unknown or dunder
-names -- and text longer than :data:`MAX_LENGTH`, nesting deeper than :data:`MAX_DEPTH` or a
-numeric exponent beyond :data:`MAX_EXPONENT` is refused with a one-line
+names -- and text longer than :data:`MAX_LENGTH`, nesting deeper than :data:`MAX_DEPTH`, a
+numeric exponent beyond :data:`MAX_EXPONENT` or a constant (sub-)expression beyond
+:data:`MAX_NUMBER` in magnitude is refused with a one-line
 :class:`~formsync_design.errors.InputError` naming the field (file and key) and the
 offending token.
 
@@ -117,6 +118,20 @@ class _Reader:
 
     # -- the walk ---------------------------------------------------------------
     def build(self, node: ast.AST, depth: int) -> Any:
+        """The expression of ``node``; a constant sub-expression stays within
+        ``|x| <= MAX_NUMBER`` (so no power of powers grows without bound)."""
+        e = self._build(node, depth)
+        if getattr(e, "is_number", False):
+            try:
+                mag = abs(complex(e))
+            except (OverflowError, TypeError, ValueError):
+                mag = math.inf
+            if not mag <= MAX_NUMBER:
+                raise self.refuse(f"the constant {self.segment(node)!r} beyond "
+                                  f"{MAX_NUMBER:g} in magnitude")
+        return e
+
+    def _build(self, node: ast.AST, depth: int) -> Any:
         sp = self.sp
         if depth > MAX_DEPTH:
             raise self.refuse(f"nesting deeper than {MAX_DEPTH}")
