@@ -11,7 +11,8 @@ kind (``[case] kind``, :mod:`formsync_design.verify.kinds`) reads it with
                     the leader with gain a_ij), n (optional), pinning = [b_1, ..., b_N]
     [gains]         the design's controller gains (a diagonal gain: one number or [x, y, z])
     [reference]     attitude = [q1, q2, q3, q0] (or euler_deg), rate = ["expr in t", ...]
-                    (rad/s, body frame); required exactly when the design declares LEADER
+                    (rad/s, body frame; formulas read by formsync_design.safeexpr, never
+                    evaluated); required exactly when the design declares LEADER
     [orbit]         altitude_km, mu, earth_radius_km   (for the disturbance models)
     [disturbance]   as in formation cases (model = "paper" | "none" | "constant" | ...)
     [simulation]    tf, output_step, step, integrator, switch, boundary_layer, torque_limit
