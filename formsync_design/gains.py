@@ -25,6 +25,7 @@ round-trips (``float(q) == q``), else as the string ``"p/q"``; ``±inf`` and
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
@@ -34,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from formsync_design.errors import InputError
+from formsync_design.ranges import check_range, show_number
 
 __all__ = [
     "parse_number",
@@ -45,13 +47,25 @@ __all__ = [
 ]
 
 
+#: The magnitude every number read must stay within (``|x| <= MAX_MAGNITUDE``, and a
+#: nonzero ``|x| >= MIN_MAGNITUDE``, so that it converts to a finite, nonzero float);
+#: the narrower range of each quantity is in :mod:`formsync_design.ranges`.
+MAX_MAGNITUDE = 1e15
+MIN_MAGNITUDE = 1e-300
+_MAX_EXACT, _MIN_EXACT = Fraction(10**15), Fraction(1, 10**300)
+_MAX_TEXT = 200
+_NUMBER_TEXT = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE]([+-]?\d{1,4}))?|[+-]?\d+/\d+")
+
+
 def parse_number(value: Any, name: str) -> Fraction:
     """The one exact-number parser: ``value`` as an exact :class:`Fraction`.
 
     Accepts ``int``, ``Fraction``, finite ``float``/numpy floats (taken as the
     decimal they print as), numpy integers and decimal/fraction strings
     (``"0.1"``, ``"1e-3"``, ``"3/7"``).  Raises :class:`InputError` naming
-    ``name`` for anything else (booleans, NaN, inf, text).
+    ``name`` for anything else (booleans, NaN, inf, text) and for a magnitude beyond
+    :data:`MAX_MAGNITUDE` (or a nonzero one below :data:`MIN_MAGNITUDE`), checked
+    before any arithmetic (``"1e999999999"`` is refused without computing its power).
 
     >>> parse_number("0.1", "K_o"), parse_number(0.1, "K_o"), parse_number("3/7", "x")
     (Fraction(1, 10), Fraction(1, 10), Fraction(3, 7))
@@ -59,12 +73,29 @@ def parse_number(value: Any, name: str) -> Fraction:
     Traceback (most recent call last):
     ...
     formsync_design.errors.InputError: expected a finite number for K_o, received 'nan'
+    >>> parse_number("1e400", "k_p")
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected k_p of magnitude at most 1e+15, received '1e400'
     """
+    q = _exact(value, name)
+    if q and not _MIN_EXACT <= abs(q) <= _MAX_EXACT:
+        shown = repr(value) if isinstance(value, str) else show_number(q)
+        bound = (f"at most {MAX_MAGNITUDE:g}" if abs(q) > MAX_MAGNITUDE
+                 else f"0 or at least {MIN_MAGNITUDE:g}")
+        raise InputError(f"expected {name} of magnitude {bound}, received {shown}")
+    return q
+
+
+def _exact(value: Any, name: str) -> Fraction:
     if isinstance(value, Fraction):
         return value
     if isinstance(value, (bool, np.bool_)):
         raise InputError(f"expected a number for {name}, received {value!r}")
     if isinstance(value, (int, np.integer)):
+        if abs(int(value)) > MAX_MAGNITUDE:
+            raise InputError(f"expected {name} of magnitude at most {MAX_MAGNITUDE:g}, received "
+                             f"{show_number(int(value))}")
         return Fraction(int(value))
     if isinstance(value, (float, np.floating)):
         f = float(value)
@@ -73,18 +104,27 @@ def parse_number(value: Any, name: str) -> Fraction:
         return Fraction(repr(f))
     if isinstance(value, str):
         t = value.strip()
-        try:
-            q = Fraction(t)
-        except (ValueError, ZeroDivisionError):
+        shown = repr(value) if len(value) <= 40 else repr(value[:37] + "...")
+        m = _NUMBER_TEXT.fullmatch(t) if len(t) <= _MAX_TEXT else None
+        if m is None:
             try:
-                f = float(t)
+                f = float(t) if len(t) <= _MAX_TEXT else 0.0
             except ValueError:
-                raise InputError(f"expected a number for {name}, received {value!r}") from None
+                raise InputError(f"expected a number for {name}, received {shown}") from None
             if not math.isfinite(f):
-                raise InputError(f"expected a finite number for {name}, received {value!r}") from None
-            raise InputError(f"expected a number for {name}, received {value!r}") from None
-        return q
-    raise InputError(f"expected a number for {name}, received {type(value).__name__} {value!r}")
+                raise InputError(f"expected a finite number for {name}, received {shown}") from None
+            raise InputError(f"expected a number for {name}, received {shown}") from None
+        if m.group(4) is not None and abs(int(m.group(4))) > 400:
+            raise InputError(f"expected {name} of magnitude at most {MAX_MAGNITUDE:g}, received "
+                             f"{shown}" if int(m.group(4)) > 0 else
+                             f"expected {name} of magnitude 0 or at least {MIN_MAGNITUDE:g}, "
+                             f"received {shown}")
+        try:
+            return Fraction(t)
+        except (ValueError, ZeroDivisionError):
+            raise InputError(f"expected a number for {name}, received {shown}") from None
+    raise InputError(f"expected a number for {name}, received {type(value).__name__} "
+                     f"{repr(value)[:40]}")
 
 
 def parse_real(value: Any, name: str) -> float:
@@ -146,7 +186,8 @@ def parse_gain_range(
     """Parse ``X`` or ``LO:HI`` (or a number, a pair, a :class:`GainRange`) into a range.
 
     ``positive`` requires ``lo > 0``; ``nonnegative`` (which overrides it)
-    requires ``lo >= 0``.
+    requires ``lo >= 0``.  Both bounds must lie in the range of a gain
+    (:mod:`formsync_design.ranges`: ``|x| <= 1e6``).
 
     >>> parse_gain_range("0.1:2", "K_o")
     GainRange(name='K_o', lo=Fraction(1, 10), hi=Fraction(2, 1))
@@ -171,6 +212,8 @@ def parse_gain_range(
             raise InputError(f"expected {name} as X or LO:HI, received {text!r}")
     else:
         lo = hi = parse_number(text, name)
+    check_range(lo, "gain", name)
+    check_range(hi, "gain", name)
     if hi < lo:
         raise InputError(f"expected LO <= HI for {name}, received reversed range {text!r}")
     if nonnegative:

@@ -39,6 +39,7 @@ import numpy as np
 from formsync_design.errors import GraphError, InputError
 from formsync_design.gains import json_number
 from formsync_design.graphs.build import check_size
+from formsync_design.ranges import check_range
 
 __all__ = ["GraphProperty", "Digraph", "Arc"]
 
@@ -119,6 +120,7 @@ class Digraph:
                 )
             if w <= 0:
                 raise GraphError(f"expected a positive weight a_{i + 1},{j + 1}, received {float(w):g} in {self.name!r}")
+            check_range(w, "weight", f"a_{i + 1},{j + 1} in {self.name!r}")
             if (i, j) in seen:
                 raise GraphError(f"expected each arc once, received a_{i + 1},{j + 1} twice in {self.name!r}")
             seen.add((i, j))
@@ -132,6 +134,7 @@ class Digraph:
                     raise GraphError(f"expected an exact (Fraction) pinning gain b_{i + 1}, received {type(b).__name__}")
                 if b < 0:
                     raise GraphError(f"expected a pinning gain b_{i + 1} >= 0, received {float(b):g} in {self.name!r}")
+                check_range(b, "weight", f"b_{i + 1} in {self.name!r}")
 
     # ------------------------------------------------------------ matrices
     @cached_property

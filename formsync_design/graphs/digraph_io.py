@@ -45,6 +45,9 @@ def _pinning(pinning: Any, n: int, name: str) -> tuple[Fraction, ...]:
                 raise GraphError(f"expected pinned spacecraft numbers in 1..{n}, received {k!r} in {name!r}")
             b[int(k) - 1] = parse_number(v, f"b_{k}")
         return tuple(b)
+    if not isinstance(pinning, (list, tuple, np.ndarray)):
+        raise GraphError(f"expected pinning gains b_1..b_{n} as a list or {{i: b_i}}, received "
+                         f"{type(pinning).__name__} {repr(pinning)[:40]} in {name!r}")
     vals = list(pinning)
     if len(vals) != n:
         raise GraphError(f"expected {n} pinning gains b_i, received {len(vals)} in {name!r}")

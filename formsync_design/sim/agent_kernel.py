@@ -48,6 +48,8 @@ __all__ = [
     "agent_law",
     "attitude_entries",
     "reference_rate_function",
+    "reference_rate_expressions",
+    "REFERENCE_FUNCTIONS",
     "AgentKernel",
     "agent_param_layout",
     "get_agent_kernel",
@@ -260,22 +262,52 @@ def agent_law(design: AgentDesign, m: int, switch: str = "sgn") -> AgentLaw:
     return out
 
 
+def reference_rate_expressions(rate: Sequence[Any], key: str = "reference.rate",
+                               path: str | None = None) -> tuple[Any, ...]:
+    """The three SymPy expressions in ``t`` (real) of a reference rate: SymPy expressions
+    are kept, text and numbers are read by :func:`formsync_design.safeexpr.parse_formula`
+    (never evaluated); ``key`` and ``path`` (the file) name the field in messages.
+
+    >>> reference_rate_expressions(["0.1*sin(t)", 0, "0.02"])
+    (0.1*sin(t), 0, 0.0200000000000000)
+    """
+    from formsync_design.safeexpr import parse_formula
+
+    ts = sp.Symbol("t", real=True)
+    where_file = f" in {path}" if path else ""
+    if isinstance(rate, (str, bytes)) or not isinstance(rate, Sequence) or len(rate) != 3:
+        raise InputError(f"expected {key} = three expressions in t{where_file}, received "
+                         f"{rate!r:.80}")
+    exprs = []
+    for k, r in enumerate(rate, start=1):
+        if isinstance(r, sp.Basic):
+            e = r
+        else:
+            e = parse_formula(r, f"{key}[{k}]{where_file}", variables={"t": ts},
+                              functions=REFERENCE_FUNCTIONS, constants=("pi",))
+        if e.free_symbols - {ts}:
+            raise InputError(f"expected {key}[{k}]{where_file} in t only, received the symbols "
+                             f"{sorted(str(s) for s in e.free_symbols - {ts})}")
+        exprs.append(e)
+    return tuple(exprs)
+
+
+#: What a reference rate may call: the functions the kernels compile (:mod:`sim.bridge`),
+#: whose derivatives they compile too.
+REFERENCE_FUNCTIONS = ("exp", "log", "sin", "cos", "tan", "tanh", "sqrt", "abs", "Abs",
+                       "atan", "asin", "acos")
+
+
 def reference_rate_function(rate: Sequence[Any]) -> ca.Function:
-    """``t -> (w_ref(t), w_ref'(t))`` from three SymPy expressions (or strings) in ``t``.
+    """``t -> (w_ref(t), w_ref'(t))`` from three SymPy expressions (or formulas) in ``t``
+    (:func:`reference_rate_expressions`).
 
     >>> f = reference_rate_function(["0.1*sin(t)", 0, "0.02"])
     >>> [round(float(x), 6) for x in ca.vertcat(*f(0.0)).full().ravel()]
     [0.0, 0.0, 0.02, 0.1, 0.0, 0.0]
     """
     ts = sp.Symbol("t", real=True)
-    try:
-        exprs = [sp.sympify(r, locals={"t": ts}) for r in rate]
-    except (sp.SympifyError, TypeError, SyntaxError) as e:
-        raise InputError(f"expected reference rates as expressions in t, received {list(rate)} "
-                         f"({type(e).__name__})") from None
-    if len(exprs) != 3 or any(e.free_symbols - {ts} for e in exprs):
-        raise InputError(f"expected three reference rate expressions in t only, received "
-                         f"{list(rate)}")
+    exprs = reference_rate_expressions(rate)
     t = ca.SX.sym("t")
     w = ca.vertcat(*[sympy_to_casadi(e, {ts: t}) for e in exprs])
     wd = ca.vertcat(*[sympy_to_casadi(sp.diff(e, ts), {ts: t}) for e in exprs])
@@ -333,7 +365,7 @@ def _normalise(x: Any, n: int, leader_at: int | None) -> Any:
 
 
 def _build(design: AgentDesign, neighbours: tuple[tuple[int, ...], ...], switch: str, M: int,
-           K: int, ref_rate: tuple[str, str, str], measured: bool = False) -> AgentKernel:
+           K: int, ref_rate: tuple[Any, ...], measured: bool = False) -> AgentKernel:
     n = len(neighbours)
     rep = design.representation
     na = ATTITUDE_SIZE[rep]
@@ -446,11 +478,13 @@ _KERNELS: dict[tuple[Any, ...], AgentKernel] = {}
 
 
 def get_agent_kernel(design: AgentDesign, neighbours: tuple[tuple[int, ...], ...], switch: str,
-                     M: int, K: int, ref_rate: tuple[str, str, str] = ("0", "0", "0"),
+                     M: int, K: int, ref_rate: Sequence[Any] = ("0", "0", "0"),
                      compile: bool = True, measured: bool = False) -> AgentKernel:
     """The (compiled, cached) kernel of a design on a graph structure (in-neighbour lists).
 
-    ``measured``: the kernel with the measurement/disturbance channel (``rhs``, ``observe``,
+    ``ref_rate``: the leader's body rate, three SymPy expressions in ``t`` (or formulas,
+    :func:`reference_rate_expressions`).  ``measured``: the kernel with the
+    measurement/disturbance channel (``rhs``, ``observe``,
     ``plant`` take an extra input ``ext`` of ``6N``: rate offsets the laws see, then extra
     torques; ``chunk(x0, h, p, EXT)`` takes ``EXT`` of ``6N x (M K)``, one column per RK4
     step) and the gyro failure times ``p[layout["tfail"]]``.
@@ -461,14 +495,14 @@ def get_agent_kernel(design: AgentDesign, neighbours: tuple[tuple[int, ...], ...
     from formsync_design.sim.kernels import compile_enabled, compile_function
 
     compile = bool(compile) and compile_enabled()
-    key = (design.key, neighbours, switch, M, K, tuple(str(r) for r in ref_rate), compile,
+    rate = reference_rate_expressions(ref_rate)
+    key = (design.key, neighbours, switch, M, K, tuple(sp.srepr(r) for r in rate), compile,
            measured)
     hit = _KERNELS.get(key)
     if hit is not None:
         return hit
     t0 = time.perf_counter()
-    k = _build(design, neighbours, switch, M, K, tuple(str(r) for r in ref_rate),  # type: ignore[arg-type]
-               measured)
+    k = _build(design, neighbours, switch, M, K, rate, measured)
     if compile:
         k.chunk, ok = compile_function(k.chunk, design.key)
         k.compiled = ok

@@ -34,7 +34,7 @@ from formsync_design.sim.agent_kernel import (
     agent_law,
     gain_vector,
     get_agent_kernel,
-    reference_rate_function,
+    reference_rate_expressions,
 )
 from formsync_design.sim.hybrid import (
     HybridOptions,
@@ -80,11 +80,10 @@ def reference_trajectory(reference: Any, tf: float) -> Any:
     >>> np.round(f(10.0)[0], 12).tolist() == np.round([0, 0, math.sin(0.5), math.cos(0.5)], 12).tolist()
     True
     """
-    reference_rate_function(reference.rate)  # validates the expressions
     import sympy as sp
 
     ts = sp.Symbol("t", real=True)
-    exprs = [sp.sympify(r, locals={"t": ts}) for r in reference.rate]
+    exprs = list(reference_rate_expressions(reference.rate))
     w_np = sp.lambdify(ts, exprs, "numpy")
     wd_np = sp.lambdify(ts, [sp.diff(e, ts) for e in exprs], "numpy")
     q0 = np.asarray(reference.attitude, float)

@@ -38,6 +38,7 @@ from formsync_design.sim.agent_kernel import (
     agent_state_names,
     gain_vector,
     get_agent_kernel,
+    reference_rate_expressions,
     reference_rate_function,
 )
 from formsync_design.sim.formation import Gains
@@ -62,29 +63,33 @@ __all__ = [
 @dataclass(frozen=True)
 class Reference:
     """A leader's (reference) motion: initial attitude ``(q1, q2, q3, q0)`` and body rate
-    ``w_ref(t)`` as three expressions in ``t`` (constants are expressions too).
+    ``w_ref(t)`` as three SymPy expressions in ``t`` (constants are expressions too).
 
-    >>> Reference((0, 0, 0, 1), ("0.01", "0", "0")).constant_rate
-    True
+    ``rate`` may be given as formulas (text or numbers): they are read by
+    :func:`formsync_design.safeexpr.parse_formula` (never evaluated) and stored as
+    expressions.
+
+    >>> r = Reference((0, 0, 0, 1), ("0.01", "0", "0"))
+    >>> r.constant_rate, r.rate
+    (True, (0.0100000000000000, 0, 0))
     """
 
     attitude: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
-    rate: tuple[str, str, str] = ("0", "0", "0")
+    rate: tuple[Any, Any, Any] = ("0", "0", "0")
 
     def __post_init__(self) -> None:
         q = np.asarray(self.attitude, dtype=float)
         if q.shape != (4,) or abs(float(np.linalg.norm(q)) - 1) > 1e-9:
             raise InputError(f"expected a unit reference quaternion (q1, q2, q3, q0), received "
                              f"{list(self.attitude)}")
-        reference_rate_function(self.rate)  # validates the expressions
+        rate = reference_rate_expressions(self.rate)
+        reference_rate_function(rate)  # validates that the kernels compile them
         object.__setattr__(self, "attitude", tuple(float(v) for v in q))
-        object.__setattr__(self, "rate", tuple(str(r) for r in self.rate))
+        object.__setattr__(self, "rate", rate)
 
     @property
     def constant_rate(self) -> bool:
-        import sympy as sp
-
-        return all(not sp.sympify(r).free_symbols for r in self.rate)
+        return all(not r.free_symbols for r in self.rate)
 
 
 @dataclass(frozen=True)

@@ -86,6 +86,8 @@ from typing import Any
 
 from formsync_design.errors import InputError
 from formsync_design.gains import GainBox, parse_number
+from formsync_design.ranges import check_range, quantity_of
+from formsync_design.sweep.campaign_fields import campaign_base, campaign_field, shown
 from formsync_design.sweep.designs import (
     DEFAULT_BOX,
     DEFAULT_REFERENCE,
@@ -110,6 +112,7 @@ __all__ = [
     "campaign_from_dict",
     "load_campaign",
     "campaign_hash",
+    "campaign_base",
     "graph_records",
     "case_text",
     "resolve_spec",
@@ -219,10 +222,12 @@ def _pos_int(v: Any, what: str, lo: int = 1, hi: int | None = None) -> int:
 
 
 def _pos_float(v: Any, what: str, *, allow_zero: bool = False) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0 or (
-        v == 0 and not allow_zero
-    ):
-        raise InputError(f"expected a {'non-negative' if allow_zero else 'positive'} number for {what}, received {v!r}")
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or (
+            isinstance(v, float) and not math.isfinite(v)) or v < 0 or (v == 0 and not allow_zero):
+        shown = repr(v) if len(repr(v)) <= 60 else repr(v)[:57] + "..."
+        raise InputError(f"expected a {'non-negative' if allow_zero else 'positive'} number for "
+                         f"{what}, received {shown}")
+    check_range(v, quantity_of(what), what)
     return float(v)
 
 
@@ -289,7 +294,7 @@ def _boxes(data: dict, sp: Any, schema: SweepSchema) -> list[GainBoxSpec]:
 _LAGRANGIAN_MC = ("phases", "K_v")
 
 
-def _montecarlo(m: Any, sp: Any, schema: SweepSchema) -> MonteCarloSpec:
+def _montecarlo(m: Any, sp: Any, schema: SweepSchema, base: Path = Path(".")) -> MonteCarloSpec:
     sw = schema.switching
     if isinstance(m, dict) and schema.agent:
         for k in _LAGRANGIAN_MC:
@@ -335,6 +340,7 @@ def _montecarlo(m: Any, sp: Any, schema: SweepSchema) -> MonteCarloSpec:
         disturbance=dist,
         switching=sw,
         agent=schema.agent,
+        base=str(base),
     )
 
 
@@ -361,6 +367,21 @@ def _check_agent_campaign(sp: Any, schema: SweepSchema, boxes: Sequence[GainBoxS
                          "received one")
 
 
+def _reference(data: dict, sp: Any, schema: SweepSchema) -> tuple[Fraction, ...]:
+    ref = data["reference"] if "reference" in data else default_reference(sp, schema)
+    if not isinstance(ref, dict):
+        raise InputError(f"expected a table [reference], received {shown(ref)}")
+    if "name" in ref:
+        raise InputError(f"expected only gains in [reference], received unknown {['name']}")
+    ref = _gain_values(ref, "[reference]", sp, schema)
+    reference = tuple(parse_number(ref[g], f"reference.{g}") for g in schema.box)
+    for g, v in zip(schema.box, reference):
+        check_range(v, "gain", f"reference.{g}")
+    if any(v <= 0 for v in reference):
+        raise InputError(f"expected positive reference gains, received {[float(v) for v in reference]}")
+    return reference
+
+
 def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Path = ".",
                        spec: Any = None) -> Campaign:
     """Validate a campaign document (the TOML layout of :func:`load_campaign`).
@@ -384,69 +405,60 @@ def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Pa
     ('agent', [1.15, 0.15, 0.03, 0.03, 0.01])
     """
     if not isinstance(data, dict):
-        raise InputError(f"expected a campaign table, received {data!r}")
+        raise InputError(f"expected a campaign table, received {data!r:.60}")
     extra = set(data) - _TOP
     if extra:
         raise InputError(f"expected tables {sorted(_TOP)} in the campaign, received unknown {sorted(extra)}")
     c = _check_keys(data.get("campaign", {}), "campaign")
-    name = c.get("name", "")
-    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z0-9_.-]+", name):
-        raise InputError(f"expected campaign.name made of letters, digits, '_', '.', '-', received {name!r}")
-    title = c.get("title", "")
-    if not isinstance(title, str):
-        raise InputError(f"expected a string campaign.title, received {title!r}")
-    graphs = c.get("graphs")
-    if isinstance(graphs, str):
-        graphs = [graphs]
-    if not isinstance(graphs, list) or not graphs or not all(isinstance(g, str) and g.strip() for g in graphs):
-        raise InputError(f"expected campaign.graphs as a non-empty list of graph-set specs, received {graphs!r}")
-    compare = c.get("compare", "")
-    if not isinstance(compare, str):
-        raise InputError(f"expected campaign.compare as the path of a sweep results folder, received "
-                         f"{compare!r}")
+    # [campaign] field by field in the order written (the first error named is the first
+    # fault of the file), then the fields left out (their defaults, or "required")
+    f: dict[str, Any] = {}
+    for key in [*c, *(k for k in ("name", "graphs") if k not in c)]:
+        f[key] = campaign_field(key, c.get(key), Path(base))
     ref_text, spec_arg = _design_ref(c, spec)
     sp = load_design(spec_arg) if spec_arg is not None else load_design(ref_text, spec_dir)
     schema = check_sweepable(sp)
-    cond = c.get("conditions", "derived")
-    if cond not in ("derived", "paper"):
-        raise InputError(f"expected campaign.conditions derived or paper, received {cond!r}")
+    cond = f.get("conditions", "derived")
     if cond == "paper" and not is_default_design(sp):
         raise InputError(f"expected campaign.conditions derived for design {sp.name} (the printed "
                          "conditions are liang2016's), received paper")
-    margin = parse_number(c.get("margin", 0), "campaign.margin")
-    if margin < 0:
-        raise InputError(f"expected a non-negative campaign.margin, received {float(margin):g}")
-    ref = data["reference"] if "reference" in data else default_reference(sp, schema)
-    if not isinstance(ref, dict):
-        raise InputError(f"expected a table [reference], received {ref!r}")
-    if "name" in ref:
-        raise InputError(f"expected only gains in [reference], received unknown {['name']}")
-    ref = _gain_values(ref, "[reference]", sp, schema)
-    reference = tuple(parse_number(ref[g], f"reference.{g}") for g in schema.box)
-    if any(v <= 0 for v in reference):
-        raise InputError(f"expected positive reference gains, received {[float(v) for v in reference]}")
-    boxes = _boxes(data, sp, schema)
-    reg = _check_keys(data.get("region", {}), "region")
-    resolution = _pos_int(reg.get("resolution", 8), "region.resolution", 1, 512)
-    des = _check_keys(data.get("design", {}), "design")
-    betas = _pos_int(des.get("betas", 5), "design.betas", 1, 1000)
-    penalty = _pos_float(des.get("penalty", 0.0), "design.penalty", allow_zero=True)
-    mc = _montecarlo(data["montecarlo"], sp, schema) if "montecarlo" in data else None
+    # the other tables in the order written (each needs only the design)
+    reference: tuple[Fraction, ...] = ()
+    boxes: list[GainBoxSpec] = []
+    resolution, betas, penalty, mc = 8, 5, 0.0, None
+    for table in [*(t for t in data if t != "campaign"), "reference", "box"]:
+        if table == "reference" and not reference:
+            reference = _reference(data, sp, schema)
+        elif table == "box" and not boxes:
+            boxes = _boxes(data, sp, schema)
+        elif table == "region":
+            reg = _check_keys(data["region"], "region")
+            resolution = _pos_int(reg.get("resolution", 8), "region.resolution", 1, 512)
+        elif table == "design":
+            des = _check_keys(data["design"], "design")
+            betas = _pos_int(des.get("betas", 5), "design.betas", 1, 1000)
+            penalty = _pos_float(des.get("penalty", 0.0), "design.penalty", allow_zero=True)
+        elif table == "montecarlo":
+            mc = _montecarlo(data["montecarlo"], sp, schema, Path(base))
     if schema.agent:
         _check_agent_campaign(sp, schema, boxes, penalty, mc)
+    name, title, graphs = f["name"], f.get("title", ""), f["graphs"]
+    margin, compare = f.get("margin", Fraction(0)), f.get("compare", "")
     return Campaign(
-        name=name, title=title, graphs=tuple(g.strip() for g in graphs), boxes=tuple(boxes),
+        name=name, title=title, graphs=graphs, boxes=tuple(boxes),
         reference=reference, conditions=cond, margin=margin, resolution=resolution,
         design_betas=betas, design_penalty=penalty, montecarlo=mc, base=str(base),
         spec=ref_text, spec_dir=str(spec_dir), schema=schema,
-        spec_value=sp if spec_arg is not None else None, compare=compare.strip(),
+        spec_value=sp if spec_arg is not None else None, compare=compare,
     )
 
 
 def load_campaign(path: str | Path, spec: Any = None) -> Campaign:
-    """Load a campaign TOML file; graph folders and the Monte-Carlo case are
-    resolved relative to the current directory, ``campaign.design`` (a shipped
-    design's name or a design file, default liang2016) relative to the campaign file.
+    """Load a campaign TOML file; its relative paths -- ``compare``, graph folders
+    (``dir:PATH``), the Monte-Carlo case and ``campaign.design`` (a shipped design's name or
+    a design file, default liang2016) -- resolve relative to the campaign file
+    (:func:`campaign_base`), never to the current directory.  Each table is validated
+    field by field in the order written.
     ``spec``: the design when the file names none (``--design``).
 
     Layout::
@@ -478,7 +490,8 @@ def load_campaign(path: str | Path, spec: Any = None) -> Campaign:
 
     p = Path(path)
     data = load_toml(p, "campaign TOML file")
-    return campaign_from_dict(data, spec_dir=p.parent, spec=spec)
+    return campaign_from_dict(data, base=campaign_base(p), spec_dir=p.parent, spec=spec)
+
 
 
 def resolve_spec(campaign: Campaign, spec: Any = None) -> Any:

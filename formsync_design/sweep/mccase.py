@@ -8,7 +8,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
@@ -37,6 +37,9 @@ class MonteCarloSpec:
     (:meth:`~formsync_design.verify.agentcase.AgentCase.cycled`); ``tf``, ``step``,
     ``output_step`` are ``None`` unless given (then the case's ``[simulation]`` options);
     ``phases`` and ``K_v`` do not apply.
+
+    ``base``: the folder a relative ``case`` path resolves against (the campaign file's,
+    :func:`~formsync_design.sweep.campaign.campaign_base`; not part of the definition).
     """
 
     runs: int = 20
@@ -53,6 +56,7 @@ class MonteCarloSpec:
     disturbance: str = ""
     switching: str | None = "K_v"
     agent: bool = False
+    base: str = field(default=".", compare=False)
 
     def to_dict(self) -> dict[str, Any]:
         if self.agent:
@@ -85,7 +89,7 @@ def case_text(mc: MonteCarloSpec, design: Any = None) -> tuple[str, str]:
     if not mc.case:
         p = default_case_path()
     else:
-        p = _named_case(mc.case)
+        p = _named_case(mc.case, mc.base)
     if case_is_agent(p):
         raise InputError(f"expected a Lagrangian case in montecarlo.case, received the agent "
                          f"case {mc.case}")
@@ -96,13 +100,15 @@ def case_text(mc: MonteCarloSpec, design: Any = None) -> tuple[str, str]:
     return str(p), p.read_text(encoding="utf-8")
 
 
-def _named_case(case: str) -> Path:
-    """``montecarlo.case``: a shipped case's name (unless such a file exists here), else a path."""
+def _named_case(case: str, base: str = ".") -> Path:
+    """``montecarlo.case``: a shipped case's name (unless such a file exists in ``base``),
+    else a path relative to ``base``."""
     from formsync_design.resources import case_file, case_names
 
-    if case.isidentifier() and case in case_names() and not Path(case).exists():
+    p = Path(case) if Path(case).is_absolute() else Path(base) / case
+    if case.isidentifier() and case in case_names() and not p.exists():
         return case_file(case)
-    return Path(case)
+    return p
 
 
 def _agent_case_text(mc: MonteCarloSpec, design: Any) -> tuple[str, str]:
@@ -119,7 +125,7 @@ def _agent_case_text(mc: MonteCarloSpec, design: Any) -> tuple[str, str]:
                              f"{design.name} (no shipped case names it), received none")
         p = shipped
     else:
-        p = _named_case(mc.case)
+        p = _named_case(mc.case, mc.base)
     if p.is_file() and not case_is_agent(p):
         raise InputError(f"expected an agent case ([case] design naming an agent design) in "
                          f"montecarlo.case for the agent design {design.name}, received the "

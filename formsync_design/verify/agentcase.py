@@ -11,7 +11,8 @@ kind (``[case] kind``, :mod:`formsync_design.verify.kinds`) reads it with
                     the leader with gain a_ij), n (optional), pinning = [b_1, ..., b_N]
     [gains]         the design's controller gains (a diagonal gain: one number or [x, y, z])
     [reference]     attitude = [q1, q2, q3, q0] (or euler_deg), rate = ["expr in t", ...]
-                    (rad/s, body frame); required exactly when the design declares LEADER
+                    (rad/s, body frame; formulas read by formsync_design.safeexpr, never
+                    evaluated); required exactly when the design declares LEADER
     [orbit]         altitude_km, mu, earth_radius_km   (for the disturbance models)
     [disturbance]   as in formation cases (model = "paper" | "none" | "constant" | ...)
     [simulation]    tf, output_step, step, integrator, switch, boundary_layer, torque_limit
@@ -61,6 +62,7 @@ import numpy as np
 
 from formsync_design.errors import InputError
 from formsync_design.models.disturbances import Orbit
+from formsync_design.sim.agent_kernel import reference_rate_expressions
 from formsync_design.sim.agents import AgentFormation, AgentOptions, Reference
 from formsync_design.sim.formation import Gains
 from formsync_design.tomlio import load_toml
@@ -69,6 +71,7 @@ from formsync_design.verify.case import (
     case_number,
     case_numbers,
     case_orbit,
+    case_path,
     check_case_tables,
     make_disturbance,
 )
@@ -156,9 +159,9 @@ class AgentCase:
         src = self.graph_input if spec is None else spec
         if isinstance(src, dict):
             arcs = src.get("arcs", [])
-            if not isinstance(arcs, list):
+            if not isinstance(arcs, list) or not all(isinstance(a, list) for a in arcs):
                 raise InputError(f"expected graph.arcs = [[i, j, a_ij], ...] in {self.path}, "
-                                 f"received {arcs!r}")
+                                 f"received {repr(arcs)[:60]}")
             g = digraph_from_edges([tuple(a) for a in arcs], n=src.get("n", self.n),
                                    pinning=src.get("pinning"), name=f"{self.name}-graph")
         else:
@@ -375,8 +378,10 @@ def parse_agent_case(data: dict, path: str = "<memory>", design: Any = None) -> 
         rate = ref_t.get("rate", ["0", "0", "0"])
         if not (isinstance(rate, list) and len(rate) == 3
                 and all(isinstance(r, (str, int, float)) and not isinstance(r, bool) for r in rate)):
-            raise InputError(f"expected reference.rate = three expressions in t, received {rate!r}")
-        reference = Reference(tuple(att), tuple(str(r) for r in rate))  # type: ignore[arg-type]
+            raise InputError(f"expected reference.rate = three expressions in t in {path}, "
+                             f"received {rate!r:.80}")
+        exprs = reference_rate_expressions([str(r) for r in rate], "reference.rate", path)
+        reference = Reference(tuple(att), exprs)  # type: ignore[arg-type]
     sim = dict(data.get("simulation", {}))
     kw: dict[str, Any] = {}
     for k, v in sim.items():
@@ -396,8 +401,14 @@ def parse_agent_case(data: dict, path: str = "<memory>", design: Any = None) -> 
     if "graph" in data and "graph" in meta:
         raise InputError(f"expected one of [case] graph or a [graph] table in {path}, received both")
     graph_input: Any = data.get("graph", meta.get("graph", f"ring:{len(sc)}"))
-    if isinstance(graph_input, str) and (Path(path).parent / graph_input).is_file():
-        graph_input = str(Path(path).parent / graph_input)
+    if isinstance(graph_input, str):
+        if not graph_input.strip():
+            raise InputError(f"expected [case] graph as a graph spec or a graph file in {path}, "
+                             "received ''")
+        graph_input = case_path(graph_input.strip(), path)
+    elif not isinstance(graph_input, dict):
+        raise InputError(f"expected [case] graph as a graph spec or a graph file (or a [graph] "
+                         f"table) in {path}, received {repr(graph_input)[:60]}")
     case = AgentCase(
         name=str(meta.get("name", Path(path).stem)), title=str(meta.get("title", "")),
         source=str(meta.get("source", "")), path=path, kind=str(meta.get("kind", "agents")),

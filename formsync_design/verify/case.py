@@ -50,12 +50,14 @@ from formsync_design.models.disturbances import (
     no_disturbance,
     paper_disturbance,
 )
+from formsync_design.ranges import check_range, quantity_of
 from formsync_design.sim.simulator import Formation, Gains, SimOptions
 from formsync_design.spec.loader import load_spec
 from formsync_design.tomlio import load_toml
 
 __all__ = ["Case", "load_case", "default_case_path", "parse_case", "make_disturbance",
-           "case_number", "case_numbers", "case_matrix", "case_orbit", "check_case_tables"]
+           "case_number", "case_numbers", "case_matrix", "case_orbit", "check_case_tables",
+           "case_path"]
 
 _TABLES = {
     "case": {"name", "title", "source", "graph", "assumptions", "spec", "design", "kind"},
@@ -181,9 +183,19 @@ def make_disturbance(table: dict, inertias: np.ndarray, orbit: Orbit) -> Disturb
 
 
 def _num(v: Any, what: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+    """A finite number inside the range of its quantity (:func:`~formsync_design.ranges.quantity_of`
+    the key ``what``), checked before it is converted or used."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise InputError(f"expected a finite number for {what}, received {_shown(v)}")
+    if isinstance(v, float) and not math.isfinite(v):
         raise InputError(f"expected a finite number for {what}, received {v!r}")
+    check_range(v, quantity_of(what), what)
     return float(v)
+
+
+def _shown(v: Any) -> str:
+    text = repr(v)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def _numlist(v: Any, what: str, size: int | None = None) -> list[float]:
@@ -199,6 +211,19 @@ def _matrix(v: Any, what: str) -> np.ndarray:
     if not (isinstance(v, list) and len(v) == 3 and all(isinstance(r, list) and len(r) == 3 for r in v)):
         raise InputError(f"expected a 3x3 matrix (list of 3 lists of 3) for {what}, received {v!r}")
     return np.array([[_num(x, what) for x in r] for r in v])
+
+
+def case_path(text: str, path: str) -> str:
+    """A graph named in the case file at ``path``: a graph spec (``ring:8``, it has a ``:``)
+    or an absolute path as written, else a file relative to the case file's folder (never
+    to the current folder).
+
+    >>> case_path("ring:8", "cases/c.toml"), case_path("edges.txt", "cases/c.toml")
+    ('ring:8', 'cases/edges.txt')
+    """
+    if ":" in text or Path(text).is_absolute():
+        return text
+    return str(Path(path).parent / text)
 
 
 #: The case files' value checks, public for the other case kinds (one line on bad input).
@@ -280,13 +305,15 @@ def check_case_tables(data: dict, tables: dict[str, set[str] | None], path: str)
             raise InputError(f"expected tables {sorted(tables)} in {path}, received unknown [{k}]")
         allowed = tables[k]
         if allowed is None:
+            if not isinstance(v, dict):
+                raise InputError(f"expected a table [{k}] in {path}, received {_shown(v)}")
             continue
         rows = v if k == "spacecraft" else [v]
         if k == "spacecraft" and not isinstance(v, list):
             raise InputError(f"expected [[spacecraft]] tables in {path}, received {type(v).__name__}")
         for row in rows:
             if not isinstance(row, dict):
-                raise InputError(f"expected a table [{k}] in {path}, received {row!r}")
+                raise InputError(f"expected a table [{k}] in {path}, received {_shown(row)}")
             extra = set(row) - allowed
             if extra:
                 raise InputError(f"expected keys {sorted(allowed)} in [{k}], received unknown {sorted(extra)}")
@@ -372,13 +399,18 @@ def parse_case(data: dict, path: str = "<memory>") -> Case:
     if not (isinstance(assumptions, list) and all(isinstance(a, str) for a in assumptions)):
         raise InputError("expected case.assumptions to be a list of strings")
     dist = dict(data.get("disturbance", {"model": "paper"}))
+    graph = meta.get("graph", f"ring:{len(sc)}")
+    if not isinstance(graph, str) or not graph.strip():
+        raise InputError(f"expected case.graph as a graph spec or a graph file in {path}, "
+                         f"received {_shown(graph)}")
+    graph_spec = case_path(graph.strip(), path)
     inertias = np.array(J)
     case = Case(
         name=str(meta.get("name", Path(path).stem)),
         title=str(meta.get("title", "")),
         source=str(meta.get("source", "")),
         path=path,
-        graph_spec=str(meta.get("graph", f"ring:{len(sc)}")),
+        graph_spec=graph_spec,
         inertias=inertias,
         attitudes=np.array(A),
         rates=np.array(W),

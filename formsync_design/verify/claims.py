@@ -52,6 +52,7 @@ import numpy as np
 
 from formsync_design.errors import InputError
 from formsync_design.gains import json_number
+from formsync_design.ranges import check_range, quantity_of
 
 __all__ = [
     "QUANTITIES",
@@ -265,8 +266,10 @@ class ClaimSettings:
 
 
 def _float(v: Any, what: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise InputError(f"expected a finite number for {what}, received {v!r}")
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or (
+            isinstance(v, float) and not math.isfinite(v)):
+        raise InputError(f"expected a finite number for {what}, received {repr(v)[:60]}")
+    check_range(v, quantity_of(what.split(" ")[0]), what)
     return float(v)
 
 
@@ -336,7 +339,7 @@ def parse_claims(table: dict, path: str = "<case>") -> tuple[ClaimSettings, tupl
     need = {"text", "paper", "quantity", "op", "value"}
     for key, it in items.items():
         if not isinstance(it, dict):
-            raise InputError(f"expected a table for claims.items.{key}, received {it!r}")
+            raise InputError(f"expected a table for claims.items.{key}, received {repr(it)[:60]}")
         missing = need - set(it)
         if missing:
             raise InputError(f"expected keys {sorted(need)} in claims.items.{key}, missing {sorted(missing)}")
@@ -344,6 +347,10 @@ def parse_claims(table: dict, path: str = "<case>") -> tuple[ClaimSettings, tupl
         if extra:
             raise InputError(f"expected only {sorted(need | {'unit', 'note'})} in claims.items.{key}, "
                              f"received {sorted(extra)}")
+        for k in ("quantity", "op"):
+            if not isinstance(it[k], str):
+                raise InputError(f"expected a string claims.items.{key}.{k}, received "
+                                 f"{repr(it[k])[:60]}")
         if it["quantity"] not in QUANTITIES:
             raise InputError(f"expected claims.items.{key}.quantity in {sorted(QUANTITIES)}, "
                              f"received {it['quantity']!r}")

@@ -45,6 +45,7 @@ from formsync_design.gains import parse_real
 from formsync_design.models.flyaround import FlyaroundParams
 from formsync_design.models.orbit import KeplerElements
 from formsync_design.models.thrusters import zhang2014_layout
+from formsync_design.ranges import check_range, quantity_of
 from formsync_design.sim.flyaround import ALLOCATIONS, FlyaroundOptions, FlyaroundScenario
 from formsync_design.spec.declarations import GainKind
 from formsync_design.spec.loader import Spec, load_spec
@@ -157,6 +158,7 @@ def _num(t: dict, key: str, table: str, where: str, default: Any = None,
         return float(default)
     try:
         v = parse_real(t[key], f"{table}.{key}")
+        check_range(v, quantity_of(f"{table}.{key}"), f"{table}.{key}")
     except InputError as e:
         raise InputError(f"{where}: {e}") from None
     if positive and v <= 0:
@@ -170,7 +172,9 @@ def _vec(t: dict, key: str, table: str, where: str, n: int, default: Any) -> np.
     if arr.shape != (n,) and not (n == 9 and arr.shape == (3, 3)):
         raise InputError(f"expected {table}.{key} as {n if n != 9 else '3x3'} numbers in "
                          f"{where}, received shape {arr.shape}")
-    return np.array([parse_real(v, f"{table}.{key}") for v in arr.ravel()], dtype=float)
+    q = quantity_of(f"{table}.{key}")
+    return np.array([check_range(parse_real(v, f"{table}.{key}"), q, f"{table}.{key}")
+                     for v in arr.ravel()], dtype=float)
 
 
 def _orbit(t: dict, name: str, where: str) -> KeplerElements:
@@ -253,6 +257,10 @@ def _claims(t: dict, where: str) -> tuple[tuple[dict, ...], tuple[dict, ...]]:
                 got = sorted(c) if isinstance(c, dict) else type(c).__name__
                 raise InputError(f"expected claims.{key} entries with keys {sorted(keys)} in "
                                  f"{where}, received {got}")
+            for field_ in ("id", "quantity", "op", "match"):
+                if field_ in c and not isinstance(c[field_], str):
+                    raise InputError(f"expected a string claims.{key}.{field_} in {where}, "
+                                     f"received {repr(c[field_])[:60]}")
             if c["id"] in seen:
                 raise InputError(f"expected unique claim ids in {where}, received {c['id']!r} "
                                  "twice")

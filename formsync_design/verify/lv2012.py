@@ -75,7 +75,7 @@ def _claims(case: Any) -> dict[str, Any]:
         raise InputError(f"expected [claims] failed_gyro in 1..{case.n}, received "
                          f"{c['failed_gyro']!r}")
     if case.reference is None or not case.reference.constant_rate or any(
-            r not in ("0", "0.0") for r in case.reference.rate):
+            not r.is_zero for r in case.reference.rate):
         raise InputError(f"expected a reference at rest ([reference] rate = 0) in {case.path} "
                          "(the design regulates to a constant attitude)")
     return c
