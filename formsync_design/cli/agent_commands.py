@@ -308,7 +308,7 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
     from formsync_design.cli.certify import format_result
     from formsync_design.cli.options import design_box
     from formsync_design.derive.agent import agent_conditions
-    from formsync_design.gains import GainBox
+    from formsync_design.gains import GainBox, parse_number
     from formsync_design.graphs.theorem import check_theorem_graph, load_graph
 
     _refuse(args, ("ko", "kq", "beta", "ud", "kv", "case", "delay", "decay", "settle",
@@ -328,6 +328,16 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
     phi = getattr(args, "boundary_layer", None) or "1/100"
     ctrl = GainBox(tuple(r for r in box.ranges if r.name not in design.decl.multipliers))
     form = certify_formation(design, g, inertias, ctrl, switch=switch, phi=phi)
+    evidence = None
+    if str(form.status) == "undecided" and "not differentiable" in form.scope.covers:
+        # no proof decides: a seeded falsification search in simulation, reported as evidence
+        from formsync_design.verify.falsify import falsify_formation
+
+        point = {r.name: (r.lo + r.hi) / 2 for r in ctrl.ranges}
+        case = agent_case_for(design, None, [f"{k}={v}" for k, v in point.items()])
+        evidence = falsify_formation(case, g, switch=getattr(args, "switch", None),
+                                     phi=None if getattr(args, "boundary_layer", None) is None
+                                     else float(parse_number(args.boundary_layer, "phi")))
     res = None
     if callable(design.module.get("conditions")):
         res = certify_agent(design, agent_conditions(design, graph), box,
@@ -336,12 +346,16 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
         doc: dict[str, Any] = {**({"outside_theorem": theorem.to_dict()} if not theorem.inside
                                   else {}), "design": design.name, "status": str(form.status),
                                "formation": {**form.to_dict(), "inputs": note}}
+        if evidence is not None:
+            doc["falsification"] = evidence.to_dict()
         if res is not None:
             doc["design_conditions"] = {**res.to_dict(), "scope": conditions_scope(design).to_dict()}
         emit_json(doc)
     else:
         lines = [] if theorem.inside else [theorem.note()]
         lines += [form.text(), f"  inputs: {note}"]
+        if evidence is not None:
+            lines.append("  " + evidence.text().replace("\n", "\n  "))
         if res is not None:
             lines += ["", "design conditions (" + conditions_scope(design).text() + "):",
                       format_result(res)]
