@@ -312,3 +312,17 @@ def test_verify_kind_and_case_claims_are_validated(tmp_path):
     bad.write_text(text.replace('small_case = "lv2012_small.toml"', ""))
     with pytest.raises(InputError, match="unknown \\['nonsense'\\]"):
         analyse_case(bad)
+
+
+def test_scope_angles_are_validated_before_any_work(tmp_path):
+    from formsync_design.resources import case_file
+    from formsync_design.verify.lv2012 import analyse_case
+
+    path = case_file("lv2012")
+    for bad_value in ("[190]", "[]", '["x"]'):
+        bad = tmp_path / "bad.toml"
+        text = path.read_text().replace("scope_angles = [120, 150, 170, 179, 179.9]",
+                                        f"scope_angles = {bad_value}")
+        bad.write_text(text.replace('small_case = "lv2012_small.toml"', ""))
+        with pytest.raises(InputError, match="scope_angles"):
+            analyse_case(bad)

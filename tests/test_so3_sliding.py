@@ -255,6 +255,7 @@ def test_formsync_verify_ma_so3(tmp_path, monkeypatch):
     assert main(["verify", "ma_so3", "--out", str(tmp_path)]) == 0
     text = (tmp_path / "ma_so3-verification.md").read_text()
     assert "| every spacecraft converges to a common attitude (case 1) |" in text
+    assert "## The comparisons at equal peak torque" in text
     assert (tmp_path / "figures" / "ma_so3-verification" / "fig11_r23_case2.png").is_file()
 
 

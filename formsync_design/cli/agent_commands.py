@@ -33,6 +33,12 @@ from formsync_design.cli.options import (
     write_summary_and_runs,
 )
 from formsync_design.errors import InputError
+from formsync_design.outdir import (
+    atomic_path,
+    save_figure as save_atomic_figure,
+    save_npz,
+    write_text,
+)
 
 __all__ = [
     "agent_design_or_none",
@@ -177,7 +183,7 @@ def run_agent_simulate(args: argparse.Namespace, design: Any) -> int:
     from formsync_design.sim.agents import simulate_agents
 
     _refuse(args, ("trigger", "q_tol", "omega_tol"), design)
-    out_dir = check_out_dir(args.out)
+    out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
     case = agent_case_for(design, args.case, args.gain)
     graph = case.graph(args.graph) if args.graph is not None else case.graph()
     theorem = check_theorem_graph(graph, design.decl.graphs,
@@ -202,13 +208,11 @@ def run_agent_simulate(args: argparse.Namespace, design: Any) -> int:
            "assumptions": list(case.assumptions), **r.to_dict()}
     written: list[str] = []
     if out_dir is not None:
-        out_dir.mkdir(parents=True, exist_ok=True)
-        p = out_dir / "summary.json"
-        p.write_text(json.dumps(doc, indent=2, allow_nan=False) + "\n")
+        p = write_text(out_dir / "summary.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
         written.append(str(p))
         if args.export in ("npz", "both"):
             npz = out_dir / "trajectory.npz"
-            np.savez_compressed(npz, t=r.t, quaternions=r.quaternions, rates=r.rates,
+            save_npz(npz, t=r.t, quaternions=r.quaternions, rates=r.rates,
                                 states=r.states, torques=r.torques,
                                 reference=r.reference if r.reference is not None else np.zeros(0),
                                 names=np.array(r.state_names))
@@ -219,7 +223,8 @@ def run_agent_simulate(args: argparse.Namespace, design: Any) -> int:
                     r.torques.reshape(len(r.t), -1)]
             head = ["t", *[n for n in r.state_names[: 7 * f.n]],
                     *[f"u{c}_{i}" for i in range(1, f.n + 1) for c in (1, 2, 3)]]
-            np.savetxt(csv, np.hstack(cols), delimiter=",", header=",".join(head), comments="")
+            with atomic_path(csv) as tmp:
+                np.savetxt(tmp, np.hstack(cols), delimiter=",", header=",".join(head), comments="")
             written.append(str(csv))
         if args.figures != "none":
             from formsync_design.sim.agent_figures import agent_figures
@@ -249,9 +254,12 @@ def _text(case: Any, graph: Any, f: Any, opt: Any, r: Any, design: Any, written:
     ]
     ct = r.convergence_time
     tol = f"attitude disagreement <= {opt.angle_tol:g} deg and rate error <= {opt.rate_tol:g} rad/s"
-    lines.append(f"status: {r.status} - " + (f"{tol} from t = {ct:.2f} s" if ct is not None
-                                             else f"{tol} not reached to the end"))
-    if r.message:
+    if r.diverged_time is not None:  # the message is the finding itself
+        lines.append(f"status: {r.status} - {r.message}")
+    else:
+        lines.append(f"status: {r.status} - " + (f"{tol} from t = {ct:.2f} s" if ct is not None
+                                                 else f"{tol} not reached to the end"))
+    if r.message and r.diverged_time is None:
         lines.append(f"  {r.message}")
     lines.append(f"final attitude disagreement {r.attitude_error[-1]:.3e} deg, rate error "
                  f"{r.rate_error[-1]:.3e} rad/s"
@@ -398,6 +406,9 @@ def run_agent_derive(args: argparse.Namespace, design: Any) -> int:
     cmd = f"formsync derive --design {design.name}" + (f" --graph {args.graph}" if args.graph else "")
     if args.out:
         cmd += f" --out {args.out}"
+    from formsync_design.outdir import claim
+
+    claim(out)  # one writer per folder (a concurrent writer: exit 2)
     md = write_agent_derivation_report(deriv, out, command=cmd)
     print(f"wrote {md}")
     return EXIT_OK
@@ -421,7 +432,7 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
     from formsync_design.sim.agents import simulate_agents
 
     _refuse(args, ("ko", "kq", "beta", "kv", "q_tol", "omega_tol", "no_phases", "threads"), design)
-    out_dir = check_out_dir(args.out)
+    out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
     case = agent_case_for(design, args.case, None)
     graph = case.graph(args.graph) if args.graph is not None else case.graph()
     theorem = check_theorem_graph(graph, design.decl.graphs,
@@ -438,7 +449,7 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
     box = GainBox(tuple(r for r in box.ranges if r.name in design.decl.controller_gains))
     assert all(isinstance(r, GainRange) for r in box.ranges)
     settings = AgentMonteCarloSettings(
-        runs=int(args.runs), seed=int(args.seed),
+        runs=int(args.runs), seed=int(args.seed),  # checked up front (cli.montecarlo.run)
         max_angle_deg=float(parse_number(args.max_angle, "--max-angle")),
         max_rate=float(parse_number(args.max_rate, "--max-rate")))
     opt = _options(args, case.options)
@@ -459,7 +470,8 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
             emit_json(doc)
         else:
             print(f"replay of run seed {seed}: status {r.status}, final attitude disagreement "
-                  f"{r.attitude_error[-1]:.3e} deg")
+                  f"{r.attitude_error[-1]:.3e} deg" + (f" ({r.message})" if r.diverged_time is not None
+                                                       else ""))
         return EXIT_OK if str(r.status) == "converged" else EXIT_NEGATIVE
     prog = Progress(settings.runs, "montecarlo", enabled=args.format == "text")
     res = run_agent_montecarlo(design, replace(base), box, settings, opt,
@@ -477,6 +489,10 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
                  f"converged: {doc['converged']}/{settings.runs}"
                  + (f", longest convergence time {doc['convergence_time_max']:.4g} s"
                     if doc["convergence_time_max"] is not None else "")]
+        if doc["diverged"]:
+            first = next(r for r in res.runs if r.diverged_time is not None)
+            lines.append(f"diverged: {doc['diverged']} runs (non-finite state; seed {first.seed} "
+                         f"diverged at t = {first.diverged_time:g} s)")
         if res.certificate is not None:
             lines.append(f"box certificate: {res.certificate}"
                          + (f" ({res.certificate_reason})" if res.certificate_reason else ""))
@@ -537,14 +553,13 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     value = float(maps[0][0].ranges[red0.gains.index(fixed)][0])
     fig = plot_slices([m for m, _ in maps], axes=(plot_axes[0], plot_axes[1]), fixed=fixed,
                       values=[value])
-    out.mkdir(parents=True, exist_ok=True)
     fig_path = out / f"{design.name}-region-{plot_axes[0]}-{plot_axes[1]}.png"
-    fig.savefig(fig_path, dpi=120, metadata={"Software": None})
+    save_atomic_figure(fig, fig_path, dpi=120, metadata={"Software": None})
     doc = {"design": design.name,
            "fixed": {n: str(v) for n, v in red0.fixed},
            "maps": [map_to_dict(m, timing=False) for m, _ in maps]}
     json_path = out / "region.json"
-    json_path.write_text(json.dumps(to_json_value(doc), indent=1, allow_nan=False) + "\n")
+    write_text(json_path, json.dumps(to_json_value(doc), indent=1, allow_nan=False) + "\n")
     if args.format == "json":
         emit_json({"files": [str(json_path), str(fig_path)], "fixed": doc["fixed"],
                    "maps": [{"graph": m.graph, "fractions": m.fractions, "boxes": len(m.boxes)}

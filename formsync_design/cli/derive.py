@@ -150,6 +150,9 @@ def run(args: argparse.Namespace) -> int:
                 w(np.array2string(np.array(num["pi"]["matrix"]), precision=4,
                                   max_line_width=400, threshold=100000) + "\n")
             return EXIT_OK
+    from formsync_design.outdir import claim
+
+    claim(args.out or "reports")  # one writer per folder (a concurrent writer: exit 2)
     rep = write_derivation_report(
         graph, args.out or "reports", spec,
         command="formsync derive" + (f" --graph {graph.name}" if args.graph else "")

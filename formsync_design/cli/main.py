@@ -8,13 +8,14 @@ Every subcommand lives in its own module ``formsync_design.cli.<name>`` exposing
 from __future__ import annotations
 
 import argparse
+import gc
 import os
 import re
 import sys
 import traceback
 from collections.abc import Sequence
 
-from formsync_design import __version__
+from formsync_design import __version__, outdir
 from formsync_design.cli import (
     certify as cmd_certify,
     derive as cmd_derive,
@@ -89,10 +90,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     line on stderr; set ``FORMSYNC_TRACEBACK=1`` to see the traceback of a
     failure (exit 3).
 
+    Called as the program (``argv`` None), the objects left at the end are moved
+    out of the garbage collector's reach (``gc.freeze``): the interpreter's
+    final collections over a session's SymPy and CasADi objects otherwise take
+    seconds, and Ctrl-C must end the process within a second.
+
     >>> main(["--version"])  # doctest: +ELLIPSIS
     formsync ...
     0
     """
+    rc = _main(argv)
+    if argv is None:  # the process ends next: skip the final collections (docstring)
+        gc.freeze()
+    return rc
+
+
+def _main(argv: Sequence[str] | None) -> int:
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
@@ -103,7 +116,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERRUPTED
     command = str(args.command)
     try:
-        return int(args.func(args))
+        with outdir.session():  # every --out a command claimed is released however it ends
+            return int(args.func(args))
     except BrokenPipeError:  # output piped into e.g. `head`: not an error
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_OK

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
@@ -109,6 +110,8 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--no-certify", action="store_true", help="skip the certification of the box")
     p.add_argument("--replay", metavar="SEED", default=None, help="re-simulate one run in full from its seed")
     p.add_argument("--out", metavar="DIR", default=None, help="write summary.json and runs.csv here")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the results of an earlier run in --out (refused without it)")
     p.add_argument("--no-compile", action="store_true", help="use CasADi's VM instead of compiled C")
     add_theorem_option(p)
     add_format_option(p)
@@ -129,6 +132,26 @@ def _float(text: str, name: str) -> float:
     from formsync_design.gains import parse_number
 
     return float(parse_number(text, name))
+
+
+def check_run_options(args: argparse.Namespace) -> None:
+    """The campaign's own options against their documented ranges, before anything is loaded:
+    ``--runs`` in 1..MAX_RUNS, ``--seed``/``--replay`` >= 0, ``--max-angle`` in [0, 180),
+    ``--max-rate`` >= 0 and finite (one-line :class:`InputError`, exit 2)."""
+    runs = _int(args.runs, "--runs", 1)
+    if runs > MAX_RUNS:
+        raise InputError(f"expected --runs at most {MAX_RUNS} per montecarlo call, received {runs}; "
+                         "split the campaign over several seeds")
+    _int(args.seed, "--seed", 0)
+    if args.replay is not None:
+        _int(args.replay, "--replay", 0)
+    ang = _float(args.max_angle, "--max-angle")
+    if not 0 <= ang < 180:
+        raise InputError(f"expected --max-angle in [0, 180) degrees (q0 > 0 initially), received "
+                         f"{args.max_angle}")
+    rate = _float(args.max_rate, "--max-rate")
+    if not (math.isfinite(rate) and rate >= 0):
+        raise InputError(f"expected --max-rate >= 0 rad/s and finite, received {args.max_rate}")
 
 
 _LEGACY_FLAGS = {"K_o": "--ko", "K_q": "--kq", "beta": "--beta", "K_v": "--kv"}
@@ -228,10 +251,11 @@ def run(args: argparse.Namespace) -> int:
     from formsync_design.sim.simulator import simulate
     from formsync_design.verify.case import load_case
 
+    check_run_options(args)
     agent = agent_design_or_none(args.spec, args.case)
     if agent is not None:
         return run_agent_montecarlo_cli(args, agent)
-    out_dir = check_out_dir(args.out)
+    out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
     case = load_case(args.case)
     spec = _resolve_spec(args, case)
     graph, theorem = simulation_graph(args, case, spec)

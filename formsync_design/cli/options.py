@@ -261,10 +261,12 @@ def write_summary_and_runs(out_dir: Any, summary: Mapping[str, Any], rows: list[
     import csv
     from pathlib import Path
 
+    from formsync_design.outdir import atomic_path, write_text
+
     d = Path(out_dir)
     d.mkdir(parents=True, exist_ok=True)
-    (d / "summary.json").write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
-    with open(d / "runs.csv", "w", newline="") as fh:
+    write_text(d / "summary.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    with atomic_path(d / "runs.csv") as tmp, open(tmp, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]) if rows else [])
         w.writeheader()
         for row in rows:

@@ -14,6 +14,7 @@ from formsync_design.cli.options import (
     emit_json,
 )
 from formsync_design.errors import InputError
+from formsync_design.outdir import save_figure as save_atomic_figure, write_text
 
 __all__ = ["add_parser", "run"]
 
@@ -93,6 +94,8 @@ def add_parser(sub: Any) -> None:
                    help="finest box = 1/R of each range (default 32, max 512; with --certificate "
                    "other than paper or a requirement: R^3 cells, default 8, max 64)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the region.json of an earlier run in --out (refused without it)")
     p.add_argument("--beta-slices", default=None, metavar="B1,B2,...",
                    help="beta values of the K_o-K_q slices (default: 10%%, 30%%, 60%% of the range)")
     p.add_argument("--kq-slices", default=None, metavar="K1,K2,...",
@@ -128,8 +131,10 @@ def run(args: argparse.Namespace) -> int:
         requirements_from_args,
     )
     from formsync_design.cli.options import design_graph
+    from formsync_design.cli.simulate import check_out_dir
     from formsync_design.spec.loader import load_spec
 
+    check_out_dir(args.out, overwrite=args.overwrite, results=("region.json",))
     agent = agent_design_or_none(args.spec)
     if agent is not None:
         return run_agent_region(args, agent)
@@ -228,7 +233,6 @@ def _run_design(args: argparse.Namespace, spec: Any, box: Any, margin: Any, req:
     mult = {n: r for n in spec.decl.multipliers
             if n not in box and (r := spec.decl.gain(n).range) is not None}
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     prog = Progress(len(args.graph), "region", enabled=not args.no_progress and args.format == "text")
     maps = []
     for gspec in args.graph:
@@ -245,10 +249,10 @@ def _run_design(args: argparse.Namespace, spec: Any, box: Any, margin: Any, req:
             ax.set_title(f"{m.graph}: {fixed} searched per cell", fontsize=9)
     stem = f"{spec.name}-region"
     fig_path = out / f"{stem}-{ctrl[0]}-{ctrl[1]}.png"
-    fig.savefig(fig_path, dpi=120, metadata={"Software": None})
+    save_atomic_figure(fig, fig_path, dpi=120, metadata={"Software": None})
     json_path = out / "region.json"
     doc = {"design": spec.name, "maps": [map_to_dict(m, timing=False) for m in maps]}
-    json_path.write_text(json.dumps(to_json_value(doc), indent=1, allow_nan=False) + "\n")
+    write_text(json_path, json.dumps(to_json_value(doc), indent=1, allow_nan=False) + "\n")
     paths = [json_path, fig_path]
     if args.format == "json":
         emit_json({"files": [str(p) for p in paths],
@@ -328,12 +332,11 @@ def _run_cells(args: argparse.Namespace, spec: Any, box: Any, margin: Any, req: 
                          "fractions": {k: Fraction(v, len(cells)) for k, v in counts.items()},
                          "boxes": cells})
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     path = out / "region.json"
     from formsync_design.cli.options import to_json_value
 
     doc = {"design": spec.name, "box": box.to_dict(), "maps": out_maps}
-    path.write_text(json.dumps(to_json_value(doc), indent=1) + "\n")
+    write_text(path, json.dumps(to_json_value(doc), indent=1) + "\n")
     if args.format == "json":
         emit_json({"files": [str(path)], "maps": [{k: v for k, v in m.items() if k != "boxes"}
                                                   for m in out_maps]})

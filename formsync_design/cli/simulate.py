@@ -18,6 +18,7 @@ from formsync_design.cli.options import (
     emit_json,
 )
 from formsync_design.errors import InputError
+from formsync_design.outdir import write_text
 
 __all__ = ["add_parser", "run", "options_from_args", "add_spec_option", "resolve_cli_spec", "check_out_dir"]
 
@@ -99,6 +100,8 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--rate-tol", default=None, metavar="RAD_S",
                    help="agent designs: convergence threshold on the rate error (rad/s)")
     p.add_argument("--out", metavar="DIR", default=None, help="write summary, trajectories and figures here")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the results of an earlier run in --out (refused without it)")
     p.add_argument("--export", choices=("npz", "csv", "both", "none"), default="npz",
                    help="trajectory file format under --out (default npz)")
     p.add_argument("--figures", choices=("png", "svg", "none"), default="png",
@@ -188,8 +191,16 @@ def simulation_graph(args: argparse.Namespace, case: Any, spec: Any) -> tuple[An
     return case.graph(g), chk
 
 
-def check_out_dir(out: str | None) -> Path | None:
-    """Validate ``--out`` before any computation (created only when results are written)."""
+def check_out_dir(out: str | None, *, overwrite: bool = False,
+                  results: tuple[str, ...] = ("summary.json",)) -> Path | None:
+    """Validate ``--out`` before any computation and lock it for this command.
+
+    The folder is created and locked (:func:`formsync_design.outdir.claim`: a second
+    writer is refused, exit 2); a folder already holding a run's ``results`` (its
+    ``summary.json``) is refused unless ``overwrite``, so two runs never silently
+    replace each other's files.  A folder the lock created stays only if results are
+    written into it.
+    """
     if out is None:
         return None
     d = Path(out)
@@ -202,6 +213,16 @@ def check_out_dir(out: str | None) -> Path | None:
 
     if not os.access(parent, os.W_OK):
         raise InputError(f"expected a writable --out, received {str(d)!r} ({str(parent)!r} is read-only)")
+    from formsync_design.outdir import claim
+
+    claim(d)
+    if not overwrite:
+        found = [n for n in results if (d / n).exists()]
+        if found:
+            raise InputError(
+                f"expected --out {str(d)!r} without the results of another run, received a folder "
+                f"holding {found[0]}; pass --overwrite to replace them or choose another --out "
+                "(nothing overwritten)")
     return d
 
 
@@ -339,9 +360,7 @@ def _run_sampled(args: argparse.Namespace, case: Any, graph: Any, f: Any, opt: A
            "case": case.name, "graph": graph.name, "gains": f.gains.as_dict(),
            "disturbance": f.disturbance.kind, **r.to_dict()}
     if out_dir is not None:
-        out_dir.mkdir(parents=True, exist_ok=True)
-        pth = out_dir / "summary.json"
-        pth.write_text(json.dumps(doc, indent=2, allow_nan=False) + "\n")
+        pth = write_text(out_dir / "summary.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
         doc["written"] = [str(pth)]
     if args.format == "json":
         emit_json(doc)
@@ -374,7 +393,7 @@ def run(args: argparse.Namespace) -> int:
     agent = agent_design_or_none(args.spec, args.case)
     if agent is not None:
         return run_agent_simulate(args, agent)
-    out_dir = check_out_dir(args.out)
+    out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
     case = load_case(args.case)
     spec = resolve_cli_spec(args, case)
     graph, theorem = simulation_graph(args, case, spec)
@@ -400,9 +419,7 @@ def run(args: argparse.Namespace) -> int:
     }
     if out_dir is not None:
         out = out_dir
-        out.mkdir(parents=True, exist_ok=True)
-        p = out / "summary.json"
-        p.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
+        p = write_text(out / "summary.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
         written.append(str(p))
         if args.export in ("npz", "both"):
             written.append(str(r.to_npz(out / "trajectory.npz")))

@@ -92,6 +92,12 @@ def run(args: argparse.Namespace) -> int:
     # everything the user gave is checked before any computation (nothing is written yet)
     path = resolve_case(args.case)
     kind = case_kind(load_toml(path, "case TOML file"), display_path(path))
+    from formsync_design.outdir import claim
+
+    check_output(args.out, path.stem, display_path(path), overwrite=args.overwrite)
+    # one writer per folder: a concurrent writer into --out is refused (exit 2); checked
+    # again under the lock, so the report found above is still the one we may replace
+    claim(args.out)
     check_output(args.out, path.stem, display_path(path), overwrite=args.overwrite)
 
     with activity(f"verify {path.stem}", enabled=args.format == "text") as bar:

@@ -9,7 +9,9 @@ controller states are the base formation's.  When the design has a certificate
 (``conditions(c)``) and the graph is inside its theorem, the sampled box is certified too.
 
 Runs share one compiled kernel (the graph structure does not change); they are simulated one
-after another in this process.
+after another in this process.  A run whose state goes non-finite is one failed run with the
+status ``diverged`` and its time (its seed replays it); the campaign goes on.  Ctrl-C is
+seen between runs (each run is one call of at most a few seconds).
 """
 
 from __future__ import annotations
@@ -49,8 +51,8 @@ class AgentMonteCarloSettings:
     def __post_init__(self) -> None:
         if not 1 <= self.runs <= MAX_AGENT_RUNS:
             raise InputError(f"expected 1..{MAX_AGENT_RUNS} runs, received {self.runs}")
-        if not 0 <= self.max_angle_deg <= 360:
-            raise InputError(f"expected max_angle_deg in [0, 360], received {self.max_angle_deg:g}")
+        if not 0 <= self.max_angle_deg <= 180:  # a rotation angle: beyond 180 deg is a smaller one
+            raise InputError(f"expected max_angle_deg in [0, 180], received {self.max_angle_deg:g}")
         if not (math.isfinite(self.max_rate) and self.max_rate >= 0):
             raise InputError(f"expected max_rate >= 0, received {self.max_rate:g}")
 
@@ -99,6 +101,7 @@ class AgentRun:
     effort: float
     transmissions: int | None
     min_interevent: float | None
+    diverged_time: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -107,6 +110,7 @@ class AgentRun:
                              else "[" + ", ".join(f"{x:.9g}" for x in v) + "]")
                for k, v in self.gains.items()},
             "status": self.status,
+            "diverged_time": None if self.diverged_time is None else json_number(self.diverged_time),
             "convergence_time": None if self.convergence_time is None
             else json_number(self.convergence_time),
             "final_attitude_error_deg": json_number(self.final_attitude_error),
@@ -147,6 +151,7 @@ class AgentMonteCarloResult:
             "max_angle_deg": json_number(self.settings.max_angle_deg),
             "max_rate": json_number(self.settings.max_rate),
             "converged": len(self.runs) - len(self.failures),
+            "diverged": sum(r.status == "diverged" for r in self.runs),
             "failed_seeds": [r.seed for r in self.failures],
             "convergence_time_max": json_number(max(times)) if times else None,
             "convergence_time_median": json_number(float(np.median(times))) if times else None,
@@ -198,7 +203,8 @@ def run_agent_montecarlo(design: Any, base: AgentFormation, box: GainBox,
             effort=float(np.sum(r.effort)),
             transmissions=None if r.transmissions is None else int(np.sum(r.transmissions)),
             min_interevent=None if r.min_interevent is None
-            else float(np.nanmin(r.min_interevent))))
+            else float(np.nanmin(r.min_interevent)),
+            diverged_time=r.diverged_time))
         if progress is not None:
             progress(k + 1)
     return AgentMonteCarloResult(design=design.name, graph=base.graph.name, box=box,

@@ -24,7 +24,7 @@ from __future__ import annotations
 import enum
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -48,6 +48,8 @@ __all__ = [
     "AgentFormation",
     "AgentOptions",
     "AgentStatus",
+    "MAX_AGENT_GRID_POINTS",
+    "MAX_AGENT_STEPS",
     "AgentResult",
     "simulate_agents",
     "attitude_disagreement",
@@ -150,15 +152,25 @@ class AgentFormation:
         return np.array([A[i, j] for i, nb in enumerate(self.neighbours()) for j in nb], float)
 
 
+#: Most output grid points of one agent run (``tf / output_step``): the trajectory and the
+#: law's torques and monitors at every point are kept in memory and evaluated per point.
+MAX_AGENT_GRID_POINTS = 1_000_000
+
+#: Most RK4 steps of one agent run (``tf / step``; about 10 us each for ten spacecraft).
+MAX_AGENT_STEPS = 1_000_000_000
+
+
 class AgentStatus(enum.StrEnum):
     """How an agent-design run ended: ``converged`` (attitude and rate disagreement, and the
     errors to the reference, within the tolerances from ``convergence_time`` to the end),
-    ``not-converged``, or ``stopped`` (the hybrid integrator stopped: Zeno protection or too
-    many triggers, ``message`` says which)."""
+    ``not-converged``, ``stopped`` (the hybrid integrator stopped: Zeno protection or too
+    many triggers, ``message`` says which), or ``diverged`` (the state became non-finite at
+    ``diverged_time``; the trajectory ends at the last finite output time)."""
 
     CONVERGED = "converged"
     NOT_CONVERGED = "not-converged"
     STOPPED = "stopped"
+    DIVERGED = "diverged"
 
 
 @dataclass(frozen=True)
@@ -191,6 +203,15 @@ class AgentOptions:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise InputError(f"expected a positive finite {name}, received {v!r}")
+        if self.tf / self.output_step > MAX_AGENT_GRID_POINTS:
+            raise InputError(f"expected at most {MAX_AGENT_GRID_POINTS} output grid points "
+                             f"(tf / output_step) in one run, received {self.tf / self.output_step:.3g} "
+                             f"(tf {self.tf:g} s, output_step {self.output_step:g} s); shorten tf "
+                             "or raise output_step")
+        if self.tf / self.step > MAX_AGENT_STEPS:
+            raise InputError(f"expected at most {MAX_AGENT_STEPS:.0e} integration steps (tf / step) in "
+                             f"one run, received {self.tf / self.step:.3g} (tf {self.tf:g} s, step "
+                             f"{self.step:g} s); shorten tf or raise step")
         ratio = self.output_step / self.step
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
             raise InputError(f"expected step to divide output_step, received step {self.step:g} "
@@ -254,6 +275,8 @@ class AgentResult:
     trigger_times : per spacecraft or None
     state_names : list of str (the kernel's state order)
     integrator : str
+    diverged_time : float or None, the first output time with a non-finite state (status
+        ``diverged``)
     """
 
     status: AgentStatus
@@ -279,6 +302,7 @@ class AgentResult:
     trigger_times: tuple[np.ndarray, ...] | None = None
     state_names: tuple[str, ...] = ()
     integrator: str = "rk4"
+    diverged_time: float | None = None
 
     def time_to(self, angle_deg: float) -> float | None:
         """First output time from which the attitude disagreement stays <= ``angle_deg``."""
@@ -293,6 +317,7 @@ class AgentResult:
             "status": str(self.status), "message": self.message, "design": self.design,
             "graph": self.graph, "integrator": self.integrator,
             "tf": json_number(float(self.t[-1])) if self.t.size else None,
+            "diverged_time": None if self.diverged_time is None else json_number(self.diverged_time),
             "convergence_time": None if self.convergence_time is None
             else json_number(self.convergence_time),
             "final_attitude_error_deg": json_number(float(self.attitude_error[-1])),
@@ -437,6 +462,7 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
         X[0] = x0
         xa = np.concatenate([x0, [0.0]])
         k = 0
+        diverged = None
         while k < T:
             if ext is not None:
                 blk = ext[:, k * M: (k + K) * M]
@@ -448,11 +474,20 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
             take = min(K, T - k)
             X[k + 1: k + 1 + take] = out[:-1, :take].T
             xa = out[:, take - 1]
+            bad = np.flatnonzero(~np.isfinite(X[k + 1: k + 1 + take]).all(axis=1))
+            if bad.size:  # a finding: the run ends at the last finite output time
+                diverged = k + 1 + int(bad[0])
+                break
             k += take
-            if not np.all(np.isfinite(xa)):
-                raise SimulationError(f"the simulation of {design.name} diverged (non-finite "
-                                      f"state at t = {float(xa[-1]):g} s); try a smaller step "
-                                      "or a boundary layer")
+        if diverged is not None:
+            X = X[:diverged]
+            tdiv, t = float(t[diverged]), t[:diverged]
+            res = assemble_result(design, f, opt, kern, p, t, X, opt.integrator)
+            return replace(res, status=AgentStatus.DIVERGED, diverged_time=tdiv,
+                           convergence_time=None,
+                           message=f"diverged at t = {tdiv:g} s (non-finite state; the trajectory "
+                                   f"ends at t = {float(t[-1]):g} s): try a smaller step or a "
+                                   "boundary layer")
     else:
         import casadi as ca
 

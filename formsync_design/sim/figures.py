@@ -111,13 +111,15 @@ def all_figures(result: SimResult) -> dict[str, Figure]:
 def save_figure(fig: Figure, path: str | Path) -> Path:
     """Save reproducibly: PNG without the Software stamp, SVG without date and
     with a fixed hash salt."""
+    from formsync_design.outdir import save_figure as save_atomic
+
     p = Path(path)
     suffix = p.suffix.lower()
     if suffix == ".png":
-        fig.savefig(p, dpi=120, metadata={"Software": None})
+        save_atomic(fig, p, dpi=120, metadata={"Software": None})
     elif suffix == ".svg":
         with matplotlib.rc_context({"svg.hashsalt": "formsync-design"}):
-            fig.savefig(p, metadata={"Date": None, "Creator": None})
+            save_atomic(fig, p, metadata={"Date": None, "Creator": None})
     else:
         raise InputError(f"expected a .png or .svg figure path, received {str(p)!r}")
     return p

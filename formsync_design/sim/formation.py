@@ -49,12 +49,14 @@ class SimStatus(enum.StrEnum):
     reached without that (``convergence_time`` is None: not reached within
     the horizon); ``singular``: stopped early at the ``q0 -> 0`` singularity
     (``singular_spacecraft``, ``singular_time``; every metric describes the
-    trajectory up to the stop only).
+    trajectory up to the stop only); ``diverged``: the state became non-finite
+    away from the singularity (``diverged_time``; the trajectory ends before it).
     """
 
     CONVERGED = "converged"
     NOT_CONVERGED = "not-converged"
     SINGULAR = "singular"
+    DIVERGED = "diverged"
 
 
 STATUSES = tuple(s.value for s in SimStatus)

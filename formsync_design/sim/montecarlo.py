@@ -60,6 +60,7 @@ __all__ = [
     "GainBox",
     "MC_GAINS",
     "MAX_RUNS",
+    "BATCH_SECONDS",
     "mc_gain_names",
     "RunStatus",
     "RUN_STATUSES",
@@ -73,6 +74,9 @@ __all__ = [
     "run_montecarlo",
     "certify_sampled_box",
 ]
+
+#: Wall seconds of one call of the compiled batch kernel (a Ctrl-C waits for the call).
+BATCH_SECONDS = 0.25
 
 #: The gains of a Monte-Carlo box, in order (``K_v`` may be 0, the others must be > 0).
 MC_GAINS = ("K_o", "K_q", "beta", "K_v")
@@ -479,7 +483,9 @@ def run_montecarlo(
     threads : int, optional
         CasADi thread-map width (default: number of CPUs).
     batch : int
-        Runs per mapped call.
+        Most runs per call of the compiled kernel (the calls are sized to about
+        :data:`BATCH_SECONDS` of wall time each, so Ctrl-C is seen within a second;
+        the runs' records do not depend on the batching).
     certify : bool
         Also report :func:`certify_sampled_box` (the conditions derived for ``spec``).
     spec : Spec, str, Path or None
@@ -524,18 +530,26 @@ def run_montecarlo(
     forms = [sample_formation(base, bx, st, int(s), sp_spec) for s in seeds]
     runs: list[MonteCarloRun] = []
     t0 = time.perf_counter()
-    for b0 in range(0, st.runs, batch):
-        fb = forms[b0 : b0 + batch]
+    # batches of about BATCH_SECONDS of wall time (at most ``batch`` runs): a Ctrl-C, seen by
+    # Python only between calls of the compiled kernel, ends the campaign within a second
+    size = min(batch, 4 * nthreads)
+    b0 = 0
+    while b0 < st.runs:
+        fb = forms[b0 : b0 + size]
+        tb = time.perf_counter()
         P = np.stack([pack_params(f, opt, sp_spec) for f in fb])
         X0 = np.stack([f.initial_state() for f in fb])
         if nk is not None:
             S = nk.batch(n, P, cfg, X0, Ktot, nthreads)
         else:  # no compiler: the driver's Python mirror, one run at a time
             S = np.stack([_reduce(run_vm(kern, n, P[j], cfg, X0[j], 0.0, Ktot), opt) for j in range(len(fb))])
+        per_run = (time.perf_counter() - tb) / len(fb)
         for j, f in enumerate(fb):
             runs.append(_summarize_run(b0 + j, int(seeds[b0 + j]), f, S[j], opt, bx.names, sp_spec))
         if progress is not None:
             progress(len(fb))
+        b0 += len(fb)
+        size = max(1, min(batch, int(BATCH_SECONDS / per_run) if per_run > 0 else batch))
     wall = time.perf_counter() - t0
     counts = {s: sum(r.status == s for r in runs) for s in RUN_STATUSES}
     ct = np.array([r.convergence_time for r in runs if r.convergence_time is not None])
@@ -591,7 +605,10 @@ def _summarize_run(index: int, seed: int, f: Formation, S: np.ndarray, opt: SimO
             status = RunStatus.INACCURATE if status_code == 3 else RunStatus.DIVERGED
             event = None if status_code == 3 else s["tfail"]
         else:
-            status, event = RunStatus.SINGULAR, r.singular_time
+            if r.status == "diverged":
+                status, event = RunStatus.DIVERGED, r.diverged_time
+            else:
+                status, event = RunStatus.SINGULAR, r.singular_time
             final_q, final_om = r.final_q_m, r.final_omega_m
             minq, peak = float(r.min_q0.min()), float(r.peak_torque.max())
             nerr = float(r.stats["max_norm_error"])

@@ -41,6 +41,8 @@ class SimResult:
     options : SimOptions; n : int; names : list of state names
     spec_key : str
         Content key of the specification whose controller was simulated.
+    diverged_time : float or None
+        When the state became non-finite (status ``diverged``), else None.
     """
 
     status: SimStatus
@@ -64,6 +66,7 @@ class SimResult:
     n: int
     names: tuple[str, ...]
     spec_key: str = ""
+    diverged_time: float | None = None
 
     @property
     def converged(self) -> bool:
@@ -72,8 +75,8 @@ class SimResult:
 
     @property
     def stopped_early(self) -> bool:
-        """True when the run stopped before the horizon (``singular``)."""
-        return self.status == SimStatus.SINGULAR
+        """True when the run stopped before the horizon (``singular`` or ``diverged``)."""
+        return self.status in (SimStatus.SINGULAR, SimStatus.DIVERGED)
 
     @property
     def stop_time(self) -> float:
@@ -110,6 +113,10 @@ class SimResult:
                 f"integration blew up there (|omega| ~ 2|q'|/q0): the q0 -> 0 singularity of Q, "
                 f"where controller (4) is undefined"
             )
+        if self.status == "diverged":
+            return (f"diverged at t = {self.diverged_time:.4f} s (non-finite state, not near the "
+                    f"q0 singularity; the trajectory ends at t = {self.t[-1]:g} s): reduce the step "
+                    "or tighten the tolerances")
         if self.status == "converged":
             return (
                 f"converged at t = {self.convergence_time:.2f} s (Q_m <= {self.options.q_tol:g}, "
@@ -137,6 +144,7 @@ class SimResult:
             "min_q0": self.min_q0.tolist(),
             "singular_spacecraft": self.singular_spacecraft,
             "singular_time": self.singular_time,
+            "diverged_time": self.diverged_time,
             "saturation_end_time": self.saturation_end_time,
             "final_rates": self.final_rates.tolist(),
             "common_rate": self.common_rate.tolist(),
@@ -169,8 +177,10 @@ class SimResult:
 
     def to_npz(self, path: str | Path) -> Path:
         """Write ``t, x, u, omega_m, q_m, names`` to a compressed NPZ file."""
+        from formsync_design.outdir import save_npz
+
         p = Path(path)
-        np.savez_compressed(
+        save_npz(
             p, t=self.t, x=self.x, u=self.u, omega_m=self.omega_m, q_m=self.q_m, names=np.array(self.names)
         )
         return p
@@ -181,7 +191,10 @@ class SimResult:
         unames = [f"u{k}_{i}" for i in range(1, self.n + 1) for k in (1, 2, 3)]
         header = ",".join(["t", *self.names, *unames, "Omega_m", "Q_m"])
         data = np.column_stack([self.t, self.x, self.u, self.omega_m, self.q_m])
-        np.savetxt(p, data, delimiter=",", header=header, comments="", fmt="%.17g")
+        from formsync_design.outdir import atomic_path
+
+        with atomic_path(p) as tmp:
+            np.savetxt(tmp, data, delimiter=",", header=header, comments="", fmt="%.17g")
         return p
 
 

@@ -28,8 +28,9 @@ interpolant to ``event_tol`` (default 1e-9 s).  Near ``q0 = 0`` the body rate
 first, the interval is re-integrated with ``h/10`` and ``h/100`` to reach the
 floor (DOPRI5 shrinks its step by itself); a blow-up that persists right after
 some ``q0 < 0.1`` is still reported as ``"singular"`` (the message gives the
-smallest ``q0`` reached), any other NaN/inf raises :class:`SimulationError`
-naming the time.  Trajectories end at the event.
+smallest ``q0`` reached); any other NaN/inf is the status ``"diverged"`` with
+its time (``diverged_time``; a finding, as a singular run is).  Trajectories
+end at the event.
 
 Quaternion norm policy: no renormalisation.  The kinematics preserve
 ``|q_bar| = 1`` exactly, so its numerical drift measures integration error;
@@ -157,13 +158,14 @@ def simulate(
     Returns
     -------
     SimResult
-        Status ``converged`` / ``not-converged`` / ``singular`` (a finding, not an error).
+        Status ``converged`` / ``not-converged`` / ``singular`` / ``diverged`` (NaN/inf in
+        the state away from the ``q0`` singularity, ``diverged_time``): a finding, not an error.
 
     Raises
     ------
     SimulationError
-        NaN/inf in the state (the message names the time), or quaternion norm
-        drift beyond ``options.norm_tol``.
+        Quaternion norm drift beyond ``options.norm_tol``, a step-size underflow or too
+        many steps away from the ``q0`` singularity.
 
     Examples
     --------
@@ -255,13 +257,17 @@ def _simulate_driver(f: Formation, opt: SimOptions, spec: Spec) -> SimResult:
     info = out.info
     X, U, MET, minq = out.X, out.U, out.MET, np.minimum(out.MINQ, f.attitudes[:, 3])
     kdone = int(info["kdone"])
-    sing_sc = sing_t = None
+    sing_sc = sing_t = div_t = None
     status = int(info["status"])
     if status == 1:
         sing_sc, sing_t = int(info["sc"]), float(info["tevent"])
     elif status in (2, 3):
-        sing_sc, sing_t, q0_last = _classify_failure(run, cfg, opt, X, info, Ktot, kdone)
-        minq[sing_sc - 1] = min(minq[sing_sc - 1], q0_last)
+        sc, when, q0_last = _classify_failure(run, cfg, opt, X, info, Ktot, kdone)
+        if sc is None:
+            div_t = when
+        else:
+            sing_sc, sing_t = sc, when
+            minq[sc - 1] = min(minq[sc - 1], q0_last)
     t = np.arange(X.shape[0]) * opt.interval
     steps = int(info["steps"])
     nfev, nctrl = int(info["nfev"]), int(info["nctrl"])
@@ -278,7 +284,7 @@ def _simulate_driver(f: Formation, opt: SimOptions, spec: Spec) -> SimResult:
         "build_seconds": build,
         "events": _events(out.events, opt.event_tol),
     })
-    return _finish(f, opt, spec.key, t, X, U, minq, sing_sc, sing_t, stats, MET)
+    return _finish(f, opt, spec.key, t, X, U, minq, sing_sc, sing_t, stats, MET, div_t)
 
 
 #: A blow-up (NaN/inf) right after some ``q0`` fell below this value is attributed to the
@@ -288,9 +294,12 @@ SINGULAR_BLOWUP_Q0 = 0.1
 
 
 def _classify_failure(run: Any, cfg: np.ndarray, opt: SimOptions, X: np.ndarray, info: dict,
-                      Ktot: int, kdone: int) -> tuple[int, float, float]:  # noqa: C901
+                      Ktot: int, kdone: int) -> tuple[int | None, float, float]:  # noqa: C901
     """A run stopped by a non-finite state, a step-size underflow or norm drift:
-    ``(spacecraft, time, smallest q0)`` when it is the ``q0 -> 0`` singularity, else a
+    ``(spacecraft, time, smallest q0)`` when it is the ``q0 -> 0`` singularity;
+    ``(None, time, smallest q0)`` when the state became non-finite elsewhere (the run
+    diverged: a finding, status ``diverged``); else (a step-size underflow, too many
+    steps or norm drift away from the singularity) a
     :class:`~formsync_design.errors.SimulationError`.
 
     RK4: re-run from the last output point before the failure (at most 10 intervals)
@@ -304,9 +313,12 @@ def _classify_failure(run: Any, cfg: np.ndarray, opt: SimOptions, X: np.ndarray,
     tfail, q0f, sc = float(info["tfail"]), float(info["q0fail"]), int(info["sc"])
     reason = {1: "NaN/inf", 2: "a step-size underflow", 3: "too many steps"}.get(int(info["reason"]),
                                                                                   "norm drift")
+    nonfinite = int(info["reason"]) == 1
     if opt.method != "rk4":
         if int(info["status"]) == 2 and int(info["reason"]) != 3 and q0f < SINGULAR_BLOWUP_Q0:
             return sc, tfail, q0f
+        if nonfinite:
+            return None, tfail, q0f
         raise SimulationError(
             f"expected the adaptive integrator to reach tf = {opt.tf:g} s, received {reason} at "
             f"t = {tfail:.4f} s (smallest q0 {q0f:.3g}, not near the q0 singularity); tighten "
@@ -330,6 +342,8 @@ def _classify_failure(run: Any, cfg: np.ndarray, opt: SimOptions, X: np.ndarray,
             break
         q0r = float(o.info["q0fail"])
         result = (int(o.info["sc"]) if q0r < SINGULAR_BLOWUP_Q0 else None, float(o.info["tfail"]), q0r)
+    if result[0] is None and nonfinite:
+        return None, tfail, q0f
     if result[0] is None:
         raise SimulationError(
             f"expected finite states with quaternion norm drift <= {opt.norm_tol:g}, received "
@@ -351,6 +365,7 @@ def _finish(
     sing_t: float | None,
     stats: dict,
     metrics: np.ndarray | None = None,
+    diverged_time: float | None = None,
 ) -> SimResult:
     n = f.n
     if metrics is None:
@@ -360,13 +375,16 @@ def _finish(
     quats, rates = unpack_state(X, n)
     norm_err = float(np.max(np.abs(np.linalg.norm(quats, axis=2) - 1)))
     stats = {**stats, "max_norm_error": norm_err}
-    if norm_err > opt.norm_tol and sing_sc is None:
+    if norm_err > opt.norm_tol and sing_sc is None and diverged_time is None:
         raise SimulationError(
             f"expected the quaternion norm to stay within {opt.norm_tol:g} of 1, received drift "
             f"{norm_err:.3e}; tighten the step/tolerances"
         )
     if sing_sc is not None:
         status = SimStatus.SINGULAR
+        ct = None
+    elif diverged_time is not None:
+        status = SimStatus.DIVERGED
         ct = None
     else:
         ct = convergence_time(t, om, qm, opt.q_tol, opt.omega_tol)
@@ -399,6 +417,7 @@ def _finish(
         n=n,
         spec_key=spec_key,
         names=tuple(state_names(n)),
+        diverged_time=diverged_time,
     )
 
 
@@ -435,9 +454,11 @@ def _simulate_cvodes(f: Formation, opt: SimOptions, spec: Spec) -> SimResult:
         frac = (a - opt.q0_floor) / (a - b) if np.isfinite(b) and a != b else 1.0
         sing_sc, sing_t = i + 1, float(tg[k - 1] + opt.interval * min(max(frac, 0), 1))
         X, tg = X[:k], tg[:k]
-    elif not np.all(np.isfinite(X)):
+    div_t = None
+    if not hit.size and not np.all(np.isfinite(X)):  # diverged: the trajectory ends before it
         k = int(np.flatnonzero(~np.isfinite(X).all(axis=1))[0])
-        raise SimulationError(f"expected finite states, received NaN/inf at t = {tg[k]:g} s")
+        div_t = float(tg[k])
+        X, tg, q0s = X[:k], tg[:k], q0s[:k]
     U = kern.ctrl.map(X.shape[0])(X.T, tg[None, :], p).full().T
     st = integ.stats()
     stats = {
@@ -451,4 +472,4 @@ def _simulate_cvodes(f: Formation, opt: SimOptions, spec: Spec) -> SimResult:
         "build_seconds": kern.compile_seconds,
     }
     minq = np.min(q0s[: max(1, X.shape[0])], axis=0)
-    return _finish(f, opt, kern.spec_key, tg, X, U, minq, sing_sc, sing_t, stats)
+    return _finish(f, opt, kern.spec_key, tg, X, U, minq, sing_sc, sing_t, stats, None, div_t)

@@ -12,11 +12,13 @@ Failures are classified for the exit status of ``formsync``:
   :class:`FormsyncError` (exit 3); finished rows are kept either way.
 
 Ctrl-C: the worker processes of a local cluster are started with SIGINT
-ignored (they inherit the disposition), so a terminal's Ctrl-C, which reaches
-the whole process group, interrupts only this process; it then cancels the
-futures and closes the cluster with SIGINT ignored and Dask's logging silenced,
-and re-raises :class:`KeyboardInterrupt` (``formsync`` prints one line and
-exits 130).  Rows finished before the interrupt are already in the journal.
+ignored and blocked (they inherit both), so a terminal's Ctrl-C, which reaches
+the whole process group, interrupts only this process; a Ctrl-C during the
+cluster's start is held and raised once it is up (never lost).  It then
+cancels the futures and closes the cluster with SIGINT ignored and Dask's
+logging silenced, and re-raises :class:`KeyboardInterrupt` (``formsync`` prints
+one line and exits 130).  Rows finished before the interrupt are already in the
+journal.
 """
 
 from __future__ import annotations
@@ -73,6 +75,37 @@ def _sigint_ignored() -> Iterator[None]:
         signal.signal(signal.SIGINT, old)
 
 
+def _hold_sigint() -> Callable[[], None]:
+    """Hold SIGINT while a local cluster starts; return the function that lets it through.
+
+    The worker processes must not see a terminal's Ctrl-C (it reaches the whole process
+    group): SIGINT is blocked in this thread, so every thread started meanwhile (Dask's
+    event loop, which spawns the workers) and every worker inherits it blocked.  This
+    process must not lose one, nor be interrupted half-way through the start: until the
+    returned function runs, a SIGINT (which any native thread may receive) is only
+    recorded; that function unblocks it, restores the handler and raises
+    :class:`KeyboardInterrupt` if one arrived.  A no-op outside the main thread.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+    seen: list[int] = []
+    old = signal.signal(signal.SIGINT, lambda signum, frame: seen.append(signum))
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    done: list[bool] = []
+
+    def release() -> None:
+        if done:
+            return
+        done.append(True)
+        if signal.SIGINT not in mask:  # a SIGINT pending on this thread is recorded now
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        signal.signal(signal.SIGINT, old)
+        if seen:
+            raise KeyboardInterrupt
+
+    return release
+
+
 @contextlib.contextmanager
 def _quiet_dask() -> Iterator[None]:
     """Dask's own shutdown chatter (nanny/worker warnings) silenced in this block."""
@@ -114,28 +147,50 @@ def _client(scheduler: str | None, n_workers: int, timeout: float) -> Iterator[A
             with _sigint_ignored(), _quiet_dask(), contextlib.suppress(Exception):
                 client.close(timeout=5)
         return
+    held = _hold_sigint()
     try:
-        # workers inherit SIGINT ignored: a terminal's Ctrl-C interrupts only this process
-        with _sigint_ignored():
-            cluster = LocalCluster(
-                n_workers=n_workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                dashboard_address=None, silence_logs=logging.CRITICAL,
-            )
+        cluster = LocalCluster(
+            n_workers=n_workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+            dashboard_address=None, silence_logs=logging.CRITICAL,
+        )
     except Exception as e:  # noqa: BLE001 - not a finding about the campaign
+        held()
         raise ClusterError(
             f"could not start a local Dask cluster of {n_workers} worker processes "
             f"({type(e).__name__}: {e}); try fewer --workers or --workers 0 (serial)"
         ) from None
+    grace = 5.0
     try:
-        client = Client(cluster, timeout=f"{max(timeout, 30)}s")
+        try:
+            held()  # a Ctrl-C that arrived while the cluster started is raised here
+            client = Client(cluster, timeout=f"{max(timeout, 30)}s")
+        except KeyboardInterrupt:
+            grace = _kill_workers(cluster)
+            raise
         try:
             yield client
+        except KeyboardInterrupt:  # their rows are lost anyway: stop the workers now
+            grace = _kill_workers(cluster)
+            raise
         finally:
             with _sigint_ignored(), _quiet_dask(), contextlib.suppress(Exception):
-                client.close(timeout=5)
+                client.close(timeout=grace)
     finally:
         with _sigint_ignored(), _quiet_dask(), contextlib.suppress(Exception):
-            cluster.close(timeout=5)
+            cluster.close(timeout=grace)
+
+
+def _kill_workers(cluster: Any) -> float:
+    """SIGKILL the worker processes of a local cluster (after Ctrl-C: a task in flight is
+    lost either way, and a graceful close waits for it); return the grace in seconds left
+    for closing the cluster."""
+    with contextlib.suppress(Exception):
+        for nanny in list(cluster.workers.values()):
+            pid = nanny.pid
+            if pid:
+                with contextlib.suppress(OSError):
+                    os.kill(pid, signal.SIGKILL)
+    return 1.0
 
 
 def _task_failure(name: str, exc: BaseException) -> FormsyncError:
@@ -171,10 +226,13 @@ def execute(
     n_workers: int,
     timeout: float,
     task_fn: Callable[[dict[str, Any]], dict[str, str]],
+    on_start: Callable[[], None] | None = None,
 ) -> None:
     """Run ``task_fn`` on every task, calling ``on_row`` (in this process) as rows arrive.
 
     Serial when ``n_workers == 0`` and no ``scheduler``; otherwise on Dask.
+    ``on_start`` is called once the executor is ready, before the first task runs
+    (the sweep creates its journal there).
     Raises :class:`ClusterError` for a cluster failure, the task's error class
     (module docstring) for a failed task, :class:`KeyboardInterrupt` on Ctrl-C
     after the cluster is closed.
@@ -188,6 +246,8 @@ def execute(
     if not tasks:
         return
     if n_workers == 0 and not scheduler:
+        if on_start is not None:
+            on_start()
         for t in tasks:
             try:
                 row = task_fn(t)
@@ -200,6 +260,8 @@ def execute(
     from distributed import as_completed
 
     with _client(scheduler, n_workers, timeout) as client:
+        if on_start is not None:
+            on_start()
         salt = hashlib.sha256(os.urandom(16)).hexdigest()[:12]
         futs = client.map(task_fn, list(tasks), key=[f"sweep-{salt}-{k}" for k in range(len(tasks))],
                           pure=False)

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from formsync_design.errors import FormsyncError, InputError
+from formsync_design.outdir import locked
 from formsync_design.sweep.campaign import (
     Campaign,
     campaign_hash,
@@ -157,105 +158,111 @@ def run_sweep(
     sp = resolve_spec(campaign, spec)
     sha = campaign_hash(campaign, graphs, sp if spec is not None else None)  # validates the case file
     outp = Path(out)
-    mode = check_folder(outp, sha, resume=resume, overwrite=overwrite)
-    tasks = build_tasks(campaign, graphs, sp if spec is not None else None)
-    columns = campaign.schema.columns
-    ids = {t["task"] for t in tasks}
-    done: dict[str, dict[str, str]] = {}
-    jpath = outp / "journal.jsonl"
-    if mode == "resume":
-        if (outp / "results.csv").is_file():
-            for r in read_results(outp / "results.csv", columns):
-                done[r["task"]] = r
-        for k, r in read_journal(jpath, repair=True, columns=columns).items():
-            if k in done and done[k] != r:
-                raise InputError(f"expected identical rows for task {k!r} in results.csv and the journal")
-            done[k] = r
-        stray = set(done) - ids
-        if stray:
-            raise InputError(f"expected only tasks of this campaign, received {sorted(stray)[:3]} in {outp}")
-    pending = [t for t in tasks if t["task"] not in done]
-    executor = "serial" if (n_workers == 0 and not scheduler) else (
-        f"dask scheduler {scheduler}" if scheduler else f"dask LocalCluster ({n_workers} worker processes)"
-    )
-    manifest = {
-        "format": FORMAT,
-        "sha256": sha,
-        "campaign": campaign.to_dict(),
-        "graphs": graph_records(graphs),
-        "skipped": skipped,
-        "tasks": len(tasks),
-        "columns": list(columns),
-        "spec": {"name": sp.name, "sha256": spec_key(sp)},
-    }
-    man_bytes = (json.dumps(manifest, indent=1, sort_keys=True, ensure_ascii=True) + "\n").encode()
+    check_folder(outp, sha, resume=resume, overwrite=overwrite)  # refused before the lock too
+    # one writer per folder: a second sweep (or any writer) into ``out`` is refused (exit 2);
+    # the folder is checked again under the lock, so its manifest cannot change under us
+    with locked(outp, command or None):
+        mode = check_folder(outp, sha, resume=resume, overwrite=overwrite)
+        tasks = build_tasks(campaign, graphs, sp if spec is not None else None)
+        columns = campaign.schema.columns
+        ids = {t["task"] for t in tasks}
+        done: dict[str, dict[str, str]] = {}
+        jpath = outp / "journal.jsonl"
+        if mode == "resume":
+            if (outp / "results.csv").is_file():
+                for r in read_results(outp / "results.csv", columns):
+                    done[r["task"]] = r
+            for k, r in read_journal(jpath, repair=True, columns=columns).items():
+                if k in done and done[k] != r:
+                    raise InputError(f"expected identical rows for task {k!r} in results.csv and the journal")
+                done[k] = r
+            stray = set(done) - ids
+            if stray:
+                raise InputError(f"expected only tasks of this campaign, received {sorted(stray)[:3]} in {outp}")
+        pending = [t for t in tasks if t["task"] not in done]
+        executor = "serial" if (n_workers == 0 and not scheduler) else (
+            f"dask scheduler {scheduler}" if scheduler else f"dask LocalCluster ({n_workers} worker processes)"
+        )
+        manifest = {
+            "format": FORMAT,
+            "sha256": sha,
+            "campaign": campaign.to_dict(),
+            "graphs": graph_records(graphs),
+            "skipped": skipped,
+            "tasks": len(tasks),
+            "columns": list(columns),
+            "spec": {"name": sp.name, "sha256": spec_key(sp)},
+        }
+        man_bytes = (json.dumps(manifest, indent=1, sort_keys=True, ensure_ascii=True) + "\n").encode()
 
-    started = {"ok": False}
-    journal: Journal | None = None
-    count = {"n": 0}
+        started = {"ok": False}
+        journal: Journal | None = None
+        count = {"n": 0}
 
-    def on_row(row: dict[str, str]) -> None:
-        nonlocal journal
+        def on_row(row: dict[str, str]) -> None:
+            nonlocal journal
+            if not started["ok"]:
+                _begin()
+            assert journal is not None
+            if row["task"] in done:
+                raise FormsyncError(f"expected each task once, received {row['task']!r} twice")
+            journal.append(row)
+            done[row["task"]] = row
+            count["n"] += 1
+            if progress:
+                progress(count["n"], len(pending))
+
+        def _begin() -> None:
+            nonlocal journal
+            outp.mkdir(parents=True, exist_ok=True)
+            for name in OWNED + ("manifest.json",):  # temporaries of a killed atomic write
+                for tmp in (outp / f".{name}.tmp", *outp.glob(f".{name}.*.tmp")):
+                    tmp.unlink(missing_ok=True)
+            if mode == "overwrite":
+                for name in OWNED:
+                    (outp / name).unlink(missing_ok=True)
+            if mode != "resume" or not (outp / "manifest.json").is_file():
+                atomic_write(outp / "manifest.json", man_bytes)
+            journal = Journal(jpath)
+            started["ok"] = True
+
+        if pending:
+            # connect first: an unreachable scheduler must not leave anything behind; the
+            # journal exists from the moment the cluster is up (before the first task ends)
+            fn = task_fn or run_task
+            if n_workers == 0 and not scheduler:
+                _begin()
+                try:
+                    execute(pending, on_row, scheduler=None, n_workers=0, timeout=timeout, task_fn=fn)
+                finally:
+                    if journal is not None:
+                        journal.close()
+            else:
+                try:
+                    execute(pending, on_row, scheduler=scheduler, n_workers=n_workers, timeout=timeout,
+                            task_fn=fn, on_start=lambda: None if started["ok"] else _begin())
+                finally:
+                    if journal is not None:
+                        journal.close()
         if not started["ok"]:
             _begin()
-        assert journal is not None
-        if row["task"] in done:
-            raise FormsyncError(f"expected each task once, received {row['task']!r} twice")
-        journal.append(row)
-        done[row["task"]] = row
-        count["n"] += 1
-        if progress:
-            progress(count["n"], len(pending))
+            assert journal is not None
+            journal.close()
+        rows = sorted((done[t["task"]] for t in tasks), key=sort_key)
+        atomic_write(outp / "results.csv", csv_bytes(rows, columns))
+        files = [outp / "manifest.json", outp / "results.csv"]
+        compared = None
+        if campaign.compare:
+            from formsync_design.sweep.compare import load_compared
 
-    def _begin() -> None:
-        nonlocal journal
-        outp.mkdir(parents=True, exist_ok=True)
-        for name in OWNED + ("manifest.json",):  # temporaries of a killed atomic write
-            (outp / f".{name}.tmp").unlink(missing_ok=True)
-        if mode == "overwrite":
-            for name in OWNED:
-                (outp / name).unlink(missing_ok=True)
-        if mode != "resume" or not (outp / "manifest.json").is_file():
-            atomic_write(outp / "manifest.json", man_bytes)
-        journal = Journal(jpath)
-        started["ok"] = True
-
-    if pending:
-        # connect first: an unreachable scheduler must not leave anything behind
-        fn = task_fn or run_task
-        if n_workers == 0 and not scheduler:
-            _begin()
-            try:
-                execute(pending, on_row, scheduler=None, n_workers=0, timeout=timeout, task_fn=fn)
-            finally:
-                if journal is not None:
-                    journal.close()
-        else:
-            try:
-                execute(pending, on_row, scheduler=scheduler, n_workers=n_workers, timeout=timeout,
-                         task_fn=fn)
-            finally:
-                if journal is not None:
-                    journal.close()
-    if not started["ok"]:
-        _begin()
-        assert journal is not None
-        journal.close()
-    rows = sorted((done[t["task"]] for t in tasks), key=sort_key)
-    atomic_write(outp / "results.csv", csv_bytes(rows, columns))
-    files = [outp / "manifest.json", outp / "results.csv"]
-    compared = None
-    if campaign.compare:
-        from formsync_design.sweep.compare import load_compared
-
-        compared = load_compared(campaign.compare, campaign.base)
-    files += write_summary(outp, rows, manifest, command=command, schema=campaign.schema,
-                           compared=compared)
-    jpath.unlink(missing_ok=True)
-    return SweepOutcome(
-        out=outp, sha256=sha, tasks=len(tasks), computed=len(pending),
-        reused=len(tasks) - len(pending), graphs=len(graphs), skipped=tuple(skipped),
-        files=tuple(files), wall_seconds=time.perf_counter() - t0, executor=executor,
-        design=sp.name,
-    )
+            compared = load_compared(campaign.compare, campaign.base)
+        files += write_summary(outp, rows, manifest, command=command, schema=campaign.schema,
+                               compared=compared)
+        jpath.unlink(missing_ok=True)
+        return SweepOutcome(
+            out=outp, sha256=sha, tasks=len(tasks), computed=len(pending),
+            reused=len(tasks) - len(pending), graphs=len(graphs), skipped=tuple(skipped),
+            files=tuple(files), wall_seconds=time.perf_counter() - t0, executor=executor,
+            design=sp.name,
+        )
 

@@ -172,7 +172,7 @@ class SweepSchema:
             ("mc_stopped", "runs whose hybrid integrator stopped (Zeno protection or too many "
              "triggers)"),
             ("mc_singular", lag),
-            ("mc_diverged", lag),
+            ("mc_diverged", "runs whose state went non-finite (status diverged)"),
             ("mc_inaccurate", lag),
         ]
 

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from formsync_design.errors import InputError
+from formsync_design.outdir import LOCK_NAME, write_bytes
 from formsync_design.sweep.schema import COLUMNS
 
 __all__ = ["OWNED", "atomic_write", "read_journal", "Journal", "read_results", "csv_bytes",
@@ -21,12 +22,8 @@ OWNED = ("journal.jsonl", "results.csv", "summary.md", "fraction-vs-lambda-max.p
 
 
 def atomic_write(path: Path, data: bytes) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    with open(tmp, "wb") as fh:
-        fh.write(data)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    """Write ``data`` to ``path`` atomically (:func:`formsync_design.outdir.write_bytes`)."""
+    write_bytes(path, data)
 
 
 def read_journal(path: Path, *, repair: bool,
@@ -164,7 +161,7 @@ def check_folder(out: Path, sha: str, *, resume: bool, overwrite: bool) -> str:
         raise InputError(f"expected a results folder, received the file {str(out)!r}")
     _check_writable(out)
     if not man.is_file():
-        if out.is_dir() and any(out.iterdir()):
+        if out.is_dir() and any(p.name != LOCK_NAME for p in out.iterdir()):
             raise InputError(
                 f"expected an empty or new results folder, received {str(out)!r} holding files but no "
                 "manifest.json (nothing overwritten)"

@@ -107,6 +107,7 @@ class Outcome(StrEnum):
     NEVER = "never happened"
     NOT_REACHED = "not reached within the horizon"
     SINGULAR = "stopped at a singularity"
+    DIVERGED = "diverged (non-finite state)"
     UNDECIDED = "undecided by its computation"
 
 
@@ -191,7 +192,7 @@ def judge(spec: ClaimSpec, m: Measurement) -> Verdict:
     <Verdict.UNDECIDED: 'undecided'>
     """
     op = _OPS[spec.op]
-    if m.outcome is Outcome.SINGULAR:
+    if m.outcome in (Outcome.SINGULAR, Outcome.DIVERGED):  # a run that did not finish
         return Verdict.FAILS
     if m.outcome is Outcome.UNDECIDED:
         return Verdict.UNDECIDED
@@ -437,8 +438,9 @@ def measure_run(r: Any, frac: float, *, event: str = "chatter") -> dict[str, Mea
     """
     names = ("saturation_end_time",) if event == "saturation" else (
         "convergence_time", "tail_omega_m", "tail_q_m", "final_abs_rate", "chatter_end_time")
-    if r.status == "singular":
-        m = Measurement(Outcome.SINGULAR, note=r.message())
+    if r.status in ("singular", "diverged"):
+        m = Measurement(Outcome.SINGULAR if r.status == "singular" else Outcome.DIVERGED,
+                        note=r.message())
         return dict.fromkeys(names, m)
     t = np.asarray(r.t, float)
     tf = float(t[-1])

@@ -13,6 +13,8 @@ digraph, gains, case-1 spacecraft, simulation options) whose free-form ``[claims
     [claims.montecarlo]       runs, seed, max_euler_deg, max_rate
     [claims.near180]          angle_deg, tf, baselines = {liang2016 = {...}, pd_consensus = {...}}
     [claims.certify]          boxes = [{K1 = "lo:hi", ...}, ...], graphs = {label = spec | arcs}
+    [claims.equal_torque]     hold = [gain names not scaled], rtol (optional: the comparisons
+                              rerun at equal peak torque, :mod:`~formsync_design.verify.equal_torque`)
 
 Every verdict is computed here (:func:`run_comparison`); the report is written by
 :mod:`formsync_design.verify.comparison_report`.  Verdicts: ``holds``, ``fails``,
@@ -112,6 +114,7 @@ class ComparisonResult:
     derivation: Any
     claims: tuple[Claim, ...]
     settings: dict[str, Any]
+    equal_torque: dict[str, Any] | None = None
 
     @property
     def all_hold(self) -> bool:
@@ -488,8 +491,51 @@ def run_comparison(case: AgentCase, progress: Callable[[str], None] = lambda s: 
                "det_E": det_E_factorisation(), "lemmas": power_lemmas()}
     claims = judge(c1, c2, methods, cl, case.n)
     settings = {"threshold": thr}
+    eq = None
+    if "equal_torque" in cl:
+        progress("equal peak torque")
+        eq = _equal_torque(case, methods, (c1, c2, mc, n180), (Q2, W2, c2cfg), ncfg, thr, progress)
     return ComparisonResult(case, methods, c1, c2, mc, n180, tuple(base), tuple(certs), gr, der,
-                            claims, settings)
+                            claims, settings, eq)
+
+
+def _equal_torque(case: AgentCase, methods: tuple[Method, ...], literal: tuple[Any, ...],
+                  init2: tuple[Any, ...], ncfg: Mapping[str, Any], thr: float,
+                  progress: Callable[[str], None]) -> dict[str, Any]:
+    """The comparisons rerun with each comparison design's gains scaled to the main design's
+    peak torque on case 1 (:mod:`~formsync_design.verify.equal_torque`)."""
+    from formsync_design.verify.equal_torque import equal_peak_scale, scaled_gains
+
+    cfg = _table(case.claims["equal_torque"], "claims.equal_torque")
+    hold = cfg.get("hold", [])
+    if not isinstance(hold, list) or not all(isinstance(h, str) for h in hold):
+        raise InputError(f"expected claims.equal_torque.hold a list of gain names, received {hold!r}")
+    rtol = _num(cfg, "rtol", "claims.equal_torque", 1e-3)
+    c1, c2, mc, n180 = literal
+    Q2, W2, c2cfg = init2
+    target = c1[0].peak_torque
+    scaled, searches = [methods[0]], {}
+    for m, r in zip(methods[1:], c1[1:]):
+        def peak(c: float, m: Method = m) -> float:
+            return run_method(case, scaled_gains(m, c, hold), threshold=thr,
+                              series=False).peak_torque
+        ep = equal_peak_scale(peak, target, rtol=rtol, start=target / r.peak_torque, step=1.1)
+        searches[m.key] = ep
+        scaled.append(scaled_gains(m, ep.scale, hold))
+    others = tuple(scaled[1:])
+    e1 = (c1[0],) + tuple(run_method(case, m, threshold=thr, series=False) for m in others)
+    tf2 = _num(c2cfg, "tf", "claims.case2", case.options.tf)
+    e2 = (c2[0],) + tuple(run_method(case, m, Q2, W2, tf=tf2, threshold=thr, series=False)
+                          for m in others)
+    emc = _montecarlo(case, others, _table(case.claims.get("montecarlo", {}), "claims.montecarlo"),
+                      thr, progress)
+    times = {methods[0].key: mc["times"][methods[0].key], **emc["times"]}
+    ordered = sum(in_order([times[m.key][j] for m in scaled]) for j in range(mc["runs"]))
+    near = _near180(case, others, {k: v for k, v in ncfg.items() if k != "baselines"}, thr)
+    return {"hold": list(hold), "rtol": rtol, "target": target, "searches": searches,
+            "methods": tuple(scaled), "case1": e1, "case2": e2,
+            "montecarlo": {"runs": mc["runs"], "times": times, "ordered": ordered},
+            "near180": (n180[0],) + near}
 
 
 def verify_comparison_case(req: VerifyRequest) -> int:

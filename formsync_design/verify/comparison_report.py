@@ -216,6 +216,8 @@ def comparison_markdown(res: Any, fig_dir: str, command: str) -> str:
           "effort int &#124;u&#124;^2 dt | note |", "| --- | --- | --- | --- | --- | --- | --- |"]
     for row in res.near180:
         L.append(_row(row))
+    if res.equal_torque is not None:
+        L += _equal_torque_section(res)
     L += ["", "## Certificates of (K1, K2, P1, P2) on digraph families", "",
           "The families are the sliding-surface Lyapunov conditions derived below (the tracking "
           "loop of Theorem 1's first part; graph-independent); the graph enters through the "
@@ -242,6 +244,62 @@ def comparison_markdown(res: Any, fig_dir: str, command: str) -> str:
         doc = inspect.cleandoc(str(m.design.module.get("__doc__") or ""))
         L += [f"### `{m.design.name}`", "", "```text", doc, "```", ""]
     return "\n".join(L).rstrip() + "\n"
+
+
+def _equal_torque_section(res: Any) -> list[str]:
+    """The comparisons at literal gains beside the same at equal peak torque (computed)."""
+    from formsync_design.verify.comparison import in_order
+    from formsync_design.verify.equal_torque import ordering
+
+    eq = res.equal_torque
+    names = [m.design.name for m in res.methods]
+    hold = ", ".join(eq["hold"]) or "none"
+    L = ["", "## The comparisons at equal peak torque", "",
+         "The comparisons above run every design at its literal gains, whose peak torques on "
+         "case 1 differ (" + ", ".join(f"{n} {r.peak_torque:.3g} N m" for n, r in
+                                       zip(names, res.case1)) + "). Here every gain of each "
+         f"comparison design except {hold} is multiplied by one factor `c`, found by a 1-D "
+         "search (bracketing, then bisection in `log c`: `formsync_design/verify/"
+         "equal_torque.py`) so that its peak torque on case 1 equals the main design's "
+         f"{eq['target']:.4g} N m within {eq['rtol']:g} (relative); every comparison is then "
+         "rerun with the scaled gains (the main design's runs are the literal ones).", "",
+         "| method | scale factor c | peak torque, case 1 (N m) | relative error | search runs | "
+         "scaled gains |", "| --- | --- | --- | --- | --- | --- |"]
+    for m in eq["methods"][1:]:
+        sr = eq["searches"][m.key]
+        gains = ", ".join(f"{k} {float(v[0] if isinstance(v, tuple) else v):.4g}"
+                          for k, v in m.gains.as_dict().items())
+        L.append(f"| {m.design.name} | {sr.scale:.4g} | {sr.peak:.4g} | {sr.relative_error:.1e} | "
+                 f"{sr.evaluations} | {gains} |")
+    lit_n = [r["time"] for r in res.near180[:len(names)]]
+    eq_n = [r["time"] for r in eq["near180"]]
+    rows = [("case 1: time to Qa <= 1 deg", [r.time_to_qa for r in res.case1],
+             [r.time_to_qa for r in eq["case1"]]),
+            ("case 2: time to Qa <= 1 deg", [r.time_to_qa for r in res.case2],
+             [r.time_to_qa for r in eq["case2"]]),
+            ("near 180 deg: time to 1 deg", lit_n, eq_n)]
+    L += ["", "Which ordering holds (the paper's: " + " < ".join(names) + "):", "",
+          "| comparison | literal gains | paper's order | equal peak torque | paper's order |",
+          "| --- | --- | --- | --- | --- |"]
+    for what, lit, eqt in rows:
+        L.append(f"| {what} | {ordering(names, lit)} | {'holds' if in_order(lit) else 'fails'} | "
+                 f"{ordering(names, eqt)} | {'holds' if in_order(eqt) else 'fails'} |")
+    mc, emc = res.montecarlo, eq["montecarlo"]
+    L.append(f"| Monte-Carlo ({mc['runs']} runs): time to Qa <= 1 deg | paper's order in "
+             f"{mc['ordered']} of {mc['runs']} | {'holds' if mc['ordered'] == mc['runs'] else 'fails'}"
+             f" | paper's order in {emc['ordered']} of {emc['runs']} | "
+             f"{'holds' if emc['ordered'] == emc['runs'] else 'fails'} |")
+    L += ["", "The scaled designs' runs (the peak torque is equal on case 1 only; on the other "
+          "runs it is what the scaled gains give):", "",
+          "| method | case 1: time to Qa (s) | effort int &#124;u&#124;^2 dt | case 2: time to Qa "
+          "(s) | case 2 peak (N m) | near 180: time to 1 deg (s) | near 180 peak (N m) | "
+          "Monte-Carlo time to Qa (s) |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for m, r1, r2, rn in zip(eq["methods"], eq["case1"], eq["case2"], eq["near180"]):
+        L.append(f"| {m.design.name}{' (literal)' if m is eq['methods'][0] else ''} | "
+                 f"{_t(r1.time_to_qa)} | {r1.effort:.4g} | {_t(r2.time_to_qa)} | "
+                 f"{r2.peak_torque:.3g} | {_t(rn['time'])} | {rn['peak']:.3g} | "
+                 f"{_summary_stats(emc['times'][m.key])} |")
+    return L
 
 
 def _linear_note(res: Any) -> list[str]:
@@ -324,6 +382,17 @@ def comparison_json(res: Any) -> dict[str, Any]:
                     for row in res.near180],
         "certificates": [{"box": {k: str(v) for k, v in box.items()},
                           "graphs": [g.to_dict() for g in rows]} for box, rows in res.certificates],
+        "equal_torque": None if res.equal_torque is None else {
+            "target_peak": num(res.equal_torque["target"]),
+            "scales": {k: {"scale": num(e.scale), "peak": num(e.peak), "runs": e.evaluations}
+                       for k, e in res.equal_torque["searches"].items()},
+            "case1": [{"method": r.label, "time_to_qa": num(r.time_to_qa),
+                       "peak_torque": num(r.peak_torque)} for r in res.equal_torque["case1"]],
+            "case2": [{"method": r.label, "time_to_qa": num(r.time_to_qa)}
+                      for r in res.equal_torque["case2"]],
+            "near180": [{"method": r["label"], "time": num(r["time"])}
+                        for r in res.equal_torque["near180"]],
+            "montecarlo_ordered": res.equal_torque["montecarlo"]["ordered"]},
     }
 
 

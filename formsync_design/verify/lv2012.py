@@ -20,6 +20,10 @@ the case and its ``[claims] small_case``, computes in the run:
   (controller (4) of Liang et al. 2016 reading its gyro); **measured L2 gains** from the
   commanded attitude at rest under random disturbances, the paper's disturbance and the
   worst-case sinusoid of the linearisation;
+* **scope: global or local?** (``[claims] scope_angles``, optional): seeded runs without
+  disturbance from large initial attitudes, both signs of ``q0``
+  (:mod:`formsync_design.verify.large_angle`), whose verdict is computed from the runs; the
+  certificates above are of the linearisation, so local;
 * the **claims** and their verdicts (:func:`judge`), then the report
   (:mod:`formsync_design.verify.lv2012_report`).
 """
@@ -44,7 +48,8 @@ CLAIM_KEYS = {
     "small_case", "torque_budget", "tail_fraction", "comparison_design",
     "comparison_gains", "comparison_tf", "comparison_step", "comparison_switch", "comparison_phi",
     "gyro_bias", "gyro_noise", "gyro_seed", "failed_gyro", "failed_at", "l2_signals", "l2_rms",
-    "l2_tf", "l2_seed", "box", "box_gamma", "refute_gamma",
+    "l2_tf", "l2_seed", "box", "box_gamma", "refute_gamma", "scope_angles", "scope_signs",
+    "scope_seed", "scope_tf",
 }
 
 
@@ -58,6 +63,14 @@ def _claims(case: Any) -> dict[str, Any]:
     missing = [k for k in need if k not in c]
     if missing:
         raise InputError(f"expected [claims] {missing} in {case.path}, received none")
+    if "scope_angles" in c:
+        ang, sg = c["scope_angles"], c.get("scope_signs", [1, -1])
+        if (not isinstance(ang, list) or not ang or not isinstance(sg, list) or not sg
+                or not all(isinstance(a, (int, float)) and not isinstance(a, bool)
+                           and 0 <= a <= 180 for a in ang)
+                or not all(x in (1, -1) and not isinstance(x, bool) for x in sg)):
+            raise InputError(f"expected [claims] scope_angles a list of degrees in [0, 180] and "
+                             f"scope_signs a list of +-1 in {case.path}, received {ang!r}, {sg!r}")
     if not 1 <= int(c["failed_gyro"]) <= case.n:
         raise InputError(f"expected [claims] failed_gyro in 1..{case.n}, received "
                          f"{c['failed_gyro']!r}")
@@ -113,6 +126,7 @@ class CaseOutcome:
     steady_bound_deg: float           # the linearisation's steady-state bound implied by gamma
     l2: list[tuple[str, float]]       # (signal, measured gain)
     claims: list[Claim] = field(default_factory=list)
+    scope: Any | None = None          # ScopeStudy of the large-angle runs ([claims] scope_angles)
 
 
 @dataclass(frozen=True)
@@ -295,11 +309,20 @@ def analyse_case(path: str | Path, design: Any = None, progress: Any = None) -> 
     u *= rms / float(np.sqrt(np.mean(u**2)))
     l2.append(("worst-case sine", measured_l2_gain(simulate_agents(d, rest, lopt, torque_input=u),
                                                    u, h)))
+    scope = None
+    if "scope_angles" in cl:
+        from formsync_design.verify.large_angle import scope_study
+
+        say(f"{case.name}: large initial attitudes (global or local?)")
+        angles = [float(a) for a in cl["scope_angles"]]
+        signs = tuple(int(x) for x in cl.get("scope_signs", [1, -1]))
+        scope = scope_study(d, case.formation(disturbance="none"), opt, angles, signs,
+                            seed=int(cl.get("scope_seed", 0)), tf=cl.get("scope_tf"))
     out = CaseOutcome(name=case.name, path=str(path), case=case, storage=storage,
                       rate_free=rate_free, measured=tuple(d.decl.measured), filter_tf=tf_text,
                       filter_ok=tf_ok, linearisation=lin, gamma=gamma, gamma_sdp=gamma_sdp,
                       design=des, box=box, refute=refute, torque_bound=tb, runs=runs,
-                      identical_gyros=same, l2=l2, steady_bound_deg=sbound)
+                      identical_gyros=same, l2=l2, steady_bound_deg=sbound, scope=scope)
     out.claims.extend(judge(out))
     return out
 

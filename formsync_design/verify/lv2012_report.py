@@ -167,6 +167,28 @@ def _case_section(o: Any, figdir: str) -> list[str]:
         v = [x for kk, x in o.l2 if kk == k]
         L.append(f"| {k} | {len(v)} | {_f(min(v))} | {_f(max(v))} | {_f(o.gamma.gamma)} |")
     L += ["", f"![l2]({figdir}/{o.name}-l2.png)", ""]
+    if o.scope is not None:
+        L += _scope_section(o.scope)
+    return L
+
+
+def _scope_section(sc: Any) -> list[str]:
+    """The large-angle runs (:mod:`formsync_design.verify.large_angle`) and their verdict."""
+    L = ["### Scope: global or local?", "",
+         "The certified L2 gain and exponential stability are of the linearisation at the "
+         "commanded attitude: their scope is **local**.  The nonlinear storage gives convergence "
+         "to *an* equilibrium from every state (LaSalle), not to the command.  Seeded runs without "
+         "disturbance, from rest, every spacecraft rotated by the initial angle about its own "
+         "random axis, with either sign of `q0(0)` (the law reads `vec(q_r^* q_i)`, so `q` and "
+         f"`-q` differ), over {_f(sc.tf)} s (`formsync_design/verify/large_angle.py`):", "",
+         "| seed | initial angle (deg) | sign of q0(0) | converged | at (s) | final error to q_r "
+         "(deg) | final disagreement (deg) |", "| --- | --- | --- | --- | --- | --- | --- |"]
+    for r in sc.runs:
+        L.append(f"| {r.seed} | {r.angle_deg:g} | {'+' if r.q0_sign > 0 else '-'} | "
+                 f"{'yes' if r.converged else 'no'} | {_f(r.convergence_time)} | "
+                 f"{_f(r.final_error_deg, 3)} | {_f(r.final_disagreement_deg, 3)} |")
+    L += ["", f"Verdict (computed from these runs): **{sc.summary}**; the certificates' scope: "
+          "local (the linearisation at the commanded attitude).", ""]
     return L
 
 
@@ -232,6 +254,7 @@ def outcome_json(outcomes: list[Any]) -> str:
             "refute": None if o.refute is None else o.refute.to_dict(),
             "torque_bound": json_number(o.torque_bound),
             "measured_l2": [{"signal": k, "gain": json_number(v)} for k, v in o.l2],
+            "scope": None if o.scope is None else o.scope.to_dict(),
             "runs": {k: {"label": r.label, "design": r.design, "status": r.status,
                          "convergence_time": None if r.convergence_time is None
                          else json_number(r.convergence_time),

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from matplotlib.figure import Figure
 
+from formsync_design.outdir import write_text
 from formsync_design.verify.claims import (
     EVENT_QUANTITIES,
     QUANTITIES,
@@ -52,6 +53,8 @@ def format_measurement(m: Measurement, spec: ClaimSpec) -> str:
     """
     if m.outcome is Outcome.SINGULAR:
         return "stopped at q0 → 0"
+    if m.outcome is Outcome.DIVERGED:
+        return "diverged"
     if m.outcome is Outcome.NEVER:
         return "never"
     if m.outcome is Outcome.UNDECIDED:
@@ -228,7 +231,8 @@ def write_verification_report(
     for t in res.topologies:
         ct = t.sim["convergence_time"]
         conv = _num(ct, "s") if ct is not None else (
-            "stopped at q0 → 0" if t.sim["status"] == "singular" else f"not within {t.horizon:g} s")
+            "stopped at q0 → 0" if t.sim["status"] == "singular" else
+            "diverged" if t.sim["status"] == "diverged" else f"not within {t.horizon:g} s")
         margin = "n/a" if t.derived_margin is None else _num(t.derived_margin)
         w(f"| `{t.graph}` | {t.lambda_max:.4g} | {t.max_degree} | {t.derived_status} | "
           f"{margin} | {t.paper_status} | {t.sim['status']} | {t.horizon:g} s | {conv} |")
@@ -324,5 +328,5 @@ def write_verification_report(
     for line in _observations(res):
         w(f"- {line}")
     w("")
-    md.write_text("\n".join(L) + "\n", encoding="utf-8")
+    write_text(md, "\n".join(L) + "\n")  # atomically: an interrupted run keeps the old report
     return md, tuple(figs)

@@ -70,7 +70,10 @@ class SelftriggerVerification:
     ``runs``: label -> {scheme or ``periodic@T``: SchemeRun}; ``mc``: list of
     ``{scheme: SchemeRun}`` (self, event, periodic at equal transmissions);
     ``bound``: IntereventBound; ``delta_check``: DeltaCheck; ``iss``: label -> (predicted,
-    measured) ultimate bound of ``|sigma_i - sigma_d|``; ``claims``: tuple of Claim.
+    measured) ultimate bound of ``|sigma_i - sigma_d|`` (the norm chain); ``iss_ellipsoid``:
+    label -> IssEllipsoid (the invariant-ellipsoid bound from the same measured inputs);
+    ``interevent_origin``: (active ratio, interval at rest, bound is the rule's floor);
+    ``claims``: tuple of Claim.
     """
 
     case: Any
@@ -84,12 +87,16 @@ class SelftriggerVerification:
     iss: dict[str, tuple[float, float]]
     reference_rate_max: float
     claims: tuple[Claim, ...] = field(default=())
+    iss_ellipsoid: dict[str, Any] = field(default_factory=dict)
+    interevent_origin: tuple[str, Any, bool] | None = None
 
     @property
     def all_hold(self) -> bool:
         return all(c.verdict == Verdict.HOLDS for c in self.claims)
 
     def to_dict(self) -> dict[str, Any]:
+        from formsync_design.verify.selftrigger_cert import iss_vacuous
+
         return {
             "case": self.case.name, "design": self.case.design.name,
             "interevent_bound": {"formula": self.bound.formula,
@@ -99,8 +106,17 @@ class SelftriggerVerification:
             "certificates": {k: c.to_dict() for k, c in self.certificates.items()},
             "runs": {g: {k: r.to_dict() for k, r in rs.items()} for g, rs in self.runs.items()},
             "montecarlo": [{k: r.to_dict() for k, r in rs.items()} for rs in self.mc],
-            "iss": {k: {"predicted": json_number(a), "measured": json_number(b)}
+            "iss": {k: {"predicted": json_number(a), "measured": json_number(b),
+                        "vacuous": iss_vacuous(self.case.design, a),
+                        "ellipsoid": None if k not in self.iss_ellipsoid else {
+                            "certified": self.iss_ellipsoid[k].certified,
+                            "sigma_bound": json_number(self.iss_ellipsoid[k].sigma_bound),
+                            "z_bounds": [json_number(z) for z in self.iss_ellipsoid[k].z_bounds]}}
                     for k, (a, b) in self.iss.items()},
+            "interevent_origin": None if self.interevent_origin is None else {
+                "active": self.interevent_origin[0],
+                "at_rest": json_number(self.interevent_origin[1]),
+                "design_floor": self.interevent_origin[2]},
             "claims": [c.to_dict() for c in self.claims],
         }
 
@@ -197,6 +213,8 @@ def verify_selftrigger(case: Any, progress: Any = None) -> SelftriggerVerificati
         certify_design,
         disturbance_delta,
         interevent_bound,
+        interevent_origin,
+        iss_ellipsoid,
         iss_prediction,
     )
     from formsync_design.verify.selftrigger_runs import run_scheme, scheme_designs
@@ -255,6 +273,7 @@ def verify_selftrigger(case: Any, progress: Any = None) -> SelftriggerVerificati
                                           tail=cfg["tail"])
         mc.append(rs)
     iss: dict[str, tuple[float, float]] = {}
+    ell: dict[str, Any] = {}
     for label, g in graphs.items():
         fam = next((fm for fm in certs[label].families if fm.name == "reaching"), None)
         if fam is None or fam.lower is None:
@@ -263,9 +282,13 @@ def verify_selftrigger(case: Any, progress: Any = None) -> SelftriggerVerificati
         pred = iss_prediction(design, g, {k: float(v) for k, v in gains.items()},
                               float(fam.lower), run.c_norm, run.staleness, run.delta_norm)
         iss[label] = (pred, run.tail_sigma_error)
+        say(f"invariant-ellipsoid bound {label}")
+        ell[label] = iss_ellipsoid(design, g, {k: float(v) for k, v in gains.items()},
+                                   run.c_norm / math.sqrt(case.n), run.staleness, run.delta_norm)
     res = SelftriggerVerification(case=case, config=cfg, graphs=graphs, certificates=certs,
                                   runs=runs, mc=mc, bound=bound, delta_check=delta_check,
-                                  iss=iss, reference_rate_max=wmax)
+                                  iss=iss, reference_rate_max=wmax, iss_ellipsoid=ell,
+                                  interevent_origin=interevent_origin(bound, fr))
     return replace(res, claims=judge(res))
 
 

@@ -24,6 +24,20 @@ ISS ultimate bound (:func:`iss_prediction`)
     ``|sigma_i - sigma_d| <= (1 + rho^2)/4 |z_i| / (r (1 - rho^2)/4 - 3/2 rho wbar)``.  The
     measured ``cbar`` (threshold floors), ``xibar`` (staleness) and ``Deltabar`` of a run's
     tail enter (floating point: a prediction to compare with the run, not a certificate).
+    It is **vacuous** (:func:`iss_vacuous`) when it exceeds ``2 rho``, the largest
+    ``|sigma_i - sigma_d|`` inside the operating region ``|sigma|, |sigma_d| <= rho``.
+
+Invariant-ellipsoid ultimate bound (:func:`iss_ellipsoid`)
+    The same loop without the norm chain: per axis (every term is ``X (x) I_3``) the true
+    sliding variables obey the linear system ``s' = M (-m w + Delta)``, ``w = s + e + xi`` (the
+    held values: ``e`` the measurement error, ``xi`` the staleness), with the inputs bounded
+    by the trigger, ``|e_i| <= theta |w_i| + c`` (used as ``|e_i|^2 <= (1 + k) theta^2 |w_i|^2
+    + (1 + 1/k) c^2`` for ``k`` in a grid, default 2, 4, 6), and by the run's tail sups ``|xi| <= xibar``,
+    ``|Delta| <= Deltabar``.  :func:`~formsync_design.analysis.ellipsoid.invariant_ellipsoid`
+    finds an attracting invariant ellipsoid ``{s^T P s <= 1}`` (LMI, exact re-check) and the
+    exact ultimate bound of every ``|z_i| = |(H^{-1} s)_i|``; the surface step is the one
+    above.  Same measured inputs as the prediction, so the same status: a bound given the
+    run's tail input bounds, tight up to the S-procedure and the surface step.
 """
 
 from __future__ import annotations
@@ -41,7 +55,8 @@ from formsync_design.errors import DerivationError
 from formsync_design.spec.agent import AgentDesign, agent_expressions
 
 __all__ = ["IntereventBound", "interevent_bound", "DeltaCheck", "disturbance_delta",
-           "certify_design", "iss_prediction"]
+           "certify_design", "iss_prediction", "iss_vacuous", "IssEllipsoid", "iss_ellipsoid",
+           "interevent_origin"]
 
 
 @dataclass(frozen=True)
@@ -172,3 +187,106 @@ def iss_prediction(design: AgentDesign, graph: Any, gains: dict[str, float], lam
     rho, wbar = float(Fraction(reg["rho"])), float(Fraction(reg["omega_d_max"]))
     kappa = r * (1 - rho**2) / 4 - 1.5 * rho * wbar
     return (1 + rho**2) / 4 * z_ult / kappa if kappa > 0 else math.inf
+
+
+def _surface_factor(design: AgentDesign, r: float) -> float:
+    """``(1 + rho^2)/4 / (r (1 - rho^2)/4 - 3/2 rho wbar)`` (inf outside the surface
+    condition): ``|sigma_i - sigma_d| <= factor |z_i|`` ultimately on the operating region."""
+    reg = design.module["OPERATING_REGION"]
+    rho, wbar = float(Fraction(reg["rho"])), float(Fraction(reg["omega_d_max"]))
+    kappa = r * (1 - rho**2) / 4 - 1.5 * rho * wbar
+    return (1 + rho**2) / 4 / kappa if kappa > 0 else math.inf
+
+
+def iss_vacuous(design: AgentDesign, bound: float) -> bool:
+    """A bound of ``max_i |sigma_i - sigma_d|`` above ``2 rho`` says nothing: inside the
+    operating region ``|sigma_i - sigma_d| <= |sigma_i| + |sigma_d| <= 2 rho`` already.
+
+    >>> from formsync_design.spec.loader import load_design
+    >>> d = load_design("selftrigger_mrp")
+    >>> iss_vacuous(d, 1.21), iss_vacuous(d, 1.19)
+    (True, False)
+    """
+    return bound > 2 * float(Fraction(design.module["OPERATING_REGION"]["rho"]))
+
+
+@dataclass(frozen=True)
+class IssEllipsoid:
+    """The invariant-ellipsoid ultimate bound (module docstring): ``sigma_bound`` of
+    ``max_i |sigma_i - sigma_d|``, ``z_bounds`` per spacecraft, the split ``k`` used and the
+    ellipsoid (``certified`` False: no grid value passed the exact re-check)."""
+
+    certified: bool
+    sigma_bound: float
+    z_bounds: tuple[float, ...]
+    split: float | None
+    ellipsoid: Any
+
+
+def _sector_system(H: np.ndarray, m: float, th: float, split: float, cbar: float,
+                   xibar: float, deltabar: float) -> tuple[Any, ...]:
+    """``A, B, [G_k], [c_k], C`` of the per-axis loop (module docstring), inputs
+    ``(e, xi, Delta)``."""
+    n = H.shape[0]
+    Mm = H / np.diag(H)[None, :]  # M = H Dbar^{-1}
+    A = -m * Mm
+    B = np.hstack([-m * Mm, -m * Mm, Mm])
+    G, c = [], []
+    for i in range(n):
+        u = np.zeros(4 * n)
+        u[[i, n + i, 2 * n + i]] = 1.0
+        ei = np.zeros(4 * n)
+        ei[n + i] = 1.0
+        G.append((1 + split) * th**2 * np.outer(u, u) - np.outer(ei, ei))
+        c.append((1 + 1 / split) * cbar**2)
+    for blk, bnd in ((2, xibar), (3, deltabar)):
+        g = np.zeros((4 * n, 4 * n))
+        g[blk * n:(blk + 1) * n, blk * n:(blk + 1) * n] = -np.eye(n)
+        G.append(g)
+        c.append(bnd**2)
+    return A, B, G, c, np.linalg.inv(H)
+
+
+def iss_ellipsoid(design: AgentDesign, graph: Any, gains: dict[str, float], cbar: float,
+                  xibar: float, deltabar: float,
+                  splits: tuple[float, ...] = (2.0, 4.0, 6.0)) -> IssEllipsoid:
+    """The invariant-ellipsoid bound of ``max_i |sigma_i - sigma_d|`` (module docstring);
+    ``cbar`` the per-spacecraft threshold floor ``eps + eta_i`` over the tail."""
+    from formsync_design.analysis.ellipsoid import invariant_ellipsoid
+
+    H = np.asarray(graph.laplacian + graph.pinning_matrix, dtype=float)
+    m, r = gains["m_f"], gains["r"]
+    th = 1 - 1 / m
+    best: IssEllipsoid | None = None
+    for k in splits:
+        A, B, G, c, C = _sector_system(H, m, th, k, cbar, xibar, deltabar)
+        el = invariant_ellipsoid(A, B, G, c, C)
+        if not el.certified:
+            continue
+        sb = _surface_factor(design, r) * max(el.bounds)
+        if best is None or sb < best.sigma_bound:
+            best = IssEllipsoid(True, sb, el.bounds, k, el)
+    if best is None:
+        return IssEllipsoid(False, math.inf, tuple([math.inf] * H.shape[0]), None, None)
+    return best
+
+
+def interevent_origin(bound: IntereventBound, gains: dict[str, Any]) -> tuple[str, Fraction, bool]:
+    """Where the inter-event bound comes from: ``(active ratio, tau(S = 0, h = 0), floor)``
+    with ``floor`` True when the bound is exactly the rule's interval at rest (``|s_i| = 0``,
+    ``eta_i = 0``), i.e. the design's own constant floor rather than a closed-loop property.
+
+    >>> from formsync_design.spec.loader import load_design
+    >>> g = {"m_f": Fraction(3, 2), "delta": Fraction(1, 20), "eps": Fraction(1, 100),
+    ...      "alpha": Fraction(1, 10), "eta0": Fraction(1, 20), "r": Fraction(1, 2)}
+    >>> b = interevent_bound(load_design("selftrigger_mrp"), g)
+    >>> interevent_origin(b, g)
+    ('eps/delta', Fraction(1, 5), True)
+    """
+    subs = {s: sp.Rational(Fraction(gains[str(s)]).numerator, Fraction(gains[str(s)]).denominator)
+            for s in bound.tau.free_symbols if str(s) in gains}
+    vals = [Fraction(str(sp.nsimplify(r.subs(subs)))) for r in bound.ratios]
+    active = str(bound.ratios[vals.index(min(vals))])
+    S, h = sp.symbols("S h", nonnegative=True)
+    at_rest = Fraction(str(sp.nsimplify(bound.tau.subs(subs).subs({S: 0, h: 0}))))
+    return active, at_rest, at_rest == bound.value

@@ -90,7 +90,7 @@ __all__ = [
 
 def _needs_longer(r: Any, frac: float) -> bool:
     """A finished run whose steady-state tail starts before it converged."""
-    if r.status == "singular":
+    if r.status in ("singular", "diverged"):
         return False
     k0 = steady_state_start(r.t, frac)
     return r.convergence_time is None or r.convergence_time > float(r.t[k0])
