@@ -30,7 +30,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["TheoremRow", "TheoremCheck", "theorem_graphs", "check_theorem"]
+__all__ = ["TheoremRow", "TheoremCheck", "theorem_graphs", "check_theorem", "cycle_figure",
+           "theorem_claim"]
 
 
 @dataclass(frozen=True)
@@ -47,6 +48,7 @@ class TheoremRow:
     graph: str
     n: int
     status: str
+    abscissa: float | None = None
     decay: float | None = None
     eigenvalue: complex | None = None
     sigma: float | None = None
@@ -58,7 +60,7 @@ class TheoremRow:
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"family": self.family, "graph": self.graph, "n": self.n,
-                               "status": self.status}
+                               "status": self.status, "spectral_abscissa": self.abscissa}
         if self.decay is not None:
             out["decay_rate"] = self.decay
         if self.eigenvalue is not None:
@@ -83,6 +85,7 @@ class TheoremCheck:
     phi: Fraction | None
     rows: tuple[TheoremRow, ...]
     seed: int
+    sampling: str = "continuous"
 
     @property
     def counterexamples(self) -> tuple[TheoremRow, ...]:
@@ -119,7 +122,11 @@ class TheoremCheck:
                 if self.first_failing_cycle else "."), "",
              "A counterexample's witness is a proof (an eigenvalue with real part above the "
              "proven bound, by the inertia theorem); its simulation (seed "
-             f"{self.seed}, from a few degrees off consensus, same switch) is evidence.", "",
+             f"{self.seed}, from a few degrees off consensus, same switch) is evidence."
+             + ("" if self.sampling == "continuous" else
+                f" The design samples ({self.sampling}): the certificate is about its "
+                "continuous-time emulation (held values equal to current ones), not the "
+                "sampled loop."), "",
              "| family | graph | N | formation verdict | evidence |", "|---|---|---|---|---|"]
         for r in sorted(self.rows, key=lambda r: (r.status != "refuted", r.family, r.n)):
             if r.status == "refuted" and r.eigenvalue is not None:
@@ -173,7 +180,7 @@ def theorem_graphs(n_paper: int, *, cycles: Iterable[int] = range(3, 21),
 
 
 def _simulate(case: Any, g: Any, seed: int, tf: float, switch: str, phi: float) -> tuple[float, float, str]:
-    from formsync_design.sim.agents import AgentOptions, simulate_agents
+    from formsync_design.sim.agents import simulate_agents
 
     c = case.cycled(g.n)
     rng = np.random.default_rng(seed)
@@ -231,7 +238,9 @@ def check_theorem(case: Any, *, cycles: Iterable[int] = range(3, 21),
         if not check_theorem_graph(g, design.decl.graphs, allow_outside=True).inside:
             continue
         r = certify_formation(design, g, case.cycled(g.n).inertias, box, switch=switch, phi=phi)
-        row = TheoremRow(fam, g.name, g.n, str(r.status), decay=r.decay,
+        row = TheoremRow(fam, g.name, g.n, str(r.status),
+                         abscissa=None if r.evidence.get("spectral_abscissa") is None
+                         else float(r.evidence["spectral_abscissa"]), decay=r.decay,
                          eigenvalue=None if r.witness is None else r.witness.eigenvalue,
                          sigma=None if r.witness is None else r.witness.sigma, reason=r.reason)
         if r.witness is not None and simulate and sims < max_simulations:
@@ -242,5 +251,46 @@ def check_theorem(case: Any, *, cycles: Iterable[int] = range(3, 21),
             row = replace(row, sim_initial_deg=a, sim_final_deg=b, sim_tf=sim_tf, sim_status=st)
         rows.append(row)
     return TheoremCheck(design.name, tuple(design.decl.graphs), gains, switch,
-                        parse_number(phi, "phi"), tuple(rows), seed)
+                        parse_number(phi, "phi"), tuple(rows), seed, design.decl.sampling)
 
+
+def theorem_claim(tc: TheoremCheck) -> tuple[str, str, str, str]:
+    """``(text, measured, verdict, rule)`` of the claim "the declared graph class suffices"
+    judged from ``tc``: ``fails`` with a counterexample, else ``undecided`` (finite families
+    decide nothing in favour of a theorem)."""
+    bad = tc.counterexamples
+    cls = ", ".join(tc.declared) or "any graph"
+    first = f", first failing directed cycle C{tc.first_failing_cycle}" if tc.first_failing_cycle else ""
+    measured = (f"{len(bad)} of {len(tc.rows)} graphs of the class refuted ({bad[0].graph} "
+                f"first{first})" if bad else f"{len(tc.rows)} graphs of the class, none refuted")
+    return (f"the design's theorem: every graph with {cls} gives a convergent formation "
+            "(at the case's gains)", measured, "fails" if bad else "undecided",
+            "formation-level certificate (local exponential stability) on graph families: a "
+            "refuted graph of the class is a counterexample; none refuted decides nothing")
+
+
+
+def cycle_figure(tc: TheoremCheck) -> Any:
+    """The largest real part of the disagreement's linearisation on the directed cycles
+    against their length (a Figure; ``None`` when no cycle was checked): above zero a cycle is
+    a counterexample."""
+    from matplotlib.figure import Figure
+
+    rows = sorted((r for r in tc.rows if r.family == "directed cycle" and r.abscissa is not None),
+                  key=lambda r: r.n)
+    if not rows:
+        return None
+    fig = Figure(figsize=(6.0, 3.4))
+    ax = fig.add_subplot(111)
+    ax.plot([r.n for r in rows], [float(r.abscissa or 0.0) for r in rows], "o-", color="C0")
+    bad = [r for r in rows if r.status == "refuted"]
+    ax.plot([r.n for r in bad], [float(r.abscissa or 0.0) for r in bad], "o", color="C3",
+            label="refuted (counterexample)")
+    ax.axhline(0.0, color="k", lw=0.8)
+    ax.set_xlabel("directed cycle length N")
+    ax.set_ylabel("largest real part (1/s)")
+    ax.set_title(f"{tc.design}: disagreement modes on directed cycles", fontsize=10)
+    if bad:
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
