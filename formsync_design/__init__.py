@@ -28,6 +28,8 @@ data flows through the stages:
   on the graph given, :func:`certify_formation` (-> :class:`FormationCertificate`, with its
   :class:`Scope`) on its exact linearisation at consensus (:func:`linearize_formation`),
   and :func:`check_theorem` (a design's declared graph class tested on graph families);
+  :func:`to_statespace` exports that linearisation as a ``control.StateSpace``
+  (python-control, the ``control`` extra);
 * simulation: :class:`Formation`, :class:`Gains`, :class:`SimOptions`,
   :func:`simulate`, :func:`simulate_sampled` (per-spacecraft sample-and-hold and
   trigger rules), :func:`metric_figure`, :func:`torque_figures`,
@@ -132,6 +134,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "FormationCertificate": "formsync_design.certify.formation",
     "Scope": "formsync_design.certify.scope",
     "check_theorem": "formsync_design.verify.theoremcheck",
+    "to_statespace": "formsync_design.interop",
     "RegionMap": "formsync_design.certify",
     "region_map": "formsync_design.certify",
     "plot_slices": "formsync_design.certify.plots",
