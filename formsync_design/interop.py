@@ -15,7 +15,7 @@ python-control is an optional dependency (``pip install 'formsync-design[control
 >>> from formsync_design.spec.loader import load_design
 >>> sys = to_statespace(load_design("lv2012"), "path:2", [np.eye(3) * 2] * 2,
 ...                     {"k_p": 1, "k_d": 4, "a_f": 1}, pinning=[1, 1])
->>> sys.ninputs, sys.noutputs, sys.nstates                           
+>>> sys.ninputs, sys.noutputs, sys.nstates
 (6, 6, 18)
 """
 
