@@ -24,7 +24,12 @@ data flows through the stages:
   agent design's linearisation (:func:`linearize_agents`): :func:`certify_gamma`,
   :func:`certify_l2_box`, :func:`design_l2_gains`;
   :func:`certify_agent_graphs` (an agent design's box on graph families; a graph outside
-  its theorem refused as a finding);
+  its theorem refused as a finding); the formation-level certificate of any agent design
+  on the graph given, :func:`certify_formation` (-> :class:`FormationCertificate`, with its
+  :class:`Scope`) on its exact linearisation at consensus (:func:`linearize_formation`),
+  and :func:`check_theorem` (a design's declared graph class tested on graph families);
+  :func:`to_statespace` exports that linearisation as a ``control.StateSpace``
+  (python-control, the ``control`` extra);
 * simulation: :class:`Formation`, :class:`Gains`, :class:`SimOptions`,
   :func:`simulate`, :func:`simulate_sampled` (per-spacecraft sample-and-hold and
   trigger rules), :func:`metric_figure`, :func:`torque_figures`,
@@ -113,6 +118,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "agent_closed_loop": "formsync_design.derive",
     "agent_conditions": "formsync_design.derive",
     "linearize_agents": "formsync_design.derive.linearize",
+    "linearize_formation": "formsync_design.derive.formation",
     # gains and numbers
     "GainBox": "formsync_design.gains",
     "GainRange": "formsync_design.gains",
@@ -124,6 +130,11 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "certify_box": "formsync_design.certify",
     "certify_with_multipliers": "formsync_design.certify",
     "certify_agent_graphs": "formsync_design.certify.agentgraphs",
+    "certify_formation": "formsync_design.certify.formation",
+    "FormationCertificate": "formsync_design.certify.formation",
+    "Scope": "formsync_design.certify.scope",
+    "check_theorem": "formsync_design.verify.theoremcheck",
+    "to_statespace": "formsync_design.interop",
     "RegionMap": "formsync_design.certify",
     "region_map": "formsync_design.certify",
     "plot_slices": "formsync_design.certify.plots",

@@ -176,3 +176,19 @@ def test_a_directed_cycle_of_100_spacecraft_decides():
     d = load_design("ma_so3")
     r = certify_formation(d, cycle(100), so3_case().cycled(100).inertias, GainBox.parse(PAPER))
     assert r.status == Status.REFUTED and r.evidence["quotient_dim"] == 594
+
+
+def test_an_undecided_formation_gets_a_seeded_falsification_search(capsys):
+    """ma_mrp_ft with the ideal sgn: |s|^(1/2) sgn(s) is not differentiable at consensus, so
+    no proof decides; the falsification runs are evidence, replayed by their seeds."""
+    args = ["certify", "--design", "ma_mrp_ft", "--graph", "ring:4", "--switch", "sgn",
+            *[x for g in ("K1=0.5", "K2=0.05", "P1=0.01", "P2=0.01", "eps=0.01")
+              for x in ("--gain", g)], "--format", "json"]
+    assert main(args) == 1
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["status"] == "undecided" and "not differentiable" in doc["formation"]["scope"]["covers"]
+    fal = doc["falsification"]
+    assert fal["basis"] == "evidence" and [r["seed"] for r in fal["runs"]] == [1, 2, 3, 4]
+    assert main(args) == 1
+    again = json.loads(capsys.readouterr().out)["falsification"]
+    assert again == fal

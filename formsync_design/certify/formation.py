@@ -472,8 +472,9 @@ def _scope(design: Any, lin: Any, graph: Any, leader: bool) -> Scope:
     assumptions.append("equilibrium: the reference attitude at rest, controller states 0"
                        if leader else "equilibrium: every spacecraft at one attitude (the "
                        "identity), at rest, controller states 0")
-    assumptions.append("nonlinear conclusion by Lyapunov's indirect method (the law is "
-                       "differentiable at the equilibrium: checked)")
+    if lin.covered:
+        assumptions.append("nonlinear conclusion by Lyapunov's indirect method (the law is "
+                           "differentiable at the equilibrium: checked)")
     if lin.emulation:
         assumptions.append(f"sampling ({design.decl.sampling}) not covered: the "
                            "continuous-time emulation (held values equal to current ones)")

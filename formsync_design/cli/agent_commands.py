@@ -316,7 +316,7 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
     from formsync_design.cli.certify import format_result
     from formsync_design.cli.options import design_box
     from formsync_design.derive.agent import agent_conditions
-    from formsync_design.gains import GainBox
+    from formsync_design.gains import GainBox, parse_number
     from formsync_design.graphs.theorem import check_theorem_graph, load_graph
 
     _refuse(args, ("ko", "kq", "beta", "ud", "kv", "case", "delay", "decay", "settle",
@@ -336,6 +336,16 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
     phi = getattr(args, "boundary_layer", None) or "1/100"
     ctrl = GainBox(tuple(r for r in box.ranges if r.name not in design.decl.multipliers))
     form = certify_formation(design, g, inertias, ctrl, switch=switch, phi=phi)
+    evidence = None
+    if str(form.status) == "undecided" and "not differentiable" in form.scope.covers:
+        # no proof decides: a seeded falsification search in simulation, reported as evidence
+        from formsync_design.verify.falsify import falsify_formation
+
+        point = {r.name: (r.lo + r.hi) / 2 for r in ctrl.ranges}
+        case = agent_case_for(design, None, [f"{k}={v}" for k, v in point.items()])
+        evidence = falsify_formation(case, g, switch=getattr(args, "switch", None),
+                                     phi=None if getattr(args, "boundary_layer", None) is None
+                                     else float(parse_number(args.boundary_layer, "phi")))
     res = None
     if callable(design.module.get("conditions")):
         res = certify_agent(design, agent_conditions(design, graph), box,
@@ -344,12 +354,16 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
         doc: dict[str, Any] = {**({"outside_theorem": theorem.to_dict()} if not theorem.inside
                                   else {}), "design": design.name, "status": str(form.status),
                                "formation": {**form.to_dict(), "inputs": note}}
+        if evidence is not None:
+            doc["falsification"] = evidence.to_dict()
         if res is not None:
             doc["design_conditions"] = {**res.to_dict(), "scope": conditions_scope(design).to_dict()}
         emit_json(doc)
     else:
         lines = [] if theorem.inside else [theorem.note()]
         lines += [form.text(), f"  inputs: {note}"]
+        if evidence is not None:
+            lines.append("  " + evidence.text().replace("\n", "\n  "))
         if res is not None:
             lines += ["", "design conditions (" + conditions_scope(design).text() + "):",
                       format_result(res)]
@@ -501,6 +515,7 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     from pathlib import Path
 
     from formsync_design.certify.agent import agent_multipliers, region_agent
+    from formsync_design.certify.formation import conditions_scope
     from formsync_design.certify.plots import plot_slices
     from formsync_design.certify.region import map_to_dict
     from formsync_design.cli.options import Progress, design_box, to_json_value
@@ -548,9 +563,12 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     write_text(json_path, json.dumps(to_json_value(doc), indent=1, allow_nan=False) + "\n")
     if args.format == "json":
         emit_json({"files": [str(json_path), str(fig_path)], "fixed": doc["fixed"],
+                   "scope": conditions_scope(design).to_dict(),
                    "maps": [{"graph": m.graph, "fractions": m.fractions, "boxes": len(m.boxes)}
                             for m, _ in maps]})
     else:
+        print(f"scope: {conditions_scope(design).text()} (formsync certify decides the "
+              "formation on the graph)")
         for note in notes:
             print(note)
         for m, r in maps:
@@ -568,9 +586,10 @@ def run_agent_design(args: argparse.Namespace, design: Any) -> int:
     the largest certified margin of its ``conditions(c)`` families (multipliers searched, exact
     re-check), and the largest certified box around it."""
     from formsync_design.certify.agent import design_agent
+    from formsync_design.certify.formation import certify_formation, conditions_scope
     from formsync_design.cli.options import design_box
     from formsync_design.derive.agent import agent_conditions
-    from formsync_design.gains import json_number
+    from formsync_design.gains import GainBox, json_number
     from formsync_design.graphs.theorem import check_theorem_graph, load_graph
 
     _refuse(args, ("ko", "kq", "beta", "min_delay", "graphs_set", "torque_limit", "inertia",
@@ -604,6 +623,16 @@ def run_agent_design(args: argparse.Namespace, design: Any) -> int:
                certified_box=None if cbox is None else
                {n: [json_number(lo), json_number(hi)] for n, (lo, hi) in zip(box.names, cbox)},
                certified_box_status=None if cres is None else str(cres.status))
+    # the recommended gains decided for the formation on the graph (the families above are
+    # the design's own conditions)
+    g, J, note = formation_inputs(args, design, graph)
+    fixed = {x.name: x.range.lo for x in design.decl.gains if x.role == "controller"
+             and x.name not in point and x.range is not None and x.range.lo == x.range.hi}
+    form = certify_formation(design, g, J, GainBox.parse(
+        {k: (v, v) for k, v in {**fixed, **{n: point[n] for n in point
+                                            if n not in design.decl.multipliers}}.items()}))
+    doc.update(scope=conditions_scope(design).to_dict(),
+               formation={**form.to_dict(), "inputs": note})
     if args.format == "json":
         emit_json(doc)
     else:
@@ -619,4 +648,6 @@ def run_agent_design(args: argparse.Namespace, design: Any) -> int:
                            for n, (lo, hi) in zip(box.names, cbox))
             print(f"largest certified box around it (+-{s:.3g} relative, "
                   f"{cres.status if cres else '-'}): {bx}")
-    return EXIT_OK
+        print(f"scope of the recommendation: {conditions_scope(design).text()}")
+        print("at the recommended gains, " + form.text())
+    return EXIT_OK if form.certified else EXIT_NEGATIVE

@@ -115,6 +115,7 @@ class ComparisonResult:
     claims: tuple[Claim, ...]
     settings: dict[str, Any]
     equal_torque: dict[str, Any] | None = None
+    theorem: Any = None
 
     @property
     def all_hold(self) -> bool:
@@ -490,13 +491,27 @@ def run_comparison(case: AgentCase, progress: Callable[[str], None] = lambda s: 
         der = {"sliding": derive_sliding(mod["tracking_law"], mod["errors"], mod["GAINS"]),
                "det_E": det_E_factorisation(), "lemmas": power_lemmas()}
     claims = judge(c1, c2, methods, cl, case.n)
+    progress("theorem checked on graph families")
+    from formsync_design.verify.theoremcheck import check_theorem
+
+    tc = check_theorem(case)
+    claims += (_theorem_claim(tc),)
     settings = {"threshold": thr}
     eq = None
     if "equal_torque" in cl:
         progress("equal peak torque")
         eq = _equal_torque(case, methods, (c1, c2, mc, n180), (Q2, W2, c2cfg), ncfg, thr, progress)
     return ComparisonResult(case, methods, c1, c2, mc, n180, tuple(base), tuple(certs), gr, der,
-                            claims, settings, eq)
+                            claims, settings, eq, tc)
+
+
+def _theorem_claim(tc: Any) -> Claim:
+    """The design's theorem (its declared graph class suffices) judged by the formation
+    certificate on graph families (:func:`~formsync_design.verify.theoremcheck.theorem_claim`)."""
+    from formsync_design.verify.theoremcheck import theorem_claim
+
+    text, measured, verdict, rule = theorem_claim(tc)
+    return Claim("theorem", "Theorem 1: " + text, "yes (theorem)", measured, verdict, rule)
 
 
 def _equal_torque(case: AgentCase, methods: tuple[Method, ...], literal: tuple[Any, ...],

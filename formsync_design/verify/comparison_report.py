@@ -18,6 +18,7 @@ from matplotlib.figure import Figure
 
 from formsync_design.gains import json_number
 from formsync_design.sim.figures import save_figure
+from formsync_design.verify.theoremcheck import cycle_figure
 
 __all__ = ["comparison_figures", "comparison_markdown", "comparison_json",
            "write_comparison_report"]
@@ -134,6 +135,8 @@ def comparison_figures(res: Any) -> dict[str, Figure]:
         "fig11_r23_case2": _r23_figure(c2),
         "monitors_case2": _monitor_figure(c2),
         "montecarlo_times": _mc_figure(res),
+        **({"theorem_cycles": fig} if res.theorem is not None
+           and (fig := cycle_figure(res.theorem)) is not None else {}),
     }
 
 
@@ -218,11 +221,16 @@ def comparison_markdown(res: Any, fig_dir: str, command: str) -> str:
         L.append(_row(row))
     if res.equal_torque is not None:
         L += _equal_torque_section(res)
+    if res.theorem is not None:
+        L += ["", "## Theorem 1 checked on graph families (formation-level certificate)", ""]
+        L += res.theorem.markdown()
+        L += ["", f"![cycles]({fig_dir}/theorem_cycles.png)"]
     L += ["", "## Certificates of (K1, K2, P1, P2) on digraph families", "",
-          "The families are the sliding-surface Lyapunov conditions derived below (the tracking "
-          "loop of Theorem 1's first part; graph-independent); the graph enters through the "
-          "theorem's class (a directed spanning tree). A graph outside it is refused: a finding, "
-          "reported with the reason.", ""]
+          "Scope: design-conditions. The families are the sliding-surface Lyapunov conditions "
+          "derived below (the tracking loop of Theorem 1's first part, the command taken as "
+          "given: graph-independent, never a formation verdict); the graph enters only through "
+          "the theorem's class (a directed spanning tree), which the section above checks. A "
+          "graph outside the class is refused: a finding, reported with the reason.", ""]
     for box, rows in res.certificates:
         L += [f"Box {_box(box)}:", "", "| graph | spanning tree | strongly connected | verdict | "
               "margin | multiplier | reason |", "| --- | --- | --- | --- | --- | --- | --- |"]
@@ -393,6 +401,7 @@ def comparison_json(res: Any) -> dict[str, Any]:
             "near180": [{"method": r["label"], "time": num(r["time"])}
                         for r in res.equal_torque["near180"]],
             "montecarlo_ordered": res.equal_torque["montecarlo"]["ordered"]},
+        "theorem": None if res.theorem is None else res.theorem.to_dict(),
     }
 
 

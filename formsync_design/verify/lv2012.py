@@ -127,6 +127,7 @@ class CaseOutcome:
     l2: list[tuple[str, float]]       # (signal, measured gain)
     claims: list[Claim] = field(default_factory=list)
     scope: Any | None = None          # ScopeStudy of the large-angle runs ([claims] scope_angles)
+    theorem: Any | None = None        # TheoremCheck: the declared graph class on graph families
 
 
 @dataclass(frozen=True)
@@ -318,11 +319,16 @@ def analyse_case(path: str | Path, design: Any = None, progress: Any = None) -> 
         signs = tuple(int(x) for x in cl.get("scope_signs", [1, -1]))
         scope = scope_study(d, case.formation(disturbance="none"), opt, angles, signs,
                             seed=int(cl.get("scope_seed", 0)), tf=cl.get("scope_tf"))
+    say(f"{case.name}: the theorem's graph class on graph families")
+    from formsync_design.verify.theoremcheck import check_theorem
+
+    theorem = check_theorem(case)
     out = CaseOutcome(name=case.name, path=str(path), case=case, storage=storage,
                       rate_free=rate_free, measured=tuple(d.decl.measured), filter_tf=tf_text,
                       filter_ok=tf_ok, linearisation=lin, gamma=gamma, gamma_sdp=gamma_sdp,
                       design=des, box=box, refute=refute, torque_bound=tb, runs=runs,
-                      identical_gyros=same, l2=l2, steady_bound_deg=sbound, scope=scope)
+                      identical_gyros=same, l2=l2, steady_bound_deg=sbound, scope=scope,
+                      theorem=theorem)
     out.claims.extend(judge(out))
     return out
 
@@ -393,6 +399,12 @@ def judge(o: CaseOutcome) -> list[Claim]:
                      "neighbours' attitudes and the command only", "abstract (originality)",
                      "holds" if dec and rate_free else "fails",
                      f"MEASURED = {list(o.measured)}, checked symbolically by the loader"))
+    if o.theorem is not None:
+        from formsync_design.verify.theoremcheck import theorem_claim
+
+        text, measured, verdict, rule = theorem_claim(o.theorem)
+        out.append(Claim("theorem", text, "the design's GRAPHS (its theorem's class)", verdict,
+                         f"{measured}; {rule}"))
     return out
 
 

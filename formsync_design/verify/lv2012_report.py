@@ -102,6 +102,9 @@ def _case_section(o: Any, figdir: str) -> list[str]:
     L += [f"* {a}" for a in c.assumptions] + [""]
     L += ["### Claims", "", "| claim | source | verdict | evidence |", "| --- | --- | --- | --- |"]
     L += [f"| {x.text} | {x.source} | **{x.verdict}** | {x.evidence} |" for x in o.claims]
+    if o.theorem is not None:
+        L += ["", "### The theorem's graph class, checked on graph families", ""]
+        L += o.theorem.markdown()
     L += ["", "### Derivation", ""]
     L += [f"* Nonlinear storage `V` (design docstring): `V' = sum_i (w_i.d_i - k_d |y_i|^2)` "
           f"checked symbolically for every in-degree {sorted(o.rate_free)}; its families "
@@ -255,6 +258,7 @@ def outcome_json(outcomes: list[Any]) -> str:
             "torque_bound": json_number(o.torque_bound),
             "measured_l2": [{"signal": k, "gain": json_number(v)} for k, v in o.l2],
             "scope": None if o.scope is None else o.scope.to_dict(),
+            "theorem": None if o.theorem is None else o.theorem.to_dict(),
             "runs": {k: {"label": r.label, "design": r.design, "status": r.status,
                          "convergence_time": None if r.convergence_time is None
                          else json_number(r.convergence_time),

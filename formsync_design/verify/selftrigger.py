@@ -89,6 +89,7 @@ class SelftriggerVerification:
     claims: tuple[Claim, ...] = field(default=())
     iss_ellipsoid: dict[str, Any] = field(default_factory=dict)
     interevent_origin: tuple[str, Any, bool] | None = None
+    theorem: Any = None
 
     @property
     def all_hold(self) -> bool:
@@ -118,6 +119,7 @@ class SelftriggerVerification:
                 "at_rest": json_number(self.interevent_origin[1]),
                 "design_floor": self.interevent_origin[2]},
             "claims": [c.to_dict() for c in self.claims],
+            "theorem": None if self.theorem is None else self.theorem.to_dict(),
         }
 
 
@@ -289,6 +291,10 @@ def verify_selftrigger(case: Any, progress: Any = None) -> SelftriggerVerificati
                                   runs=runs, mc=mc, bound=bound, delta_check=delta_check,
                                   iss=iss, reference_rate_max=wmax, iss_ellipsoid=ell,
                                   interevent_origin=interevent_origin(bound, fr))
+    say("the theorem's graph class on graph families")
+    from formsync_design.verify.theoremcheck import check_theorem
+
+    res = replace(res, theorem=check_theorem(case))
     return replace(res, claims=judge(res))
 
 
@@ -372,6 +378,11 @@ def judge(res: SelftriggerVerification) -> tuple[Claim, ...]:
         Verdict.HOLDS if ok else Verdict.FAILS,
         f"better in {wins} of {len(acc)} runs; self/periodic tail accuracy ratio "
         + _range([a / b for a, b in acc])))
+    if res.theorem is not None:
+        from formsync_design.verify.theoremcheck import theorem_claim
+
+        text, measured, verdict, rule = theorem_claim(res.theorem)
+        claims.append(Claim("theorem", text, rule, Verdict(verdict), measured))
     return tuple(claims)
 
 

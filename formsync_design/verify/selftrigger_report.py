@@ -202,6 +202,9 @@ def write_selftrigger_report(res: Any, out_dir: str, stem: str, case_display: st
         L += ["", f"The prediction is sound but conservative (up to {worst:.3g} times the measured "
               "value): it chains norm bounds (|K|, sqrt(p_max/p_min), |H^-1|) through the graph."]
         L += _ellipsoid_rows(res)
+    if res.theorem is not None:
+        L += ["", "## The theorem's graph class, checked on graph families", ""]
+        L += res.theorem.markdown()
     L += ["", "## Runs", "",
           "Exact hybrid simulation (`sim/hybrid.py`: DOP853, trigger instants located by root "
           "finding, never rounded to a grid); `accuracy` is the largest angle to the leader over "

@@ -1,0 +1,72 @@
+"""python-control interop: a design's formation linearisation as a ``control.StateSpace``.
+
+:func:`to_statespace` exports the exact linearisation the formation certificate decides
+(:func:`~formsync_design.derive.formation.linearize_formation`: at consensus, or at the
+reference for a leader design), at given gains, with the disturbance torques as inputs
+(``d1_1 .. d3_N``, N m) and the attitude errors as outputs (the chart coordinates ``q``,
+``sigma`` or ``theta`` of every spacecraft: the vector part of the attitude error to the
+reference, or of the attitude itself at consensus), so a user runs ``control.bode``,
+``control.step_response``, ``control.pzmap``, margins or H-infinity norms on it.  The state
+order is the linearisation's (``LinearLoop.labels``), named in the system's ``states``.
+
+python-control is an optional dependency (``pip install 'formsync-design[control]'``).
+
+>>> import numpy as np
+>>> from formsync_design.spec.loader import load_design
+>>> sys = to_statespace(load_design("lv2012"), "path:2", [np.eye(3) * 2] * 2,
+...                     {"k_p": 1, "k_d": 4, "a_f": 1}, pinning=[1, 1])
+>>> sys.ninputs, sys.noutputs, sys.nstates
+(6, 6, 18)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from formsync_design.errors import InputError
+
+__all__ = ["formation_matrices", "to_statespace"]
+
+
+def formation_matrices(design: Any, graph: Any, inertias: Any, gains: Mapping[str, Any], *,
+                       switch: str = "sat", phi: Any = "1/100", pinning: Any = None
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[str, ...]]:
+    """``(A, B, C, state labels)`` of ``x' = A x + B d``, ``z = C x`` at ``gains`` (floats of
+    the exact linearisation; every controller gain needs a value)."""
+    from formsync_design.derive.formation import linearize_formation
+    from formsync_design.gains import parse_number
+    from formsync_design.spec.declarations import GainRole
+
+    ctrl = [g.name for g in design.decl.gains if g.role == GainRole.CONTROLLER]
+    missing = [g for g in ctrl if g not in gains]
+    if missing:
+        raise InputError(f"expected a value for every controller gain {ctrl} of {design.name}, "
+                         f"missing {missing}")
+    fixed = {g: parse_number(gains[g], g) for g in ctrl}
+    lin = linearize_formation(design, graph, inertias, switch=switch, phi=phi, fixed=fixed,
+                              pinning=pinning)
+    if lin.loop is None:
+        raise InputError(f"expected a law differentiable at the equilibrium for the export of "
+                         f"{design.name}, received {lin.why}")
+    A, B, C = lin.loop.standard({})
+    return A, B, C, lin.loop.labels
+
+
+def to_statespace(design: Any, graph: Any, inertias: Any, gains: Mapping[str, Any], *,
+                  switch: str = "sat", phi: Any = "1/100", pinning: Any = None) -> Any:
+    """The formation linearisation as a ``control.StateSpace`` (module docstring)."""
+    try:
+        import control
+    except ImportError:
+        raise InputError("expected python-control for to_statespace (pip install "
+                         "'formsync-design[control]'), received no module 'control'") from None
+    A, B, C, labels = formation_matrices(design, graph, inertias, gains, switch=switch, phi=phi,
+                                         pinning=pinning)
+    n = B.shape[1] // 3
+    inputs = [f"d{k}_{i + 1}" for i in range(n) for k in (1, 2, 3)]
+    return control.ss(A, B, C, np.zeros((C.shape[0], B.shape[1])), states=list(labels),
+                      inputs=inputs, outputs=list(labels[: C.shape[0]]),
+                      name=f"{design.name}-formation")
