@@ -92,6 +92,22 @@ class RegionMap:
     recheck: dict[str, int]
     elapsed: float
 
+    def to_pandas(self) -> Any:
+        """One row per box of the subdivision (``<gain>_lo``, ``<gain>_hi``, ``status``, ``family``, ``reason``) as a :class:`pandas.DataFrame` (pandas: the ``notebook`` extra)."""
+        from formsync_design.notebook import frame
+
+        return frame(self)
+
+    def _repr_html_(self) -> str:
+        from formsync_design.notebook import html
+
+        return html(self)
+
+    def _repr_markdown_(self) -> str:
+        from formsync_design.notebook import markdown
+
+        return markdown(self)
+
     def grid(self, axis: int) -> list[Fraction]:
         lo, hi = self.ranges[axis]
         r = self.resolution[axis]

@@ -34,6 +34,7 @@ __all__ = [
     "lagrangian_graph",
     "lagrangian_point_box",
     "default_out",
+    "lagrangian_range_gains",
     "case_label",
 ]
 
@@ -146,9 +147,8 @@ def agent_box(design: Any, gains: Any, case: Any, defaults: Defaults | None, *,
             fixed[n] = v
     box = design_box(design, given)
     if defaults is not None and not named:
-        where = f"the case {case.name}" if case is not None else "none"
-        if fixed:
-            defaults.add(f"gains fixed at the values of {where}: {gains_text(fixed)}")
+        if fixed and case is not None:
+            defaults.add(f"gains from {case_label(case)}: {gains_text(fixed)}")
         if spans:
             defaults.add("gains over their declared ranges: " + ", ".join(
                 f"{n}={box[n].lo}:{box[n].hi}" for n in spans))
@@ -233,6 +233,28 @@ def lagrangian_point_box(spec: Any, defaults: Defaults) -> Any:
                  + ("; multipliers searched over their declared ranges: "
                     + ", ".join(spec.decl.multipliers) if spec.decl.multipliers else ""))
     return GainBox(tuple(ranges))
+
+
+def lagrangian_range_gains(args: Any, spec: Any, defaults: Defaults) -> None:
+    """Without any gain option, a gain of the Lagrangian ``spec`` that declares no range takes
+    the sweep's standard range (:data:`~formsync_design.sweep.designs.DEFAULT_BOX`: liang2016's
+    ``K_o, K_q`` in 0.05:5, ``beta`` in 0.01:1), set as ``--gain`` and said in ``defaults``."""
+    if getattr(args, "gain", None) or any(getattr(args, f, None) is not None
+                                          for f in ("ko", "kq", "beta")):
+        return
+    from formsync_design.sweep.designs import DEFAULT_BOX
+
+    std = {g.name: DEFAULT_BOX[g.name] for g in spec.decl.gains
+           if g.name in spec.decl.family_gains and str(g.role) != "multiplier"
+           and g.range is None and g.name in DEFAULT_BOX}
+    declared = [f"{g.name}={g.range.lo}:{g.range.hi}" for g in spec.decl.gains
+                if g.name in spec.decl.family_gains and str(g.role) != "multiplier"
+                and g.range is not None]
+    if std:
+        args.gain = [f"{n}={lo}:{hi}" for n, (lo, hi) in std.items()]
+        defaults.add("gains over the standard box: " + ", ".join(args.gain))
+    if declared:
+        defaults.add("gains over their declared ranges: " + ", ".join(declared))
 
 
 def default_out(command: str, design: Any, graph: Any = None) -> Path:

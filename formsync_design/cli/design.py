@@ -82,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
         load_conditions,
         parse_margin,
     )
-    from formsync_design.cli.defaults import Defaults, refuse_tracking
+    from formsync_design.cli.defaults import Defaults, lagrangian_range_gains, refuse_tracking
     from formsync_design.cli.options import design_graph
     from formsync_design.errors import InputError
     from formsync_design.gains import GainBox, parse_number
@@ -97,6 +97,7 @@ def run(args: argparse.Namespace) -> int:
         return refused
     defaults = Defaults()
     args.graph = default_graph(args.graph, spec, defaults)
+    lagrangian_range_gains(args, spec, defaults)
     if args.format == "text":
         defaults.emit("design")
     _, theorem = design_graph(args.graph, spec, args.allow_outside_theorem)

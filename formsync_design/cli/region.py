@@ -129,7 +129,12 @@ def run(args: argparse.Namespace) -> int:
         parse_margin,
         requirements_from_args,
     )
-    from formsync_design.cli.defaults import Defaults, default_out, refuse_tracking
+    from formsync_design.cli.defaults import (
+        Defaults,
+        default_out,
+        lagrangian_range_gains,
+        refuse_tracking,
+    )
     from formsync_design.cli.options import design_graph
     from formsync_design.spec.loader import load_spec
 
@@ -146,6 +151,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out is None:
         args.out = str(default_out("region", spec, args.graph[0]))
         defaults.add(f"output folder {args.out} (give --out DIR for another)")
+    lagrangian_range_gains(args, spec, defaults)
     if args.format == "text":
         defaults.emit("region")
     for gspec in args.graph:  # the design's graph class (a note on stderr when outside it)

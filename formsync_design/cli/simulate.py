@@ -199,10 +199,12 @@ def lagrangian_case_and_spec(args: argparse.Namespace, defaults: Any) -> tuple[A
     """The case and the design of a Lagrangian run: ``--case`` and ``--design``; with only
     ``--design``, the design's shipped case (else the paper's), said in ``defaults``."""
     from formsync_design.spec.loader import load_spec
-    from formsync_design.verify.defaults import lagrangian_case_for
+    from formsync_design.verify.defaults import is_tracking, lagrangian_case_for
 
     if args.case is None and getattr(args, "spec", None) is not None:
         spec = load_spec(args.spec)
+        if is_tracking(spec):  # no formation case: the command refuses it (exit 1)
+            return None, spec
         return lagrangian_case_for(spec, None, defaults), spec
     case = load_case(args.case)
     return case, resolve_cli_spec(args, case)

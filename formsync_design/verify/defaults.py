@@ -187,7 +187,7 @@ def agent_case_source_doc(design: Any, src: CaseSource) -> dict:
             doc["graph"] = {k: v for k, v in g.items() if k != "pinning"}
     sim = {k: v for k, v in dict(doc.get("simulation", {})).items()
            if k not in ("step", "output_step")}
-    sim.update(src.simulation)
+    sim.update({("boundary_layer" if k == "phi" else k): v for k, v in src.simulation.items()})
     out_step = doc.get("simulation", {}).get("output_step")
     if out_step is not None:
         sim["output_step"] = out_step
