@@ -496,9 +496,12 @@ def run_montecarlo(
         Runs per mapped call.
     certify : bool
         Also report :func:`certify_sampled_box` (the conditions derived for ``spec``).
-    spec : Spec, str, Path or None
+    spec : Spec, AgentDesign, str, Path or None
         The design whose controller is simulated and whose gains are sampled (default:
-        the paper's); its kernel is cached under ``spec.key``.
+        the paper's); its kernel is cached under ``spec.key``.  An agent design runs
+        :func:`~formsync_design.designs_api.monte_carlo_agents` (``base`` an
+        ``AgentFormation``, ``options`` ``AgentOptions``) and returns an
+        ``AgentMonteCarloResult``.
 
     Examples
     --------
@@ -510,6 +513,12 @@ def run_montecarlo(
     >>> len(r.runs), str(r.runs[0].status)  # 5 s is too short to synchronise
     (2, 'not-converged')
     """
+    from formsync_design.designs_api import agent_design_of, monte_carlo_agents
+
+    agent = agent_design_of(spec)
+    if agent is not None:  # an agent design: its own campaign (AgentMonteCarloResult)
+        return monte_carlo_agents(agent, base, box, settings, options,  # type: ignore[no-any-return]
+                                  certify=certify)
     sp_spec = load_spec(spec)
     bx = mc_box(box, sp_spec) if box is not None else point_box(base.gains, sp_spec)
     st = settings if settings is not None else MonteCarloSettings()
