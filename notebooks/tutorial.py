@@ -160,7 +160,10 @@ case = fs.load_case()
 formation = case.formation("ring:8")
 options = fs.SimOptions(tf=100.0)
 run = fs.simulate(formation, options)
-run  # status, convergence time, final metrics
+print(run.status, "convergence time:", run.convergence_time)
+
+# %%
+run  # a result shows its headline figures: status, convergence time, final metrics
 
 # %%
 series = run.to_pandas()  # one row per output time: t, q_m, omega_m and the torques
@@ -275,7 +278,11 @@ value = 1
 case_path = Path(tempfile.mkdtemp()) / "small3.toml"
 case_path.write_text(CASE, encoding="utf-8")
 verification = fs.verify_case(case_path)
-verification.to_pandas()[["claim", "verdict"]]  # one row per claim
+for claim in verification.claims:
+    print(f"{claim.verdict!s:20} {claim.spec.text}")
+
+# %%
+verification.to_pandas()[["claim", "verdict"]]  # the same as a table: one row per claim
 
 # %% [markdown]
 # ## 6. An agent design: a law on SO(3) over a directed weighted graph
@@ -304,4 +311,8 @@ formation = fs.AgentFormation(digraph, np.array([np.diag([20.0, 25, 30])] * 3),
                               np.array([[0, 0, 0, 1.0], [0.6, 0, 0, 0.8], [0, 0, 0.8, 0.6]]),
                               np.zeros((3, 3)), fs.Gains(k_R=1.0, k_w=1.5))
 run = fs.simulate_agents(design, formation, fs.AgentOptions(tf=40, output_step=0.5, step=0.01))
+print(run.status, f"converged at {run.convergence_time} s;",
+      f"final disagreement {run.attitude_error[-1]:.2e} deg")
+
+# %%
 run  # an AgentResult: status, convergence time, final disagreement

@@ -47,6 +47,8 @@ def _case(d: object) -> object:
     if getattr(d, "form", None) == "agent":
         return agent_case_for(d, None, None)
     src = case_source(d)
+    if getattr(getattr(d, "decl", None), "kind", "") == "tracking":
+        return fs.load_case()  # a formation to hand the formation stages (which refuse it)
     return fs.load_case(src.path if src is not None else None)
 
 

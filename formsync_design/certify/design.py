@@ -297,7 +297,7 @@ def design_gains(
         from formsync_design.designs_api import design_any
 
         grid = int(betas) if isinstance(betas, (int, np.integer)) and betas > 1 else 4
-        return design_any(conditions, ranges, design=design, grid=grid)  # type: ignore[no-any-return]
+        return design_any(conditions, ranges, design=design, grid=grid)
     t0 = time.perf_counter()
     gains = tuple(conditions.gains)
     rng = as_box(ranges, gains).bounds

@@ -176,7 +176,7 @@ def region_map(
             or _missing_gains(conditions, ranges)):
         from formsync_design.designs_api import region_any
 
-        return region_any(conditions, ranges, multipliers=multipliers, design=design,  # type: ignore[no-any-return]
+        return region_any(conditions, ranges, multipliers=multipliers, design=design,
                           resolution=int(resolution), margin=margin, progress=progress)
     gains = tuple(conditions.gains)
     rng = as_box(ranges, gains).bounds

@@ -517,7 +517,7 @@ def run_montecarlo(
 
     agent = agent_design_of(spec)
     if agent is not None:  # an agent design: its own campaign (AgentMonteCarloResult)
-        return monte_carlo_agents(agent, base, box, settings, options,  # type: ignore[no-any-return]
+        return monte_carlo_agents(agent, base, box, settings, options,
                                   certify=certify)
     sp_spec = load_spec(spec)
     bx = mc_box(box, sp_spec) if box is not None else point_box(base.gains, sp_spec)

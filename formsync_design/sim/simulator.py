@@ -185,8 +185,9 @@ def simulate(
     if agent is not None:  # an agent design: simulate_agents (an AgentResult)
         from formsync_design.sim.agents import AgentOptions, simulate_agents
 
-        return simulate_agents(agent, formation,  # type: ignore[return-value]
-                               options if options is not None else AgentOptions())  # type: ignore[arg-type]
+        agent_opt: Any = options if options is not None else AgentOptions()
+        agent_formation: Any = formation
+        return simulate_agents(agent, agent_formation, agent_opt)  # type: ignore[return-value]
     opt = options if options is not None else SimOptions()
     if not isinstance(formation, Formation):
         raise InputError(f"expected a Formation, received a {type(formation).__name__}")
