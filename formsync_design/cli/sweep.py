@@ -333,6 +333,18 @@ def _flag_defaults(args: argparse.Namespace) -> int | None:
         n = lagrangian_case_for(design, None, defaults).n
     if not args.graphs:
         args.graphs = [f"ring:{n}", f"path:{n}", f"star:{n}"]
+        if getattr(design, "form", None) == "agent" and design.decl.leader:
+            from formsync_design.cli.defaults import not_applicable
+            from formsync_design.derive.agent import agent_conditions
+            from formsync_design.errors import DerivationError
+
+            try:  # the default families pin no spacecraft: does the certificate take them?
+                agent_conditions(design, f"ring:{n}")
+            except DerivationError as e:
+                return not_applicable("sweep", f"design {design.name} follows a leader and its "
+                                      f"certificate does not take the unpinned graph ring:{n} "
+                                      f"({str(e).split(': ')[-1]}); give --graphs with edge-list "
+                                      "files that pin the leader")
         defaults.add(f"graphs {', '.join(args.graphs)} (the size of the design's case, "
                      f"{n} spacecraft; give --graphs SET for others)")
     if not args.out:
