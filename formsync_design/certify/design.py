@@ -19,7 +19,7 @@ is found by bisection on ``s``.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, cast
@@ -298,6 +298,13 @@ def design_gains(
 
         grid = int(betas) if isinstance(betas, (int, np.integer)) and betas > 1 else 4
         return design_any(conditions, ranges, design=design, grid=grid)
+    if isinstance(ranges, Mapping) and any(n not in ranges for n in conditions.gains):
+        # a multiplier not given: swept over its declared range and held (as formsync design)
+        from formsync_design.designs_api import agent_multiplier_ranges
+
+        mult = agent_multiplier_ranges(conditions, ranges, design)
+        ranges = {**ranges, **{n: (r.lo, r.hi) for n, r in mult.items()}}
+        hold = tuple(hold) + tuple(n for n in mult if n not in hold)
     t0 = time.perf_counter()
     gains = tuple(conditions.gains)
     rng = as_box(ranges, gains).bounds

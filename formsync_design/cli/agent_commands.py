@@ -199,8 +199,6 @@ def run_agent_simulate(args: argparse.Namespace, design: Any) -> int:
     criterion, _ = agent_criterion(case, opt, args.disturbance
                                    or str(case.disturbance.get("model", "none")))
     defaults.add(f"criterion: {criterion}")
-    if args.format == "text":
-        defaults.emit("simulate")
     f = case.formation(graph, disturbance=args.disturbance)
     if getattr(args, "no_compile", False):
         import os
@@ -245,6 +243,7 @@ def run_agent_simulate(args: argparse.Namespace, design: Any) -> int:
     if args.format == "json":
         emit_json({**doc, "written": written})
     else:
+        defaults.emit("simulate")
         print(("" if theorem.inside else theorem.note() + "\n") + _text(case, graph, f, opt, r,
                                                                          design, written))
     return EXIT_OK if str(r.status) == "converged" else EXIT_NEGATIVE
@@ -331,14 +330,13 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
     theorem = check_theorem_graph(graph, design.decl.graphs,
                                   allow_outside=getattr(args, "allow_outside_theorem", False),
                                   design=design.name)
-    if args.format == "text":
-        defaults.emit("certify")
     res = certify_agent(design, agent_conditions(design, graph), box,
                         margin=getattr(args, "margin", None) or 0)
     if args.format == "json":
         emit_json({**({"outside_theorem": theorem.to_dict()} if not theorem.inside else {}),
                    "design": design.name, **res.to_dict()})
     else:
+        defaults.emit("certify")
         print(("" if theorem.inside else theorem.note() + "\n") + format_result(res))
     return EXIT_OK if res.certified else EXIT_NEGATIVE
 
@@ -355,16 +353,14 @@ def run_agent_derive(args: argparse.Namespace, design: Any) -> int:
         raise InputError(f"expected no --gain for the derivation of the agent design {design.name} "
                          "(its conditions are symbolic in the gains; certify a box with formsync "
                          "certify), received --gain")
+    defaults = Defaults()
     if args.graph is not None:
         graph = load_graph(args.graph)
     else:
-        defaults = Defaults()
         case = agent_case(design, None, None, None)
         graph = case.graph() if case is not None else load_graph("ring:8")
         defaults.add(f"graph from the case {case.name}: {graph.name}" if case is not None
                      else "graph ring:8 (no shipped case names the design)")
-        if args.format == "text":
-            defaults.emit("derive")
     theorem = check_theorem_graph(graph, design.decl.graphs,
                                   allow_outside=getattr(args, "allow_outside_theorem", False),
                                   design=design.name)
@@ -380,6 +376,7 @@ def run_agent_derive(args: argparse.Namespace, design: Any) -> int:
     if args.out:
         cmd += f" --out {args.out}"
     md = write_agent_derivation_report(deriv, out, command=cmd)
+    defaults.emit("derive")
     print(f"wrote {md}")
     return EXIT_OK
 
@@ -428,8 +425,6 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
     opt = _options(args, case.options)
     criterion, dist = agent_criterion(case, opt, args.disturbance)
     defaults.add(f"criterion: {criterion}")
-    if args.format == "text" and args.replay is None:
-        defaults.emit("montecarlo")
     base = case.formation(graph, disturbance=dist)
     if getattr(args, "no_compile", False):
         import os
@@ -478,6 +473,7 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
             lines.append("written: " + ", ".join(written))
         if not theorem.inside:
             lines.insert(0, theorem.note())
+        defaults.emit("montecarlo")
         print("\n".join(lines))
     return EXIT_OK if res.all_converged else EXIT_NEGATIVE
 
@@ -516,8 +512,6 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     out = Path(args.out) if args.out else default_out("region", design, graph0.name)
     if not args.out:
         defaults.add(f"output folder {out} (give --out DIR for another)")
-    if args.format == "text":
-        defaults.emit("region")
     maps, notes = [], []
     prog = Progress(len(graphs), "region", enabled=not args.no_progress)
     for gspec in graphs:
@@ -551,6 +545,7 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
                    "maps": [{"graph": m.graph, "fractions": m.fractions, "boxes": len(m.boxes)}
                             for m, _ in maps]})
     else:
+        defaults.emit("region")
         for note in notes:
             print(note)
         for m, r in maps:
@@ -584,8 +579,6 @@ def run_agent_design(args: argparse.Namespace, design: Any) -> int:
     graph, box = _graph_and_box(design, args.graph, args.gain, defaults, free=2)
     theorem = check_theorem_graph(graph, design.decl.graphs,
                                   allow_outside=args.allow_outside_theorem, design=design.name)
-    if args.format == "text":
-        defaults.emit("design")
     k = max(2, int(getattr(args, "grid", 4) or 4))
     des = design_agent(design, agent_conditions(design, graph), box, grid=k)
     doc: dict[str, Any] = {"design": design.name, "graph": graph.name, "box": str(box),
@@ -597,6 +590,7 @@ def run_agent_design(args: argparse.Namespace, design: Any) -> int:
         if args.format == "json":
             emit_json(doc)
         else:
+            defaults.emit("design")
             print(f"NOT FOUND: no point of the {k}-per-axis grid over {box} is certified for "
                   f"{design.name} on {graph.name}")
         return EXIT_NEGATIVE
@@ -612,6 +606,7 @@ def run_agent_design(args: argparse.Namespace, design: Any) -> int:
     if args.format == "json":
         emit_json(doc)
     else:
+        defaults.emit("design")
         if not theorem.inside:
             print(theorem.note())
         pts = ", ".join(f"{n} = {float(v):g}" for n, v in point.items())

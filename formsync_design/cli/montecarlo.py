@@ -263,8 +263,6 @@ def run(args: argparse.Namespace) -> int:
         defaults.add(f"gains not given from {case_label(case)}: {gains_text(have)}")
     criterion = lagrangian_criterion(case, opt)
     defaults.add(f"criterion: {criterion}")
-    if args.format == "text" and args.replay is None:
-        defaults.emit("montecarlo")
     if args.replay is not None:
         seed = _int(args.replay, "--replay", 0)
         f = replay(base, box, settings, seed, spec)
@@ -296,6 +294,7 @@ def run(args: argparse.Namespace) -> int:
     if args.format == "json":
         emit_json({**summ, "written": written})
     else:
+        defaults.emit("montecarlo")
         print(("" if theorem.inside else theorem.note() + "\n")
               + _text(case, graph, base, res, written, spec) + f"\ncriterion: {criterion}")
     return EXIT_OK if res.all_converged else EXIT_NEGATIVE

@@ -422,9 +422,9 @@ def run(args: argparse.Namespace) -> int:
         defaults.add(f"gains from {case_label(case)}: {gains_text(f.gains.as_dict())}")
     criterion = lagrangian_criterion(case, opt)
     defaults.add(f"criterion: {criterion}")
-    if args.format == "text":
-        defaults.emit("simulate")
     if args.trigger is not None or spec.decl.sampling != "continuous":
+        if args.format == "text":
+            defaults.emit("simulate")
         return _run_sampled(args, case, graph, f, opt, spec, out_dir, theorem)
     r = simulate(f, opt, spec=spec)
     written: list[str] = []
@@ -460,5 +460,6 @@ def run(args: argparse.Namespace) -> int:
     if args.format == "json":
         emit_json({**summary, "written": written})
     else:
+        defaults.emit("simulate")
         print(("" if theorem.inside else theorem.note() + "\n") + _text(case, graph, f, r, written, spec))
     return EXIT_OK if r.converged else EXIT_NEGATIVE
