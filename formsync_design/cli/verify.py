@@ -110,7 +110,10 @@ def _default_case(design_arg: Any) -> tuple[str, Any]:
         return src.path.stem, None
     defaults.add(f"case {src.label} (the shipped case of design {design.name})")
     defaults.emit("verify")
-    return src.path.stem, design_arg
+    from formsync_design.resources import design_names
+
+    # the shipped design the case names: the case's own (the report is the case's, unchanged)
+    return src.path.stem, (None if str(design_arg) in design_names() else design_arg)
 
 
 def run(args: argparse.Namespace) -> int:
