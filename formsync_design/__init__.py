@@ -182,6 +182,16 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "derive_tracking_attitude": "formsync_design.derive.tracking",
     "attitude_certificate": "formsync_design.analysis.flyaround",
     "verify_flyaround": "formsync_design.verify.flyaround",
+    # agent designs: the paths the command line takes (the generic functions route there)
+    "certify_agent": "formsync_design.certify.agent",
+    "region_agent": "formsync_design.certify.agent",
+    "design_agent": "formsync_design.certify.agent",
+    "AgentGainDesign": "formsync_design.certify.agent",
+    "run_agent_montecarlo": "formsync_design.sim.agent_montecarlo",
+    "AgentMonteCarloSettings": "formsync_design.sim.agent_montecarlo",
+    "AgentMonteCarloResult": "formsync_design.sim.agent_montecarlo",
+    "agent_derivation": "formsync_design.derive.agent_report",
+    "write_agent_derivation_report": "formsync_design.derive.agent_report",
     # campaigns
     "load_campaign": "formsync_design.sweep",
     "run_sweep": "formsync_design.sweep",

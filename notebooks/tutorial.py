@@ -123,6 +123,18 @@ box = fs.GainBox.parse({"K_o": "1.3:2", "K_q": "0.2:1", "beta": "0.1:0.3"})
 print("box", box.names, "->", fs.certify_box(conds, box).status)
 
 # %% [markdown]
+# Results show themselves in a notebook: the last expression of a cell renders its
+# headline figures (status, certified margin, witness), and `to_pandas()` gives the table
+# behind them (here one row per matrix family; pandas is the `notebook` extra).
+
+# %%
+certificate = fs.certify_box(conds, box)
+certificate
+
+# %%
+certificate.to_pandas()
+
+# %% [markdown]
 # A region map classifies sub-boxes as certified, refuted or undecided (small
 # resolution here to keep the notebook quick); `plot_slices` returns a figure,
 # which the notebook shows inline.
@@ -132,6 +144,9 @@ region = fs.region_map(conds, {"K_o": (0.05, 5), "K_q": (0.05, 5), "beta": (0.01
                        resolution=6)
 print({k: round(v, 3) for k, v in region.fractions.items()})
 fs.plot_slices([region])
+
+# %%
+region  # the certified, refuted and undecided fractions; region.to_pandas(): one row per box
 
 # %% [markdown]
 # ## 4. Simulate the nonlinear formation
@@ -146,6 +161,13 @@ formation = case.formation("ring:8")
 options = fs.SimOptions(tf=100.0)
 run = fs.simulate(formation, options)
 print(run.status, "convergence time:", run.convergence_time)
+
+# %%
+run  # a result shows its headline figures: status, convergence time, final metrics
+
+# %%
+series = run.to_pandas()  # one row per output time: t, q_m, omega_m and the torques
+series[["t", "q_m", "omega_m"]].tail()
 
 # %%
 fs.metric_figure(run, "omega")
@@ -259,6 +281,9 @@ verification = fs.verify_case(case_path)
 for claim in verification.claims:
     print(f"{claim.verdict!s:20} {claim.spec.text}")
 
+# %%
+verification.to_pandas()[["claim", "verdict"]]  # the same as a table: one row per claim
+
 # %% [markdown]
 # ## 6. An agent design: a law on SO(3) over a directed weighted graph
 #
@@ -288,3 +313,6 @@ formation = fs.AgentFormation(digraph, np.array([np.diag([20.0, 25, 30])] * 3),
 run = fs.simulate_agents(design, formation, fs.AgentOptions(tf=40, output_step=0.5, step=0.01))
 print(run.status, f"converged at {run.convergence_time} s;",
       f"final disagreement {run.attitude_error[-1]:.2e} deg")
+
+# %%
+run  # an AgentResult: status, convergence time, final disagreement

@@ -269,11 +269,14 @@ def test_cli_simulate_pd_and_gain_errors():
     assert r.returncode in (0, 1), r.stderr
     doc = json.loads(r.stdout)
     assert doc["gains"] == {"k_p": 0.5, "k_d": 1.5} and doc["specification"] == PD
+    # on the paper's case (which has no gain k_d) a missing gain is an error; --design alone
+    # takes the design's shipped case, which has k_d (issue 25)
     for extra, needle in ((["--gain", "k_p=0.5"], "expected --gain k_d=X"),
                           (["--gain", "k_p=0.5", "--gain", "k_d=1:2"], "single value"),
                           (["--gain", "k_p=0.5", "--gain", "k_d=1", "--gain", "K_o=1"],
                            "received ['K_o']")):
-        r = _formsync("simulate", "--design", PD, "--graph", "star:8", *extra)
+        r = _formsync("simulate", "--design", PD, "--case", "liang2016", "--graph", "star:8",
+                      *extra)
         assert r.returncode == 2 and needle in r.stderr and r.stderr.count("\n") == 1, r.stderr
 
 

@@ -80,10 +80,15 @@ def test_formation_stages_refuse_a_tracking_design(capsys, tmp_path):
 
     with pytest.raises(DerivationError, match="received a tracking design"):
         controller_expression(DESIGN)
-    for argv in (["derive", "--design", "zhang2014_flyaround", "--out", str(tmp_path / "d")],
-                 ["simulate", "--design", "zhang2014_flyaround", "--tf", "1"],
-                 ["certify", "--design", "zhang2014_flyaround", "--graph", "ring:4"],
-                 ["verify", "liang2016", "--design", "zhang2014_flyaround",
+    # derive applies (V' of the attitude loop); the graph stages do not: exit 1, one line
+    assert main(["derive", "--design", "zhang2014_flyaround"]) == 0
+    assert "attitude loop derived" in capsys.readouterr().out
+    for argv in (["simulate", "--design", "zhang2014_flyaround", "--tf", "1"],
+                 ["certify", "--design", "zhang2014_flyaround", "--graph", "ring:4"]):
+        assert main(argv) == 1, argv
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "not applicable: design zhang2014_flyaround" in err[0], err
+    for argv in (["verify", "liang2016", "--design", "zhang2014_flyaround",
                   "--out", str(tmp_path / "v")],
                  ["verify", "zhang2014_flyaround", "--design", "liang2016",
                   "--out", str(tmp_path / "w")]):

@@ -158,5 +158,6 @@ def test_cli_design_option_overrides_the_case(capsys):
                "--gain", "k_d=1.5", "--runs", "1", "--tf", "5", "--no-compile", "--no-certify",
                "--format", "json"])
     doc = json.loads(capsys.readouterr().out)
-    assert rc == 1 and doc["specification"] == "pd_consensus" and doc["case"] == "liang2016"
+    # without --case, the design's shipped case (verification/pd_consensus.toml)
+    assert rc == 1 and doc["specification"] == "pd_consensus" and doc["case"] == "pd_consensus"
     assert doc["box"] == {"k_p": [0.5, 0.5], "k_d": [1.5, 1.5]}

@@ -62,6 +62,13 @@ def test_tutorial_runs_with_inline_figures(tmp_path: Path,
     text = "".join(o.get("text", "") for c in code_cells for o in c.outputs
                    if o.output_type == "stream")
     assert "ring:8: certified" in text and "star:8: refuted" in text
+    # results render themselves (issue 25): the rich HTML of a certificate, a region map, a
+    # simulation and a pandas table of the verification's claims
+    rich = "".join(o.data.get("text/html", "") for c in code_cells for o in c.outputs
+                   if o.output_type == "execute_result")
+    for title in ("Certification", "Region map", "Simulation", "Agent simulation"):
+        assert f"<caption><b>{title}</b></caption>" in rich, title
+    assert "verdict" in rich and "family" in rich  # the to_pandas() tables
     assert "holds" in text
     # the inline specification is a different controller: a different trajectory
     times = [line.split("convergence time:")[1].strip() for line in text.splitlines()

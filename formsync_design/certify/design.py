@@ -19,7 +19,7 @@ is found by bisection on ``s``.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, cast
@@ -257,8 +257,16 @@ def design_gains(
     penalty: float = 0.0,
     margin: Any = 0,
     hold: Sequence[str] = (),
+    design: Any = None,
 ) -> DesignResult:
     """Recommend ``(K_o, K_q, beta)`` maximizing the certified margin.
+
+    An agent design's conditions (:func:`~formsync_design.derive.agent.agent_conditions`)
+    are designed by :func:`~formsync_design.designs_api.design_any` (the point of a
+    ``betas``-per-axis grid with the largest certified margin, multipliers searched, and the
+    largest certified box around it; ``design``: the agent design, default the shipped one
+    the conditions name); it returns an
+    :class:`~formsync_design.certify.agent.AgentGainDesign`.
 
     For another design the first two box gains play ``K_o, K_q`` (optimized by the
     SDP, the families must be affine in them) and the third ``beta`` (swept); a gain
@@ -285,6 +293,18 @@ def design_gains(
     >>> d.status, str(d.point.status)
     ('designed', 'certified')
     """
+    if str(getattr(conditions, "source", "")).startswith("agent"):
+        from formsync_design.designs_api import design_any
+
+        grid = int(betas) if isinstance(betas, (int, np.integer)) and betas > 1 else 4
+        return design_any(conditions, ranges, design=design, grid=grid)
+    if isinstance(ranges, Mapping) and any(n not in ranges for n in conditions.gains):
+        # a multiplier not given: swept over its declared range and held (as formsync design)
+        from formsync_design.designs_api import agent_multiplier_ranges
+
+        mult = agent_multiplier_ranges(conditions, ranges, design)
+        ranges = {**ranges, **{n: (r.lo, r.hi) for n, r in mult.items()}}
+        hold = tuple(hold) + tuple(n for n in mult if n not in hold)
     t0 = time.perf_counter()
     gains = tuple(conditions.gains)
     rng = as_box(ranges, gains).bounds

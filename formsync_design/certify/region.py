@@ -92,6 +92,22 @@ class RegionMap:
     recheck: dict[str, int]
     elapsed: float
 
+    def to_pandas(self) -> Any:
+        """One row per box of the subdivision (``<gain>_lo``, ``<gain>_hi``, ``status``, ``family``, ``reason``) as a :class:`pandas.DataFrame` (pandas: the ``notebook`` extra)."""
+        from formsync_design.notebook import frame
+
+        return frame(self)
+
+    def _repr_html_(self) -> str:
+        from formsync_design.notebook import html
+
+        return html(self)
+
+    def _repr_markdown_(self) -> str:
+        from formsync_design.notebook import markdown
+
+        return markdown(self)
+
     def grid(self, axis: int) -> list[Fraction]:
         lo, hi = self.ranges[axis]
         r = self.resolution[axis]
@@ -105,6 +121,14 @@ def _split(a0: int, a1: int) -> list[tuple[int, int]]:
     return [(a0, mid), (mid, a1)]
 
 
+def _missing_gains(conditions: Any, ranges: Any) -> bool:
+    """Whether a mapping of ranges leaves out a gain of the conditions (a multiplier to
+    search)."""
+    from collections.abc import Mapping
+
+    return isinstance(ranges, Mapping) and any(n not in ranges for n in conditions.gains)
+
+
 def region_map(
     conditions: Any,
     ranges: Any,
@@ -112,8 +136,16 @@ def region_map(
     resolution: int = 32,
     margin: Any = 0,
     progress: Callable[[int], None] | None = None,
+    multipliers: Any = None,
+    design: Any = None,
 ) -> RegionMap:
     """Classify a gain box into certified / refuted / undecided sub-boxes.
+
+    Conditions over other gains than three (an agent design's ``conditions(c)`` families,
+    a design with multipliers) are mapped over at most three free axes, the point gains
+    fixed and the ``multipliers`` (``name -> GainRange``; default: the declared ranges of
+    ``design``, or of the shipped design the conditions name, for the gains ``ranges``
+    does not give) searched per cell (:func:`~formsync_design.designs_api.region_any`).
 
     Parameters
     ----------
@@ -140,6 +172,12 @@ def region_map(
     t0 = time.perf_counter()
     if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)) or resolution < 1:
         raise InputError(f"expected a resolution R >= 1 (an integer), received {resolution!r}")
+    if (len(tuple(conditions.gains)) != 3 or multipliers is not None or design is not None
+            or _missing_gains(conditions, ranges)):
+        from formsync_design.designs_api import region_any
+
+        return region_any(conditions, ranges, multipliers=multipliers, design=design,
+                          resolution=int(resolution), margin=margin, progress=progress)
     gains = tuple(conditions.gains)
     rng = as_box(ranges, gains).bounds
     mg = Fraction(margin) if not isinstance(margin, float) else Fraction(repr(margin))

@@ -218,6 +218,22 @@ class CertificationResult:
     kv: KvCheck | None
     elapsed: float
 
+    def to_pandas(self) -> Any:
+        """One row per matrix family (``family``, ``size``, ``status``, bounds of its smallest eigenvalue) as a :class:`pandas.DataFrame` (pandas: the ``notebook`` extra)."""
+        from formsync_design.notebook import frame
+
+        return frame(self)
+
+    def _repr_html_(self) -> str:
+        from formsync_design.notebook import html
+
+        return html(self)
+
+    def _repr_markdown_(self) -> str:
+        from formsync_design.notebook import markdown
+
+        return markdown(self)
+
     @property
     def certified(self) -> bool:
         return self.status == Status.CERTIFIED

@@ -90,25 +90,21 @@ def _case_path(case_arg: Any) -> Path:
     return p
 
 
-def agent_case_for(design: Any, case_arg: Any, gains: Any) -> Any:
+def agent_case_for(design: Any, case_arg: Any, gains: Any, defaults: Any = None) -> Any:
     """The :class:`~formsync_design.verify.agentcase.AgentCase` of a run (module docstring),
-    with ``--gain`` values over the case's."""
+    with ``--gain`` values over the case's; the defaults taken are said in ``defaults``
+    (:class:`~formsync_design.verify.defaults.Defaults`)."""
     from dataclasses import replace
 
-    from formsync_design.verify.agentcase import (
-        load_agent_case,
-        parse_agent_case,
-        shipped_agent_case,
-    )
+    from formsync_design.cli.defaults import agent_case
+    from formsync_design.verify.agentcase import load_agent_case, parse_agent_case
 
     if case_arg is not None:
         case = load_agent_case(_case_path(case_arg), design=design)
     else:
-        shipped = shipped_agent_case(design)
-        if shipped is not None:
-            case = load_agent_case(shipped, design=design)
-        else:
-            case = _paper_spacecraft_case(design, gains, parse_agent_case)
+        case = agent_case(design, None, gains, defaults)
+        if case is None:
+            case = _paper_spacecraft_case(design, gains, parse_agent_case, defaults)
     if gains:
         from formsync_design.cli.simulate import design_gains
 
@@ -116,7 +112,8 @@ def agent_case_for(design: Any, case_arg: Any, gains: Any) -> Any:
     return case
 
 
-def _paper_spacecraft_case(design: Any, gains: Any, parse: Any) -> Any:
+def _paper_spacecraft_case(design: Any, gains: Any, parse: Any, defaults: Any = None) -> Any:
+    from formsync_design.cli.defaults import gains_text
     from formsync_design.gains import parse_number
     from formsync_design.verify.case import load_case
 
@@ -124,15 +121,27 @@ def _paper_spacecraft_case(design: Any, gains: Any, parse: Any) -> Any:
         raise InputError(f"expected --case FILE with a [reference] for design {design.name} (it "
                          "declares a leader; no shipped case names it), received none")
     named = parse_gain_assignments(gains)
-    missing = [n for n in design.decl.controller_gains if n not in named]
-    if missing:
-        raise InputError(f"expected --gain for every controller gain of design {design.name} "
-                         f"without a case (missing {missing}), or --case FILE")
+    vals: dict[str, float] = {}
+    mid: dict[str, float] = {}
+    for n in design.decl.controller_gains:
+        if n in named:
+            vals[n] = float(parse_number(str(named[n]), n))
+            continue
+        r = design.decl.gain(n).range
+        if r is None:
+            raise InputError(f"expected --gain {n}=X for design {design.name} (no shipped case "
+                             "names it and it declares no range for the gain), or --case FILE")
+        vals[n] = mid[n] = float((r.lo + r.hi) / 2)
     paper = load_case()
+    if defaults is not None:
+        defaults.add(f"case from verification/{Path(paper.path).name} (no shipped case names "
+                     f"design {design.name}: the paper's spacecraft, disturbance and graph)")
+        if mid:
+            defaults.add("gains at the middle of their declared ranges: " + gains_text(mid))
     doc = {
         "case": {"name": f"{design.name}-on-{paper.name}", "graph": paper.graph_spec,
                  "assumptions": [f"spacecraft, disturbance and graph of the {paper.name} case"]},
-        "gains": {n: float(parse_number(str(named[n]), n)) for n in design.decl.controller_gains},
+        "gains": vals,
         "disturbance": dict(paper.disturbance),
         "orbit": {"altitude_km": paper.orbit.altitude / 1e3},
         "spacecraft": [{"inertia": paper.inertias[i].tolist(), "rate": paper.rates[i].tolist(),
@@ -178,14 +187,16 @@ def _options(args: argparse.Namespace, base: Any) -> Any:
 
 def run_agent_simulate(args: argparse.Namespace, design: Any) -> int:
     """``formsync simulate`` of an agent design (module docstring)."""
+    from formsync_design.cli.defaults import Defaults, agent_criterion, agent_graph
     from formsync_design.cli.simulate import check_out_dir
     from formsync_design.graphs.theorem import check_theorem_graph
     from formsync_design.sim.agents import simulate_agents
 
     _refuse(args, ("trigger", "q_tol", "omega_tol"), design)
     out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
-    case = agent_case_for(design, args.case, args.gain)
-    graph = case.graph(args.graph) if args.graph is not None else case.graph()
+    defaults = Defaults()
+    case = agent_case_for(design, args.case, args.gain, defaults)
+    case, graph = agent_graph(case, args.graph, defaults)
     theorem = check_theorem_graph(graph, design.decl.graphs,
                                   allow_outside=getattr(args, "allow_outside_theorem", False),
                                   design=design.name)
@@ -193,6 +204,9 @@ def run_agent_simulate(args: argparse.Namespace, design: Any) -> int:
     if design.decl.sampling == "periodic" and opt.period is None:
         raise InputError(f"expected --sample-period T for the periodic design {design.name} (or "
                          "simulation.period in the case), received none")
+    criterion, _ = agent_criterion(case, opt, args.disturbance
+                                   or str(case.disturbance.get("model", "none")))
+    defaults.add(f"criterion: {criterion}")
     f = case.formation(graph, disturbance=args.disturbance)
     if getattr(args, "no_compile", False):
         import os
@@ -205,7 +219,8 @@ def run_agent_simulate(args: argparse.Namespace, design: Any) -> int:
            "gains": {k: (list(v) if isinstance(v, tuple) else v)
                      for k, v in f.gains.as_dict().items()},
            "disturbance": f.disturbance.kind if f.disturbance else "none",
-           "assumptions": list(case.assumptions), **r.to_dict()}
+           "assumptions": list(case.assumptions), "criterion": criterion,
+           "defaults": list(defaults.lines), **r.to_dict()}
     written: list[str] = []
     if out_dir is not None:
         p = write_text(out_dir / "summary.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
@@ -235,6 +250,7 @@ def run_agent_simulate(args: argparse.Namespace, design: Any) -> int:
     if args.format == "json":
         emit_json({**doc, "written": written})
     else:
+        defaults.emit("simulate")
         print(("" if theorem.inside else theorem.note() + "\n") + _text(case, graph, f, opt, r,
                                                                          design, written))
     return EXIT_OK if str(r.status) == "converged" else EXIT_NEGATIVE
@@ -305,6 +321,27 @@ def formation_inputs(args: argparse.Namespace, design: Any, graph: Any) -> tuple
     return g, J, note
 
 
+def _graph_and_box(design: Any, graph_arg: Any, gains: Any, defaults: Any, *,
+                   free: int) -> tuple[Any, Any]:
+    """The graph (``graph_arg``, else the design's case's) and the gain box (``--gain``, the
+    case's values for the gains not given, ``free`` of them over their declared ranges) of
+    an agent certificate, the defaults said in ``defaults``."""
+    from formsync_design.cli.defaults import agent_box
+    from formsync_design.graphs.theorem import load_graph
+
+    named = parse_gain_assignments(gains)
+    needs_case = graph_arg is None or any(n not in named for n in design.decl.controller_gains)
+    case = agent_case_for(design, None, None, defaults if graph_arg is None else None) \
+        if needs_case else None
+    if graph_arg is None:
+        assert case is not None
+        graph = case.graph()
+        defaults.add(f"graph from the case {case.name}: {graph.name} ({graph.n} spacecraft)")
+    else:
+        graph = load_graph(graph_arg)
+    return graph, agent_box(design, gains, case, defaults, free=free)
+
+
 def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
     """``formsync certify`` of an agent design: the **formation-level** certificate on
     ``--graph`` (its exact linearisation at consensus, the disagreement decided over the
@@ -314,10 +351,10 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
     from formsync_design.certify.agent import certify_agent
     from formsync_design.certify.formation import certify_formation, conditions_scope
     from formsync_design.cli.certify import format_result
-    from formsync_design.cli.options import design_box
+    from formsync_design.cli.defaults import Defaults
     from formsync_design.derive.agent import agent_conditions
     from formsync_design.gains import GainBox, parse_number
-    from formsync_design.graphs.theorem import check_theorem_graph, load_graph
+    from formsync_design.graphs.theorem import check_theorem_graph
 
     _refuse(args, ("ko", "kq", "beta", "ud", "kv", "case", "delay", "decay", "settle",
                    "torque_limit", "graphs_set"), design)
@@ -326,11 +363,11 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
         raise InputError(f"expected no --certificate/--conditions for the agent design "
                          f"{design.name} (its certificates are the formation certificate and its "
                          "conditions(c) hook), received one")
-    graph = load_graph(args.graph)
+    defaults = Defaults()
+    graph, box = _graph_and_box(design, args.graph, args.gain, defaults, free=0)
     theorem = check_theorem_graph(graph, design.decl.graphs,
                                   allow_outside=getattr(args, "allow_outside_theorem", False),
                                   design=design.name)
-    box = design_box(design, args.gain)
     g, inertias, note = formation_inputs(args, design, graph)
     switch = getattr(args, "switch", None) or "sat"
     phi = getattr(args, "boundary_layer", None) or "1/100"
@@ -360,6 +397,7 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
             doc["design_conditions"] = {**res.to_dict(), "scope": conditions_scope(design).to_dict()}
         emit_json(doc)
     else:
+        defaults.emit("certify")
         lines = [] if theorem.inside else [theorem.note()]
         lines += [form.text(), f"  inputs: {note}"]
         if evidence is not None:
@@ -374,25 +412,23 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
 def run_agent_derive(args: argparse.Namespace, design: Any) -> int:
     """``formsync derive`` of an agent design: the derivation report (Markdown) of the design
     on ``--graph`` (default: its shipped case's graph, else ring:8), or its JSON summary."""
+    from formsync_design.cli.defaults import Defaults, agent_case
     from formsync_design.derive.agent_report import agent_derivation, write_agent_derivation_report
     from formsync_design.graphs.theorem import check_theorem_graph, load_graph
-    from formsync_design.verify.agentcase import shipped_agent_case
 
     _refuse(args, ("ko", "kq", "beta"), design)
     if getattr(args, "gain", None):
         raise InputError(f"expected no --gain for the derivation of the agent design {design.name} "
                          "(its conditions are symbolic in the gains; certify a box with formsync "
                          "certify), received --gain")
+    defaults = Defaults()
     if args.graph is not None:
         graph = load_graph(args.graph)
     else:
-        shipped = shipped_agent_case(design)
-        if shipped is not None:
-            from formsync_design.verify.agentcase import load_agent_case
-
-            graph = load_agent_case(shipped, design=design).graph()
-        else:
-            graph = load_graph("ring:8")
+        case = agent_case(design, None, None, None)
+        graph = case.graph() if case is not None else load_graph("ring:8")
+        defaults.add(f"graph from the case {case.name}: {graph.name}" if case is not None
+                     else "graph ring:8 (no shipped case names the design)")
     theorem = check_theorem_graph(graph, design.decl.graphs,
                                   allow_outside=getattr(args, "allow_outside_theorem", False),
                                   design=design.name)
@@ -403,13 +439,15 @@ def run_agent_derive(args: argparse.Namespace, design: Any) -> int:
         emit_json(deriv.to_dict())
         return EXIT_OK
     out = args.out or "reports"
-    cmd = f"formsync derive --design {design.name}" + (f" --graph {args.graph}" if args.graph else "")
+    cmd = f"formsync derive --design {args.spec or design.name}" + (
+        f" --graph {args.graph}" if args.graph else "")
     if args.out:
         cmd += f" --out {args.out}"
     from formsync_design.outdir import claim
 
     claim(out)  # one writer per folder (a concurrent writer: exit 2)
     md = write_agent_derivation_report(deriv, out, command=cmd)
+    defaults.emit("derive")
     print(f"wrote {md}")
     return EXIT_OK
 
@@ -432,9 +470,12 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
     from formsync_design.sim.agents import simulate_agents
 
     _refuse(args, ("ko", "kq", "beta", "kv", "q_tol", "omega_tol", "no_phases", "threads"), design)
+    from formsync_design.cli.defaults import Defaults, agent_criterion, agent_graph
+
     out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
-    case = agent_case_for(design, args.case, None)
-    graph = case.graph(args.graph) if args.graph is not None else case.graph()
+    defaults = Defaults()
+    case = agent_case_for(design, args.case, None, defaults)
+    case, graph = agent_graph(case, args.graph, defaults)
     theorem = check_theorem_graph(graph, design.decl.graphs,
                                   allow_outside=getattr(args, "allow_outside_theorem", False),
                                   design=design.name)
@@ -453,7 +494,9 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
         max_angle_deg=float(parse_number(args.max_angle, "--max-angle")),
         max_rate=float(parse_number(args.max_rate, "--max-rate")))
     opt = _options(args, case.options)
-    base = case.formation(graph, disturbance=args.disturbance)
+    criterion, dist = agent_criterion(case, opt, args.disturbance)
+    defaults.add(f"criterion: {criterion}")
+    base = case.formation(graph, disturbance=dist)
     if getattr(args, "no_compile", False):
         import os
 
@@ -477,7 +520,8 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
     res = run_agent_montecarlo(design, replace(base), box, settings, opt,
                                certify=not args.no_certify and theorem.inside,
                                progress=prog.update)
-    doc = {**flag, "case": case.name, **res.to_dict()}
+    doc = {**flag, "case": case.name, "criterion": criterion, "defaults": list(defaults.lines),
+           **res.to_dict()}
     written: list[str] = []
     if out_dir is not None:
         written = write_summary_and_runs(out_dir, doc, [r.to_dict() for r in res.runs])
@@ -486,6 +530,7 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
     else:
         lines = [f"design {design.name}: {settings.runs} runs on {graph.name}, box {box}, "
                  f"angles <= {settings.max_angle_deg:g} deg, rates <= {settings.max_rate:g} rad/s",
+                 f"criterion: {criterion}",
                  f"converged: {doc['converged']}/{settings.runs}"
                  + (f", longest convergence time {doc['convergence_time_max']:.4g} s"
                     if doc["convergence_time_max"] is not None else "")]
@@ -504,6 +549,7 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
             lines.append("written: " + ", ".join(written))
         if not theorem.inside:
             lines.insert(0, theorem.note())
+        defaults.emit("montecarlo")
         print("\n".join(lines))
     return EXIT_OK if res.all_converged else EXIT_NEGATIVE
 
@@ -518,10 +564,14 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     from formsync_design.certify.formation import conditions_scope
     from formsync_design.certify.plots import plot_slices
     from formsync_design.certify.region import map_to_dict
-    from formsync_design.cli.options import Progress, design_box, to_json_value
+    from formsync_design.cli.defaults import Defaults, default_out, refuse_uncertified
+    from formsync_design.cli.options import Progress, to_json_value
     from formsync_design.derive.agent import agent_conditions
     from formsync_design.graphs.theorem import check_theorem_graph, load_graph
 
+    refused = refuse_uncertified("region", design)
+    if refused is not None:
+        return refused
     _refuse(args, ("ko", "kq", "beta", "beta_slices", "kq_slices", "delay", "torque_limit",
                    "decay", "settle", "graphs_set", "inertia", "case"), design)
     if getattr(args, "certificate", "paper") != "paper" or getattr(args, "conditions",
@@ -531,13 +581,18 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     res = 32 if args.resolution is None else args.resolution
     if not 1 <= res <= 512:
         raise InputError(f"expected --resolution in 1..512, received {res}")
-    box = design_box(design, args.gain)
+    defaults = Defaults()
+    graph0, box = _graph_and_box(design, args.graph[0] if args.graph else None, args.gain,
+                                 defaults, free=2)
     mult = agent_multipliers(design, box)
-    out = Path(args.out)
+    graphs = list(args.graph) if args.graph else [graph0]
+    out = Path(args.out) if args.out else default_out("region", design, graph0.name)
+    if not args.out:
+        defaults.add(f"output folder {out} (give --out DIR for another)")
     maps, notes = [], []
-    prog = Progress(len(args.graph), "region", enabled=not args.no_progress and args.format == "text")
-    for gspec in args.graph:
-        g = load_graph(gspec)
+    prog = Progress(len(graphs), "region", enabled=not args.no_progress and args.format == "text")
+    for gspec in graphs:
+        g = gspec if not isinstance(gspec, str) else load_graph(gspec)
         theorem = check_theorem_graph(g, design.decl.graphs,
                                       allow_outside=args.allow_outside_theorem, design=design.name)
         if not theorem.inside:
@@ -567,6 +622,7 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
                    "maps": [{"graph": m.graph, "fractions": m.fractions, "boxes": len(m.boxes)}
                             for m, _ in maps]})
     else:
+        defaults.emit("region")
         print(f"scope: {conditions_scope(design).text()} (formsync certify decides the "
               "formation on the graph)")
         for note in notes:
@@ -587,19 +643,22 @@ def run_agent_design(args: argparse.Namespace, design: Any) -> int:
     re-check), and the largest certified box around it."""
     from formsync_design.certify.agent import design_agent
     from formsync_design.certify.formation import certify_formation, conditions_scope
-    from formsync_design.cli.options import design_box
+    from formsync_design.cli.defaults import Defaults, refuse_uncertified
     from formsync_design.derive.agent import agent_conditions
     from formsync_design.gains import GainBox, json_number
-    from formsync_design.graphs.theorem import check_theorem_graph, load_graph
+    from formsync_design.graphs.theorem import check_theorem_graph
 
+    refused = refuse_uncertified("design", design)
+    if refused is not None:
+        return refused
     _refuse(args, ("ko", "kq", "beta", "min_delay", "graphs_set", "torque_limit", "inertia",
                    "case"), design)
     if getattr(args, "penalty", "0") not in ("0", 0, None):
         raise InputError(f"expected no --penalty for the agent design {design.name}, received one")
-    graph = load_graph(args.graph)
+    defaults = Defaults()
+    graph, box = _graph_and_box(design, args.graph, args.gain, defaults, free=2)
     theorem = check_theorem_graph(graph, design.decl.graphs,
                                   allow_outside=args.allow_outside_theorem, design=design.name)
-    box = design_box(design, args.gain)
     k = max(2, int(getattr(args, "grid", 4) or 4))
     des = design_agent(design, agent_conditions(design, graph), box, grid=k)
     doc: dict[str, Any] = {"design": design.name, "graph": graph.name, "box": str(box),
@@ -611,6 +670,7 @@ def run_agent_design(args: argparse.Namespace, design: Any) -> int:
         if args.format == "json":
             emit_json(doc)
         else:
+            defaults.emit("design")
             print(f"NOT FOUND: no point of the {k}-per-axis grid over {box} is certified for "
                   f"{design.name} on {graph.name}")
         return EXIT_NEGATIVE
@@ -636,6 +696,7 @@ def run_agent_design(args: argparse.Namespace, design: Any) -> int:
     if args.format == "json":
         emit_json(doc)
     else:
+        defaults.emit("design")
         if not theorem.inside:
             print(theorem.note())
         pts = ", ".join(f"{n} = {float(v):g}" for n, v in point.items())

@@ -97,9 +97,10 @@ examples:
 def add_gain_options(p: argparse.ArgumentParser, *, ranges: bool = False) -> None:
     """--graph, --ko, --kq, --beta, --conditions, --spec."""
     form = "LO:HI" if ranges else "X|LO:HI"
-    p.add_argument("--graph", required=True, action="append" if ranges else "store",
+    p.add_argument("--graph", default=None, action="append" if ranges else "store",
                    metavar="SPEC", help=f"communication graph: {GRAPH_SPEC_HELP}"
-                   + (" (repeat to compare graphs)" if ranges else ""))
+                   + (" (repeat to compare graphs)" if ranges else "")
+                   + "; default: the graph of the design's shipped case")
     p.add_argument("--ko", default=None, metavar=form,
                    help="K_o, rate-damping gain (> 0) of liang2016 (same as --gain K_o=...)")
     p.add_argument("--kq", default=None, metavar=form,
@@ -437,15 +438,37 @@ def certify_design(conds: Any, box: GainBox, spec: Any, *, margin: Any = 0, kv: 
     return res
 
 
+def default_graph(graph: Any, spec: Any, defaults: Any) -> Any:
+    """``--graph``, else the graph of the Lagrangian design's shipped case (else the paper's),
+    said in ``defaults``."""
+    if graph is not None:
+        return graph
+    from formsync_design.verify.defaults import lagrangian_case_for
+
+    case = lagrangian_case_for(spec, None)
+    defaults.add(f"graph from the case {case.name}: {case.graph_spec}")
+    return case.graph_spec
+
+
 def run(args: argparse.Namespace) -> int:
     from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_certify
+    from formsync_design.cli.defaults import Defaults, lagrangian_point_box, refuse_tracking
     from formsync_design.spec.loader import load_spec
 
     agent = agent_design_or_none(args.spec)
     if agent is not None:
         return run_agent_certify(args, agent)
     spec = load_spec(args.spec)
-    box = gain_box_from_args(args, spec)
+    refused = refuse_tracking("certify", spec, "a gain certificate on a communication graph")
+    if refused is not None:
+        return refused
+    defaults = Defaults()
+    args.graph = default_graph(args.graph, spec, defaults)
+    no_gains = not args.gain and all(getattr(args, f, None) is None for f in ("ko", "kq", "beta"))
+    point = lagrangian_point_box(spec, defaults) if no_gains else None
+    box = point if point is not None else gain_box_from_args(args, spec)
+    if args.format == "text":
+        defaults.emit("certify")
     margin = parse_margin(args.margin)
     req = requirements_from_args(args, args.graph)
     _, theorem = design_graph(args.graph, spec, args.allow_outside_theorem)

@@ -95,15 +95,25 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_derive
+    from formsync_design.cli.certify import default_graph
+    from formsync_design.cli.defaults import Defaults
     from formsync_design.cli.options import design_graph
     from formsync_design.derive.conditions import derive_conditions
     from formsync_design.derive.report import DEFAULT_GRAPH, write_derivation_report
     from formsync_design.spec.loader import load_spec
+    from formsync_design.verify.defaults import is_tracking
 
     agent = agent_design_or_none(args.spec)
     if agent is not None:
         return run_agent_derive(args, agent)
     spec = load_spec(args.spec)
+    if is_tracking(spec):
+        return _derive_tracking(args, spec)
+    if args.graph is None and args.spec is not None:
+        defaults = Defaults()
+        args.graph = default_graph(None, spec, defaults)
+        if args.format == "text":
+            defaults.emit("derive")
     graph, theorem = design_graph(args.graph or DEFAULT_GRAPH, spec, args.allow_outside_theorem)
     if not theorem.inside:
         sys.stderr.write(theorem.note() + "\n")
@@ -168,3 +178,26 @@ def run(args: argparse.Namespace) -> int:
         for f in rep.findings:
             sys.stdout.write(f"  {f.verdict:10s} {f.key:17s} (decided by {f.computation.kind})\n")
     return EXIT_OK
+
+
+def _derive_tracking(args: argparse.Namespace, spec: Any) -> int:
+    """``formsync derive`` of a single-spacecraft tracking design: ``V'`` of its attitude loop
+    derived along the closed loop (:func:`~formsync_design.derive.tracking.derive_tracking_attitude`),
+    with and without the inertia mismatch; no graph."""
+    from formsync_design.cli.options import EXIT_NEGATIVE
+    from formsync_design.derive.tracking import derive_tracking_attitude
+
+    if args.graph is not None or getattr(args, "gain", None) or any(
+            getattr(args, f, None) is not None for f in ("ko", "kq", "beta")):
+        raise InputError(f"expected no --graph/--gain for the tracking design {spec.name} (one "
+                         "spacecraft, its derivation is symbolic in the gains), received one")
+    d = derive_tracking_attitude(spec)
+    if args.format == "json":
+        emit_json({"design": spec.name, "kind": "tracking", **d.to_dict()})
+        return EXIT_OK
+    print(f"design {spec.name} (tracking, one spacecraft, no graph): attitude loop derived")
+    print(f"  V' along the closed loop (J_hat = J): {d.vdot}")
+    print(f"  the design's claim V' = {d.claim}: {'holds' if d.nominal_holds else 'FAILS'}")
+    print(f"  with an inertia mismatch dJ = J_hat - J: V' - claim = {d.mismatch_form} "
+          f"({'derived' if d.mismatch_matches else 'does NOT match the derivation'})")
+    return EXIT_OK if d.nominal_holds else EXIT_NEGATIVE

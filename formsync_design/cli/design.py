@@ -76,7 +76,13 @@ def add_parser(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from formsync_design.certify.design import design_gains
     from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_design
-    from formsync_design.cli.certify import gain_box_from_args, load_conditions, parse_margin
+    from formsync_design.cli.certify import (
+        default_graph,
+        gain_box_from_args,
+        load_conditions,
+        parse_margin,
+    )
+    from formsync_design.cli.defaults import Defaults, lagrangian_range_gains, refuse_tracking
     from formsync_design.cli.options import design_graph
     from formsync_design.errors import InputError
     from formsync_design.gains import GainBox, parse_number
@@ -86,6 +92,14 @@ def run(args: argparse.Namespace) -> int:
     if agent is not None:
         return run_agent_design(args, agent)
     spec = load_spec(args.spec)
+    refused = refuse_tracking("design", spec, "a gain design on a communication graph")
+    if refused is not None:
+        return refused
+    defaults = Defaults()
+    args.graph = default_graph(args.graph, spec, defaults)
+    lagrangian_range_gains(args, spec, defaults)
+    if args.format == "text":
+        defaults.emit("design")
     _, theorem = design_graph(args.graph, spec, args.allow_outside_theorem)
     if not theorem.inside:
         sys.stderr.write(theorem.note() + "\n")

@@ -19,7 +19,7 @@ from formsync_design.cli.options import (
     parse_gain_assignments,
     write_summary_and_runs,
 )
-from formsync_design.cli.simulate import check_out_dir, options_from_args, simulation_graph
+from formsync_design.cli.simulate import check_out_dir, options_from_args
 from formsync_design.errors import InputError
 
 if TYPE_CHECKING:
@@ -249,16 +249,27 @@ def run(args: argparse.Namespace) -> int:
     from formsync_design.graphs.build import Graph
     from formsync_design.sim.montecarlo import MonteCarloSettings, replay, run_montecarlo
     from formsync_design.sim.simulator import simulate
-    from formsync_design.verify.case import load_case
 
     check_run_options(args)
     agent = agent_design_or_none(args.spec, args.case)
     if agent is not None:
         return run_agent_montecarlo_cli(args, agent)
+    from formsync_design.cli.defaults import (
+        Defaults,
+        case_label,
+        gains_text,
+        lagrangian_graph,
+        refuse_tracking,
+    )
+    from formsync_design.cli.simulate import lagrangian_case_and_spec, lagrangian_criterion
+
     out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
-    case = load_case(args.case)
-    spec = _resolve_spec(args, case)
-    graph, theorem = simulation_graph(args, case, spec)
+    defaults = Defaults()
+    case, spec = lagrangian_case_and_spec(args, defaults)
+    refused = refuse_tracking("montecarlo", spec, "a Monte-Carlo campaign of a formation")
+    if refused is not None:
+        return refused
+    case, graph, theorem = lagrangian_graph(args, case, spec, defaults)
     base = case.formation(graph, args.disturbance)
     flag = {} if theorem.inside else {"outside_theorem": theorem.to_dict()}
     legacy = {name: getattr(args, attr) for attr, name in
@@ -270,6 +281,12 @@ def run(args: argparse.Namespace) -> int:
         phases=not args.no_phases,
     )
     opt = options_from_args(args, replace(case.options, norm_tol=1e-5))
+    given = [n for n, v in legacy.items() if v is not None] + list(parse_gain_assignments(args.gain))
+    have = {n: v for n, v in base.gains.as_dict().items() if n not in given}
+    if have:
+        defaults.add(f"gains not given from {case_label(case)}: {gains_text(have)}")
+    criterion = lagrangian_criterion(case, opt)
+    defaults.add(f"criterion: {criterion}")
     if args.replay is not None:
         seed = _int(args.replay, "--replay", 0)
         f = replay(base, box, settings, seed, spec)
@@ -295,15 +312,17 @@ def run(args: argparse.Namespace) -> int:
                              batch=min(2000, max(1, -(-settings.runs // 20))) if prog.enabled
                              else 2000, progress=prog.update)
     summ = {**flag, "case": case.name, "specification": spec.name, "graph": graph.name,
-            "disturbance": base.disturbance.kind, **res.to_dict()}
+            "disturbance": base.disturbance.kind, "criterion": criterion,
+            "defaults": list(defaults.lines), **res.to_dict()}
     written = []
     if out_dir is not None:
         written = write_summary_and_runs(out_dir, summ, [r.to_dict() for r in res.runs])
     if args.format == "json":
         emit_json({**summ, "written": written})
     else:
+        defaults.emit("montecarlo")
         print(("" if theorem.inside else theorem.note() + "\n")
-              + _text(case, graph, base, res, written, spec))
+              + _text(case, graph, base, res, written, spec) + f"\ncriterion: {criterion}")
     return EXIT_OK if res.all_converged else EXIT_NEGATIVE
 
 

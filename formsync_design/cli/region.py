@@ -93,7 +93,9 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--resolution", type=int, default=None, metavar="R",
                    help="finest box = 1/R of each range (default 32, max 512; with --certificate "
                    "other than paper or a requirement: R^3 cells, default 8, max 64)")
-    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("--out", default=None, metavar="DIR",
+                   help="output directory (default out/region-<design>-<graph> under the "
+                   "working directory)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace the region.json of an earlier run in --out (refused without it)")
     p.add_argument("--beta-slices", default=None, metavar="B1,B2,...",
@@ -125,10 +127,17 @@ def run(args: argparse.Namespace) -> int:
     from formsync_design.certify.region import region_map
     from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_region
     from formsync_design.cli.certify import (
+        default_graph,
         gain_box_from_args,
         load_conditions,
         parse_margin,
         requirements_from_args,
+    )
+    from formsync_design.cli.defaults import (
+        Defaults,
+        default_out,
+        lagrangian_range_gains,
+        refuse_tracking,
     )
     from formsync_design.cli.options import design_graph
     from formsync_design.cli.simulate import check_out_dir
@@ -139,6 +148,18 @@ def run(args: argparse.Namespace) -> int:
     if agent is not None:
         return run_agent_region(args, agent)
     spec = load_spec(args.spec)
+    refused = refuse_tracking("region", spec, "a region map of gains on a communication graph")
+    if refused is not None:
+        return refused
+    defaults = Defaults()
+    if args.graph is None:
+        args.graph = [default_graph(None, spec, defaults)]
+    if args.out is None:
+        args.out = str(default_out("region", spec, args.graph[0]))
+        defaults.add(f"output folder {args.out} (give --out DIR for another)")
+    lagrangian_range_gains(args, spec, defaults)
+    if args.format == "text":
+        defaults.emit("region")
     for gspec in args.graph:  # the design's graph class (a note on stderr when outside it)
         _, theorem = design_graph(gspec, spec, args.allow_outside_theorem)
         if not theorem.inside:

@@ -20,7 +20,8 @@ from formsync_design.cli.options import (
 from formsync_design.errors import InputError
 from formsync_design.outdir import write_text
 
-__all__ = ["add_parser", "run", "options_from_args", "add_spec_option", "resolve_cli_spec", "check_out_dir"]
+__all__ = ["add_parser", "run", "options_from_args", "add_spec_option", "resolve_cli_spec", "check_out_dir",
+           "lagrangian_case_and_spec", "lagrangian_criterion"]
 
 _EPILOG = """\
 examples:
@@ -189,6 +190,31 @@ def simulation_graph(args: argparse.Namespace, case: Any, spec: Any) -> tuple[An
     g, chk = design_graph(args.graph if args.graph is not None else case.graph(),
                           spec, getattr(args, "allow_outside_theorem", False), derivation=False)
     return case.graph(g), chk
+
+
+def lagrangian_case_and_spec(args: argparse.Namespace, defaults: Any) -> tuple[Any, Any]:
+    """The case and the design of a Lagrangian run: ``--case`` and ``--design``; with only
+    ``--design``, the design's shipped case (else the paper's), said in ``defaults``."""
+    from formsync_design.spec.loader import load_spec
+    from formsync_design.verify.case import load_case
+    from formsync_design.verify.defaults import is_tracking, lagrangian_case_for
+
+    if args.case is None and getattr(args, "spec", None) is not None:
+        spec = load_spec(args.spec)
+        if is_tracking(spec):  # no formation case: the command refuses it (exit 1)
+            return None, spec
+        return lagrangian_case_for(spec, None, defaults), spec
+    case = load_case(args.case)
+    return case, resolve_cli_spec(args, case)
+
+
+def lagrangian_criterion(case: Any, opt: Any) -> str:
+    """The convergence criterion of a Lagrangian run in words, with where it comes from."""
+    from formsync_design.cli.defaults import case_label
+
+    src = case_label(case)
+    return (f"Q_m <= {opt.q_tol:g} and Omega_m <= {opt.omega_tol:g} rad/s from some time to "
+            f"tf = {opt.tf:g} s (the tolerances of {src} [simulation] and the options given)")
 
 
 def check_out_dir(out: str | None, *, overwrite: bool = False,
@@ -388,20 +414,36 @@ def _run_sampled(args: argparse.Namespace, case: Any, graph: Any, f: Any, opt: A
 def run(args: argparse.Namespace) -> int:
     from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_simulate
     from formsync_design.sim.simulator import simulate
-    from formsync_design.verify.case import load_case
 
     agent = agent_design_or_none(args.spec, args.case)
     if agent is not None:
         return run_agent_simulate(args, agent)
+    from formsync_design.cli.defaults import (
+        Defaults,
+        case_label,
+        gains_text,
+        lagrangian_graph,
+        refuse_tracking,
+    )
+
     out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
-    case = load_case(args.case)
-    spec = resolve_cli_spec(args, case)
-    graph, theorem = simulation_graph(args, case, spec)
+    defaults = Defaults()
+    case, spec = lagrangian_case_and_spec(args, defaults)
+    refused = refuse_tracking("simulate", spec, "a formation simulation")
+    if refused is not None:
+        return refused
+    case, graph, theorem = lagrangian_graph(args, case, spec, defaults)
     opt = options_from_args(args, case.options)
     f = case.formation(graph, args.disturbance)
     if args.gain or tuple(f.gains.names) != spec.decl.controller_gains:
         f = replace(f, gains=design_gains(spec, f.gains, args.gain))
+    elif not args.gain:
+        defaults.add(f"gains from {case_label(case)}: {gains_text(f.gains.as_dict())}")
+    criterion = lagrangian_criterion(case, opt)
+    defaults.add(f"criterion: {criterion}")
     if args.trigger is not None or spec.decl.sampling != "continuous":
+        if args.format == "text":
+            defaults.emit("simulate")
         return _run_sampled(args, case, graph, f, opt, spec, out_dir, theorem)
     r = simulate(f, opt, spec=spec)
     written: list[str] = []
@@ -415,6 +457,8 @@ def run(args: argparse.Namespace) -> int:
         "gains": f.gains.as_dict(),
         "disturbance": f.disturbance.kind,
         "assumptions": list(case.assumptions),
+        "criterion": criterion,
+        "defaults": list(defaults.lines),
         **r.to_dict(),
     }
     if out_dir is not None:
@@ -433,5 +477,6 @@ def run(args: argparse.Namespace) -> int:
     if args.format == "json":
         emit_json({**summary, "written": written})
     else:
+        defaults.emit("simulate")
         print(("" if theorem.inside else theorem.note() + "\n") + _text(case, graph, f, r, written, spec))
     return EXIT_OK if r.converged else EXIT_NEGATIVE

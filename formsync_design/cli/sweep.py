@@ -156,7 +156,8 @@ def add_parser(sub: Any) -> None:
                    "inertias are cycled for larger formations); an agent design: an agent "
                    "case (default its shipped one), its spacecraft cycled")
     x = p.add_argument_group("execution")
-    x.add_argument("--out", required=True, metavar="DIR", help="results folder")
+    x.add_argument("--out", default=None, metavar="DIR",
+                   help="results folder (default out/sweep-<design> under the working directory)")
     x.add_argument("--resume", action="store_true",
                    help="finish an interrupted run of the same campaign in DIR (finished tasks kept)")
     x.add_argument("--overwrite", action="store_true",
@@ -296,6 +297,63 @@ def _command(args: argparse.Namespace) -> str:
     return shlex.join(["formsync", "sweep", *parts, "--out", args.out, "--overwrite"])
 
 
+def _flag_defaults(args: argparse.Namespace) -> int | None:
+    """``formsync sweep --design NAME`` alone: the graph families ring, path and star at the
+    size of the design's shipped case, an agent design's gains not given fixed at the case's
+    values but two (at most three free axes counting the searched multipliers), the folder
+    ``out/sweep-<design>``; each said on stderr.  Exit status 1 (returned) when the sweep does
+    not apply to the design."""
+    from formsync_design.cli.defaults import (
+        Defaults,
+        agent_box,
+        default_out,
+        refuse_tracking,
+        refuse_uncertified,
+    )
+    from formsync_design.spec.loader import load_design
+
+    design = load_design(args.spec)
+    refused = refuse_tracking("sweep", design, "a sweep over communication graphs") or \
+        refuse_uncertified("sweep", design)
+    if refused is not None:
+        return refused
+    defaults = Defaults()
+    if getattr(design, "form", None) == "agent":
+        from formsync_design.cli.agent_commands import agent_case_for
+
+        case = agent_case_for(design, None, None, defaults)
+        n = case.n
+        if not args.gain:
+            box = agent_box(design, None, case, defaults, free=2)
+            args.gain = [f"{r.name}={r.lo}:{r.hi}" if r.lo != r.hi else f"{r.name}={r.lo}"
+                         for r in box.ranges]
+    else:
+        from formsync_design.verify.defaults import lagrangian_case_for
+
+        n = lagrangian_case_for(design, None, defaults).n
+    if not args.graphs:
+        args.graphs = [f"ring:{n}", f"path:{n}", f"star:{n}"]
+        if getattr(design, "form", None) == "agent" and design.decl.leader:
+            from formsync_design.cli.defaults import not_applicable
+            from formsync_design.derive.agent import agent_conditions
+            from formsync_design.errors import DerivationError
+
+            try:  # the default families pin no spacecraft: does the certificate take them?
+                agent_conditions(design, f"ring:{n}")
+            except DerivationError as e:
+                return not_applicable("sweep", f"design {design.name} follows a leader and its "
+                                      f"certificate does not take the unpinned graph ring:{n} "
+                                      f"({str(e).split(': ')[-1]}); give --graphs with edge-list "
+                                      "files that pin the leader")
+        defaults.add(f"graphs {', '.join(args.graphs)} (the size of the design's case, "
+                     f"{n} spacecraft; give --graphs SET for others)")
+    if not args.out:
+        args.out = str(default_out("sweep", design))
+        defaults.add(f"results folder {args.out} (give --out DIR for another)")
+    defaults.emit("sweep")
+    return None
+
+
 def run(args: argparse.Namespace) -> int:
     from formsync_design.cli.options import parse_positive
     from formsync_design.sweep import load_campaign, run_sweep
@@ -308,10 +366,16 @@ def run(args: argparse.Namespace) -> int:
                 "expected either --campaign FILE or campaign flags, received both (--campaign and "
                 + ", ".join("--" + f.replace("_", "-") for f in used) + ")"
             )
+        if not args.out:
+            raise InputError("expected --out DIR with --campaign FILE, received none")
         camp = load_campaign(args.campaign, spec=args.spec)
     else:
-        if not args.graphs:
+        if not args.graphs and args.spec is None:
             raise InputError("expected --campaign FILE or at least one --graphs SET, received neither")
+        if not args.graphs or not args.out:
+            refused = _flag_defaults(args)
+            if refused is not None:
+                return refused
         camp = _campaign_from_flags(args)
     prog: Progress | None = None
 

@@ -54,8 +54,9 @@ examples:
 def add_parser(sub: Any) -> None:
     p = sub.add_parser("verify", help="verify a published design's parameters and claims",
                        description=_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("case", nargs="?", default="liang2016",
-                   help="case name or TOML file (default: liang2016)")
+    p.add_argument("case", nargs="?", default=None,
+                   help="case name or TOML file (default: the shipped case of --design, else "
+                   "liang2016)")
     p.add_argument("--out", default="reports", help="output directory (default: reports)")
     p.add_argument("--design", "--spec", dest="spec", default=None, metavar="NAME|FILE",
                    help="the design: a shipped design's name or a design .py (default: the case "
@@ -83,6 +84,37 @@ def resolve_case(name: str) -> Path:
     return case_file(name)
 
 
+def _default_case(design_arg: Any) -> tuple[str, Any]:
+    """``(case, design)`` of ``formsync verify`` without a case: the shipped case of
+    ``--design`` (the case where it is the comparison design: that case, verified as it is),
+    else liang2016 with the design; said on stderr."""
+    if design_arg is None:
+        return "liang2016", None
+    from formsync_design.cli.defaults import Defaults
+    from formsync_design.spec.loader import load_design
+    from formsync_design.verify.defaults import case_source
+
+    design = load_design(design_arg)
+    src = case_source(design)
+    defaults = Defaults()
+    if src is None:
+        defaults.add(f"case liang2016 (no shipped case names design {design.name}), with "
+                     f"design {design.name}")
+        defaults.emit("verify")
+        return "liang2016", design_arg
+    if src.role == "comparison":
+        defaults.add(f"case {src.label}, where design {design.name} is a comparison design "
+                     "(verified there with the comparison's gains, beside the case's design)")
+        defaults.emit("verify")
+        return src.path.stem, None
+    defaults.add(f"case {src.label} (the shipped case of design {design.name})")
+    defaults.emit("verify")
+    from formsync_design.resources import design_names
+
+    # the shipped design the case names: the case's own (the report is the case's, unchanged)
+    return src.path.stem, (None if str(design_arg) in design_names() else design_arg)
+
+
 def run(args: argparse.Namespace) -> int:
     from formsync_design.progress import activity
     from formsync_design.tomlio import load_toml
@@ -90,6 +122,8 @@ def run(args: argparse.Namespace) -> int:
     from formsync_design.verify.output import check_output, display_path
 
     # everything the user gave is checked before any computation (nothing is written yet)
+    if args.case is None:
+        args.case, args.spec = _default_case(args.spec)
     path = resolve_case(args.case)
     kind = case_kind(load_toml(path, "case TOML file"), display_path(path))
     from formsync_design.outdir import claim

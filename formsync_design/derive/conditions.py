@@ -494,6 +494,13 @@ def derive_conditions(graph: Any, spec: SpecLike = None, *, structured: bool = T
     >>> [t.size for t in c.theta]
     [3, 3, 3, 3]
     """
+    from formsync_design.designs_api import agent_design_of
+
+    agent = agent_design_of(spec)
+    if agent is not None:  # an agent design: its conditions(c) families on the graph
+        from formsync_design.derive.agent import agent_conditions
+
+        return agent_conditions(agent, graph)  # type: ignore[return-value]
     g = make_graph(graph)
     return _conditions_cached(g, spec_cache_key(resolve_spec(spec)), bool(structured))
 

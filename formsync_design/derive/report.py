@@ -126,10 +126,13 @@ def write_derivation_report(
     graph : graph spec or Graph
     out_dir : path
         Created if missing.
-    spec : Spec, path or None
-        Default: the paper's specification.
+    spec : Spec, AgentDesign, name, path or None
+        Default: the paper's specification.  An agent design (``FORM = "agent"``) writes its
+        own derivation report (:mod:`formsync_design.derive.agent_report`) and returns that
+        report's path.
     command : str, optional
-        The command line to print as "regenerate with".
+        The command line to print as "regenerate with" (default: ``formsync derive`` with
+        the design as given: a shipped name, or a design file's path, which resolves).
 
     Returns
     -------
@@ -142,6 +145,21 @@ def write_derivation_report(
     >>> r.markdown.name
     'liang2016-derivation-path3.md'
     """
+    from formsync_design.designs_api import agent_design_of, derivation_command
+
+    agent = agent_design_of(spec)
+    if agent is not None:  # an agent design: its own derivation report (the report's path)
+        from formsync_design.derive.agent_report import (
+            agent_derivation,
+            write_agent_derivation_report,
+        )
+        from formsync_design.graphs.theorem import load_graph
+
+        ag = load_graph(graph)
+        return write_agent_derivation_report(  # type: ignore[return-value]
+            agent_derivation(agent, ag), out_dir,
+            command=command or f"{derivation_command(spec, agent.name, ag)} --out {out_dir}")
+    spec_arg = spec
     spec = resolve_spec(spec)
     g = make_graph(graph)
     out = Path(out_dir)
@@ -158,7 +176,8 @@ def write_derivation_report(
         b, a = brute_force_vdot(g, spec)
         brute_ok = sp.expand(b - a) == 0
     pm = _pretty_map(spec)
-    cmd = command or f"formsync derive --graph {g.name} --out {out_dir}"
+    cmd = command or (f"formsync derive --graph {g.name} --out {out_dir}" if spec_arg is None
+                      else f"{derivation_command(spec_arg, spec.name, g)} --out {out_dir}")
 
     L: list[str] = []
     w = L.append

@@ -135,6 +135,22 @@ class AgentMonteCarloResult:
     certificate: str | None
     certificate_reason: str = ""
 
+    def to_pandas(self) -> Any:
+        """One row per run (the columns of ``runs.csv``) as a :class:`pandas.DataFrame` (pandas: the ``notebook`` extra)."""
+        from formsync_design.notebook import frame
+
+        return frame(self)
+
+    def _repr_html_(self) -> str:
+        from formsync_design.notebook import html
+
+        return html(self)
+
+    def _repr_markdown_(self) -> str:
+        from formsync_design.notebook import markdown
+
+        return markdown(self)
+
     @property
     def failures(self) -> tuple[AgentRun, ...]:
         return tuple(r for r in self.runs if r.status != "converged")

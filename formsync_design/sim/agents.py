@@ -309,6 +309,22 @@ class AgentResult:
     integrator: str = "rk4"
     diverged_time: float | None = None
 
+    def to_pandas(self) -> Any:
+        """The time series (``t``, ``attitude_error_deg``, ``rate_error``, ``reference_error_deg`` with a leader, torques ``u<axis>_<spacecraft>``) as a :class:`pandas.DataFrame` (pandas: the ``notebook`` extra)."""
+        from formsync_design.notebook import frame
+
+        return frame(self)
+
+    def _repr_html_(self) -> str:
+        from formsync_design.notebook import html
+
+        return html(self)
+
+    def _repr_markdown_(self) -> str:
+        from formsync_design.notebook import markdown
+
+        return markdown(self)
+
     def time_to(self, angle_deg: float) -> float | None:
         """First output time from which the attitude disagreement stays <= ``angle_deg``."""
         return _settle(self.t, self.attitude_error <= angle_deg)

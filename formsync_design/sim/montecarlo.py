@@ -327,6 +327,22 @@ class MonteCarloResult:
     certification: dict
     spec_key: str = ""
 
+    def to_pandas(self) -> Any:
+        """One row per run (the columns of ``runs.csv``) as a :class:`pandas.DataFrame` (pandas: the ``notebook`` extra)."""
+        from formsync_design.notebook import frame
+
+        return frame(self)
+
+    def _repr_html_(self) -> str:
+        from formsync_design.notebook import html
+
+        return html(self)
+
+    def _repr_markdown_(self) -> str:
+        from formsync_design.notebook import markdown
+
+        return markdown(self)
+
     @property
     def failures(self) -> tuple[MonteCarloRun, ...]:
         return tuple(r for r in self.runs if r.status != RunStatus.CONVERGED)
@@ -488,9 +504,12 @@ def run_montecarlo(
         the runs' records do not depend on the batching).
     certify : bool
         Also report :func:`certify_sampled_box` (the conditions derived for ``spec``).
-    spec : Spec, str, Path or None
+    spec : Spec, AgentDesign, str, Path or None
         The design whose controller is simulated and whose gains are sampled (default:
-        the paper's); its kernel is cached under ``spec.key``.
+        the paper's); its kernel is cached under ``spec.key``.  An agent design runs
+        :func:`~formsync_design.designs_api.monte_carlo_agents` (``base`` an
+        ``AgentFormation``, ``options`` ``AgentOptions``) and returns an
+        ``AgentMonteCarloResult``.
     progress : callable, optional
         Called with the number of runs finished after every batch (a progress bar; a
         smaller ``batch`` moves it more often, with identical runs).
@@ -505,6 +524,12 @@ def run_montecarlo(
     >>> len(r.runs), str(r.runs[0].status)  # 5 s is too short to synchronise
     (2, 'not-converged')
     """
+    from formsync_design.designs_api import agent_design_of, monte_carlo_agents
+
+    agent = agent_design_of(spec)
+    if agent is not None:  # an agent design: its own campaign (AgentMonteCarloResult)
+        return monte_carlo_agents(agent, base, box, settings, options,
+                                  certify=certify)
     sp_spec = load_spec(spec)
     bx = mc_box(box, sp_spec) if box is not None else point_box(base.gains, sp_spec)
     st = settings if settings is not None else MonteCarloSettings()

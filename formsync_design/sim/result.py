@@ -68,6 +68,22 @@ class SimResult:
     spec_key: str = ""
     diverged_time: float | None = None
 
+    def to_pandas(self) -> Any:
+        """The time series (``t``, ``q_m``, ``omega_m``, torques ``u<axis>_<spacecraft>``) as a :class:`pandas.DataFrame` (pandas: the ``notebook`` extra)."""
+        from formsync_design.notebook import frame
+
+        return frame(self)
+
+    def _repr_html_(self) -> str:
+        from formsync_design.notebook import html
+
+        return html(self)
+
+    def _repr_markdown_(self) -> str:
+        from formsync_design.notebook import markdown
+
+        return markdown(self)
+
     @property
     def converged(self) -> bool:
         """True for ``status == converged``."""

@@ -150,10 +150,12 @@ def simulate(
     ----------
     formation : Formation
     options : SimOptions, optional
-    spec : Spec, str, Path or None
+    spec : Spec, AgentDesign, str, Path or None
         The specification whose controller is simulated (default: the paper's,
         ``liang2016``; resolved with :func:`~formsync_design.spec.loader.load_spec`).
-        Its kernel is cached under ``spec.key``.
+        Its kernel is cached under ``spec.key``.  An agent design (``FORM = "agent"``)
+        is simulated by :func:`~formsync_design.sim.agents.simulate_agents` (``formation``
+        an ``AgentFormation``, ``options`` ``AgentOptions``) and returns an ``AgentResult``.
 
     Returns
     -------
@@ -179,6 +181,15 @@ def simulate(
     >>> str(r.status), r.final_q_m < 1e-4
     ('converged', True)
     """
+    from formsync_design.designs_api import agent_design_of
+
+    agent = agent_design_of(spec)
+    if agent is not None:  # an agent design: simulate_agents (an AgentResult)
+        from formsync_design.sim.agents import AgentOptions, simulate_agents
+
+        agent_opt: Any = options if options is not None else AgentOptions()
+        agent_formation: Any = formation
+        return simulate_agents(agent, agent_formation, agent_opt)  # type: ignore[return-value]
     opt = options if options is not None else SimOptions()
     if not isinstance(formation, Formation):
         raise InputError(f"expected a Formation, received a {type(formation).__name__}")

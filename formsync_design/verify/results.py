@@ -129,6 +129,22 @@ class VerificationResult:
     max_tf: float
     default_sim: Any = field(default=None, repr=False, compare=False)
 
+    def to_pandas(self) -> Any:
+        """One row per claim (``key``, ``claim``, ``verdict``, ``reason``, the verdict per topology) as a :class:`pandas.DataFrame` (pandas: the ``notebook`` extra)."""
+        from formsync_design.notebook import frame
+
+        return frame(self)
+
+    def _repr_html_(self) -> str:
+        from formsync_design.notebook import html
+
+        return html(self)
+
+    def _repr_markdown_(self) -> str:
+        from formsync_design.notebook import markdown
+
+        return markdown(self)
+
     @property
     def all_hold(self) -> bool:
         """Every claim holds on every topology (undecided is not a pass)."""
