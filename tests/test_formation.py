@@ -10,7 +10,8 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from formsync_design.certify.formation import certify_formation, decide_point
+from formsync_design.certify.formation import certify_formation
+from formsync_design.certify.lyapunov import decide_point
 from formsync_design.certify.results import Status
 from formsync_design.cli.main import main
 from formsync_design.derive.formation import linearize_formation
