@@ -13,7 +13,7 @@ made right after, with its own message.
 quantity           magnitude            fields
 =================  ===================  =============================================
 ``number``         |x| <= 1e15          any other number (the bound of every number)
-``gain``           |x| <= 1e6           controller gains (``--gain``, ``[gains]``, boxes)
+``gain``           |x| <= 1e12          controller gains (``--gain``, ``[gains]``, boxes)
 ``weight``         |x| <= 1e6           arc weights ``a_ij``, pinning gains ``b_i``
 ``inertia``        |x| <= 1e9 kg m^2    inertia entries
 ``rate``           |x| <= 1e3 rad/s     body rates, rate spreads
@@ -60,7 +60,7 @@ class Quantity:
 
 QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
     Quantity("number", 1e15, "a number"),
-    Quantity("gain", 1e6, "a controller gain"),
+    Quantity("gain", 1e12, "a controller gain"),
     Quantity("weight", 1e6, "an arc weight or pinning gain"),
     Quantity("inertia", 1e9, "an inertia entry, kg m^2"),
     Quantity("rate", 1e3, "a body rate, rad/s"),

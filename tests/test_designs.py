@@ -488,7 +488,7 @@ def test_cli_region_for_the_pd_design(tmp_path):
     f = doc["maps"][0]["fractions"]
     assert f["refuted"] == 0 and 0.8 < f["certified"] < 1  # the cell at k_d -> 0 stays undecided
     assert (tmp_path / "region.json").is_file() and (tmp_path / "pd_consensus-region-k_p-k_d.png").is_file()
-    r = _formsync("region", "--design", PD, "--graph", "star:6", "--out", str(tmp_path),
+    r = _formsync("region", "--design", PD, "--graph", "star:6", "--out", str(tmp_path / "b"),
                   "--beta-slices", "0.1")
     assert r.returncode == 2 and "--beta-slices" in r.stderr
 

@@ -66,6 +66,15 @@ def region_agent(design: Any, conditions: Any, box: Any, *, resolution: int,
     per cell (:func:`~formsync_design.certify.multiregion.region_with_multipliers`).
 
     Returns ``(map, reduced conditions, box over the three axes)``.
+
+    >>> from formsync_design.derive.agent import agent_conditions
+    >>> from formsync_design.gains import GainBox
+    >>> from formsync_design.spec.loader import load_design
+    >>> d = load_design("lv2012")
+    >>> m, _, rbox = region_agent(d, agent_conditions(d, "path:3"),
+    ...                           GainBox.parse({"k_p": "1:2", "k_d": "5:10", "a_f": "1/2"}), resolution=2)
+    >>> m.fractions["certified"]
+    1.0
     """
     from formsync_design.certify.multiregion import region_with_multipliers
     from formsync_design.certify.reduce import three_axes
@@ -106,7 +115,17 @@ def design_agent(design: Any, conditions: Any, box: Any, *, grid: int = 4) -> Ag
     """The point of a ``grid``-per-axis grid over ``box`` with the largest certified margin
     (multipliers searched, exact re-check, no SDP) and the largest certified box around it
     (:func:`~formsync_design.certify.design.largest_certified_box`, the multipliers held at
-    their certifying values)."""
+    their certifying values).
+
+    >>> from formsync_design.derive.agent import agent_conditions
+    >>> from formsync_design.gains import GainBox
+    >>> from formsync_design.spec.loader import load_design
+    >>> d = load_design("lv2012")
+    >>> r = design_agent(d, agent_conditions(d, "path:3"),
+    ...                  GainBox.parse({"k_p": "1:2", "k_d": "5:10", "a_f": "1/2"}), grid=2)
+    >>> r.status, isinstance(r, AgentGainDesign)
+    ('recommended', True)
+    """
     from formsync_design.certify.design import largest_certified_box
     from formsync_design.certify.multipliers import certify_with_multipliers
     from formsync_design.certify.reduce import fix_gains

@@ -589,6 +589,9 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     out = Path(args.out) if args.out else default_out("region", design, graph0.name)
     if not args.out:
         defaults.add(f"output folder {out} (give --out DIR for another)")
+        from formsync_design.cli.simulate import check_out_dir
+
+        check_out_dir(str(out), overwrite=args.overwrite, results=("region.json",))
     maps, notes = [], []
     prog = Progress(len(graphs), "region", enabled=not args.no_progress and args.format == "text")
     for gspec in graphs:

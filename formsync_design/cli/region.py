@@ -157,6 +157,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out is None:
         args.out = str(default_out("region", spec, args.graph[0]))
         defaults.add(f"output folder {args.out} (give --out DIR for another)")
+        check_out_dir(args.out, overwrite=args.overwrite, results=("region.json",))
     lagrangian_range_gains(args, spec, defaults)
     if args.format == "text":
         defaults.emit("region")

@@ -86,7 +86,13 @@ class AgentDerivation:
 
 
 def agent_derivation(design: AgentDesign, graph: Any) -> AgentDerivation:
-    """Derive everything the report shows for ``design`` on ``graph``."""
+    """Derive everything the report shows for ``design`` on ``graph``.
+
+    >>> from formsync_design.spec.loader import load_design
+    >>> dv = agent_derivation(load_design("lv2012"), "path:3")
+    >>> dv.design.name, dv.graph.n
+    ('lv2012', 3)
+    """
     from formsync_design.errors import DerivationError
     from formsync_design.graphs.theorem import as_digraph
 
@@ -132,7 +138,15 @@ def _family_latex(f: Any) -> str:
 
 
 def write_agent_derivation_report(d: AgentDerivation, out: str | Path, command: str = "") -> Path:
-    """Write ``<out>/<design>-derivation-<graph>.md``; return its path."""
+    """Write ``<out>/<design>-derivation-<graph>.md``; return its path.
+
+    >>> import tempfile
+    >>> from formsync_design.spec.loader import load_design
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     p = write_agent_derivation_report(agent_derivation(load_design("lv2012"), "path:3"), tmp)
+    ...     p.name, p.read_text().startswith("# Derivation")
+    ('lv2012-derivation-path-3.md', True)
+    """
     des = d.design
     safe = "".join(c if c.isalnum() or c in "-_" else "-" for c in d.graph.name)
     path = Path(out) / f"{des.name}-derivation-{safe}.md"

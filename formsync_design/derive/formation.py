@@ -44,7 +44,7 @@ import numpy as np
 import sympy as sp
 
 from formsync_design.derive.linearize import LinearLoop, PolyMatrix, poly_entries
-from formsync_design.derive.locallinear import Chart, LinearPart
+from formsync_design.derive.locallinear import Chart, LinearPart, as_expr
 from formsync_design.errors import DerivationError, InputError
 
 __all__ = ["FormationLinearization", "linearize_formation", "KINEMATIC_GAIN"]
@@ -254,7 +254,7 @@ def linearize_formation(design: Any, graph: Any, inertias: Any, *, switch: str =
             for d_idx, coef in lin.items():
                 slot, c = divmod(d_idx, p)
                 col = at(slots[slot], c)
-                val = sp.sympify(coef).xreplace(num)
+                val = as_expr(coef).xreplace(num)
                 for mono, q in poly_entries(val, gens, design.path).items():
                     cell = terms.setdefault(mono, {})
                     cell[(row, col)] = cell.get((row, col), Fraction(0)) + q

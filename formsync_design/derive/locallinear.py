@@ -44,13 +44,14 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from fractions import Fraction
 from typing import Any
 
 import sympy as sp
 
 from formsync_design.errors import DerivationError
 
-__all__ = ["Chart", "Local", "LinearPart", "SWITCH_REALISATIONS"]
+__all__ = ["Chart", "Local", "LinearPart", "SWITCH_REALISATIONS", "as_expr"]
 
 #: How the switching function ``sgn`` of a design is realised (the simulator's ``switch``).
 SWITCH_REALISATIONS: tuple[str, ...] = ("sgn", "sat", "tanh")
@@ -90,6 +91,26 @@ class Local:
         return self.order == math.inf
 
 
+def as_expr(x: Any) -> Any:
+    """A SymPy object, an int, a Fraction or a float as a SymPy number (never text: no
+    parsing, so nothing from a data file is evaluated).
+
+    >>> as_expr(3), as_expr(Fraction(1, 2)), as_expr(sp.Symbol("x")) + 1
+    (3, 1/2, x + 1)
+    """
+    if isinstance(x, sp.Basic):
+        return x
+    if isinstance(x, bool):
+        raise DerivationError(f"expected a number or a SymPy expression, received {x!r}")
+    if isinstance(x, int):
+        return sp.Integer(x)
+    if isinstance(x, Fraction):
+        return sp.Rational(x.numerator, x.denominator)
+    if isinstance(x, float):
+        return sp.Float(x)
+    raise DerivationError(f"expected a number or a SymPy expression, received {type(x).__name__}")
+
+
 def _short(e: Any, width: int = 100) -> str:
     """A short text of ``e`` that never walks a large tree (deeply composed laws)."""
     from formsync_design.spec.dag import dag_size
@@ -100,7 +121,7 @@ def _short(e: Any, width: int = 100) -> str:
 
 
 def _const(v: Any) -> Local:
-    return Local(sp.sympify(v), {}, math.inf)
+    return Local(as_expr(v), {}, math.inf)
 
 
 def _rough(v0: Any, order: float, why: str) -> Local:
@@ -137,7 +158,7 @@ class LinearPart:
         if switch != "sgn" and phi is None:
             raise DerivationError(f"expected a boundary layer phi for switch {switch!r}")
         self.charts = dict(charts)
-        self.values = {k: sp.sympify(v) for k, v in (values or {}).items()}
+        self.values = {k: as_expr(v) for k, v in (values or {}).items()}
         self.switch = switch
         self.phi = phi
         self.memo: dict[Any, Local] = {}
@@ -151,7 +172,7 @@ class LinearPart:
         z = self.maybe_zero(e)
         if z is None:
             raise DerivationError(f"expected a value that is decidably zero or not at the "
-                                  f"equilibrium, received {_short(sp.sympify(e), 200)}")
+                                  f"equilibrium, received {_short(as_expr(e), 200)}")
         return z
 
     def maybe_zero(self, e: Any) -> bool | None:
@@ -162,7 +183,7 @@ class LinearPart:
             return None
 
     def _decide_zero(self, e: Any) -> bool:
-        e = sp.sympify(e)
+        e = as_expr(e)
         if e.is_Number:
             return bool(e == 0)
         if e in self._zero:
@@ -191,7 +212,7 @@ class LinearPart:
         return bool(z)
 
     def sign(self, e: Any, what: Any) -> int:
-        e = sp.sympify(e)
+        e = as_expr(e)
         if self.is_zero(e):
             return 0
         for cand in (e, sp.simplify(e)):
@@ -204,14 +225,14 @@ class LinearPart:
                               f"received {_short(e, 200)}")
 
     def compare(self, a: Any, b: Any, what: Any) -> int:
-        return self.sign(sp.sympify(a) - sp.sympify(b), what)
+        return self.sign(as_expr(a) - as_expr(b), what)
 
     def reduce(self, e: Any) -> Any:
         """``e`` with every ``s**k`` of a side symbol reduced by ``s**2 = 1``."""
         if not self.signs:
             return e
         ss = set(self.signs.values())
-        return sp.sympify(e).replace(
+        return as_expr(e).replace(
             lambda x: x.is_Pow and x.base in ss and x.exp.is_Integer,
             lambda x: x.base ** (int(x.exp) % 2))
 
@@ -224,7 +245,7 @@ class LinearPart:
 
     def local(self, expr: Any) -> Local:
         """The :class:`Local` of ``expr`` (post-order over the DAG, memoised)."""
-        expr = sp.sympify(expr)
+        expr = as_expr(expr)
         stack: list[tuple[Any, bool]] = [(expr, False)]
         while stack:
             e, done = stack.pop()
@@ -243,7 +264,7 @@ class LinearPart:
         r = self.local(expr)
         ss = set(self.signs.values())
         v0 = self.reduce(sp.expand(r.v0)) if ss else r.v0
-        if ss and (sp.sympify(v0).free_symbols & ss):
+        if ss and (as_expr(v0).free_symbols & ss):
             return _rough(v0, 0.0, f"a jump at the equilibrium in {_short(expr)}")
         if r.lin is None:
             return Local(v0, None, r.order, r.why)
@@ -259,7 +280,7 @@ class LinearPart:
     def _node(self, e: Any) -> Local:
         if e in self.charts:
             c = self.charts[e]
-            return Local(sp.sympify(c.v0), dict(c.lin), 1.0)
+            return Local(as_expr(c.v0), dict(c.lin), 1.0)
         if e.is_Symbol:
             return _const(self.values.get(e, e))
         if e.is_Number or e.is_NumberSymbol or not e.args:
@@ -393,7 +414,7 @@ class LinearPart:
             return best[0]
         first = best[0]
         if all(b.lin is not None for b in best) and all(
-                all(self.is_zero(sp.sympify(b.lin.get(k, 0)) - first.lin.get(k, 0))  # type: ignore[union-attr]
+                all(self.is_zero(as_expr(b.lin.get(k, 0)) - first.lin.get(k, 0))  # type: ignore[union-attr]
                     for k in set(b.lin) | set(first.lin or {})) for b in best):  # type: ignore[arg-type]
             return first
         return _rough(first.v0, min(1.0, *(b.order for b in best)),
