@@ -2,7 +2,8 @@
 
 The public names are imported on first use (PEP 562, as in :mod:`formsync_design`), so
 importing a submodule such as :mod:`~.defaults` does not load every verification module,
-SymPy, SciPy and matplotlib with it.
+SymPy, SciPy and matplotlib with it.  :func:`verify_case` verifies a case of any kind
+(:mod:`~.dispatch`).
 
 >>> from formsync_design.verify import load_case, verify_case
 >>> callable(load_case) and callable(verify_case)
@@ -26,10 +27,8 @@ if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
         Verdict as Verdict,
         judge as judge,
     )
-    from formsync_design.verify.verification import (
-        VerificationResult as VerificationResult,
-        verify_case as verify_case,
-    )
+    from formsync_design.verify.dispatch import verify_case as verify_case
+    from formsync_design.verify.verification import VerificationResult as VerificationResult
 
 #: public name -> the submodule that defines it
 _LAZY: dict[str, str] = {
@@ -42,7 +41,7 @@ _LAZY: dict[str, str] = {
     "Verdict": "formsync_design.verify.claims",
     "judge": "formsync_design.verify.claims",
     "VerificationResult": "formsync_design.verify.verification",
-    "verify_case": "formsync_design.verify.verification",
+    "verify_case": "formsync_design.verify.dispatch",
 }
 
 __all__ = ["AgentCase", "load_agent_case", "Case", "load_case", "Measurement", "Outcome",
