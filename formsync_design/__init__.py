@@ -36,7 +36,9 @@ data flows through the stages:
   :func:`monte_carlo`; agent designs: :class:`AgentFormation`, :class:`Reference`,
   :class:`AgentOptions`, :func:`simulate_agents` (:class:`AgentResult`), gyro models
   :class:`RateSensors`, :func:`measured_l2_gain`;
-* verification of a published case: :func:`load_case`, :func:`verify_case`;
+* verification of a published case: :func:`load_case`, :func:`verify_case` (a case of
+  any kind, formation, lv2012, selftrigger, flyaround or agent-comparison, by file or
+  shipped name; returns that kind's result);
   :func:`load_agent_case` (the case files of agent designs); self-triggered designs
   (seed 001): :func:`sampling_variant` (a design under another sampling rule),
   :func:`scheme_designs`, :func:`run_scheme` (self-, event-triggered and periodic runs
@@ -166,7 +168,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "Case": "formsync_design.verify",
     "load_case": "formsync_design.verify",
     "VerificationResult": "formsync_design.verify",
-    "verify_case": "formsync_design.verify",
+    "verify_case": "formsync_design.verify.dispatch",
     "load_agent_case": "formsync_design.verify",
     "scheme_designs": "formsync_design.verify.selftrigger_runs",
     "run_scheme": "formsync_design.verify.selftrigger_runs",

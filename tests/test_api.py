@@ -104,7 +104,7 @@ def _has_example(name: str) -> bool:
 #: the name is removed from the list.
 MISSING_EXAMPLES: frozenset[str] = frozenset(
     {"AttitudeModel", "load_campaign", "plot_slices", "run_sweep", "torque_figures",
-     "verify_case", "VerificationResult"}
+     "VerificationResult"}
 )
 
 

@@ -101,7 +101,7 @@ def test_bad_hint_never_vetoes_a_rechecked_certificate(monkeypatch, raw) -> None
         return self.value
 
     monkeypatch.setattr(cp.Problem, "solve", fake)
-    r = engine.certify_box(conds, BIG_BOX)
+    r = engine.certify_box(conds, BIG_BOX, use_sdp="always")
     assert r.solver.outcome == solver_outcome("solver_error" if raw == "raise" else raw)
     assert r.solver.outcome != SolverOutcome.OK
     assert r.status == Status.CERTIFIED, r.reason
@@ -113,16 +113,98 @@ def test_large_gains_certify_with_the_real_solver() -> None:
     """The scaled SDP (or, failing it, the re-check) decides the large-gain box as
     the closed form says, with or without the hint."""
     conds = derive_conditions("ring:8")
-    with_sdp = engine.certify_box(conds, BIG_BOX)
+    with_sdp = engine.certify_box(conds, BIG_BOX, use_sdp="always")
     without = engine.certify_box(conds, BIG_BOX, use_sdp=False)
+    assert with_sdp.solver.outcome == SolverOutcome.OK
     assert with_sdp.status == without.status == Status.CERTIFIED
     # a box violating Pi at the same scale is refuted either way
     bad = {"K_o": 1.1e5, "K_q": 4e10, "beta": 3e4}  # 1.1e5 < 4 * 3e4
     assert not _closed_form_ring8(*bad.values())
-    for sdp in (True, False):
+    for sdp in ("always", True, False):
         r = engine.certify_box(conds, bad, use_sdp=sdp)
         assert r.status == Status.REFUTED
         _witness_is_exact(conds, r)
+
+
+# ---------------------------------------------------------------------------
+# the SDP hint only when the LAPACK-hinted re-check leaves a block undecided
+# ---------------------------------------------------------------------------
+def _without_timings(r) -> dict:
+    d = r.to_dict()
+    for k in ("solver", "elapsed_s"):
+        d.pop(k, None)
+    return d
+
+
+@pytest.mark.parametrize("graph, box", [
+    ("ring:8", {"K_o": 1.6, "K_q": 0.4, "beta": 0.3}),  # the paper's point: certified
+    ("ring:8", {"K_o": (1.5, 1.7), "K_q": (0.3, 0.5), "beta": 0.3}),  # a box: certified
+    ("star:8", {"K_o": 1.6, "K_q": 0.4, "beta": 0.3}),  # refuted (Theta_1)
+])
+def test_decided_boxes_skip_the_sdp_with_the_same_result(graph, box) -> None:
+    conds = derive_conditions(graph)
+    auto = engine.certify_box(conds, box)
+    always = engine.certify_box(conds, box, use_sdp="always")
+    assert auto.solver.outcome == SolverOutcome.SKIPPED and "not needed" in auto.solver.note
+    assert always.solver.outcome == SolverOutcome.OK
+    assert auto.status == (Status.REFUTED if graph.startswith("star") else Status.CERTIFIED)
+    a, b = _without_timings(auto), _without_timings(always)
+    if isinstance(box["K_o"], float):  # a point: the same shifts, hence the same numbers
+        assert a == b
+    # a box: the SDP level (min over vertices) may shift the Cholesky test of another
+    # vertex lower, so a certified lower bound may differ in its last digits, never the verdict
+    assert a["status"] == b["status"] and a["witness"] == b["witness"]
+    for fa, fb in zip(a["families"], b["families"], strict=True):
+        assert fa["status"] == fb["status"] and fa["worst_vertex"] == fb["worst_vertex"]
+        if fa["certified_lower_bound"] is not None:
+            assert fa["certified_lower_bound"] == pytest.approx(fb["certified_lower_bound"], rel=1e-8)
+
+
+def test_undecided_recheck_asks_the_sdp_and_the_recheck_still_decides(monkeypatch) -> None:
+    """Forcing the first (LAPACK-hinted) pass to leave every block undecided makes
+    certify_box solve the SDP and re-check from its levels; that re-check certifies
+    (closed form: ring:8 at the paper's gains holds)."""
+    conds = derive_conditions("ring:8")
+    box = {"K_o": 1.6, "K_q": 0.4, "beta": 0.3}
+    assert _closed_form_ring8(*box.values())
+    real = engine.evaluate_vertices
+    calls: list[bool] = []
+
+    def first_pass_undecided(st, verts, mg, *, candidates=None, blocks=None):
+        vr = real(st, verts, mg, candidates=candidates, blocks=blocks)
+        calls.append(candidates is not None)
+        if candidates is None and blocks is None:
+            for s_ in vr.status:
+                s_[:] = 0
+        return vr
+
+    monkeypatch.setattr(engine, "evaluate_vertices", first_pass_undecided)
+    r = engine.certify_box(conds, box)
+    assert calls == [False, True]  # the LAPACK pass, then the re-check from the SDP levels
+    assert r.solver.outcome == SolverOutcome.OK and r.status == Status.CERTIFIED
+    # with the hint off the same forced pass stays undecided: nothing is guessed
+    calls.clear()
+    r = engine.certify_box(conds, box, use_sdp=False)
+    assert calls == [False] and r.status == Status.UNDECIDED
+
+
+def test_certifying_the_paper_point_does_not_import_cvxpy() -> None:
+    import subprocess
+    import sys
+
+    code = ("import sys, formsync_design as fs; r = fs.certify_box(fs.derive_conditions("
+            "fs.make_graph('ring:8')), {'K_o': 1.6, 'K_q': 0.4, 'beta': 0.3}); "
+            "print(r.status, 'cvxpy' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["certified", "False"]
+
+
+def test_use_sdp_is_checked() -> None:
+    from formsync_design.errors import InputError
+
+    with pytest.raises(InputError, match="use_sdp"):
+        engine.certify_box(derive_conditions("ring:4"), {"K_o": 1.6, "K_q": 0.4, "beta": 0.3},
+                           use_sdp="sometimes")
 
 
 def test_unknown_solver_status_maps_to_error() -> None:
@@ -266,7 +348,7 @@ def test_verdict_does_not_depend_on_the_hint() -> None:
                                    (rng.uniform(0.1, 5), rng.uniform(0.1, 5) * scale,
                                     rng.uniform(0.05, 1)))}
             margin = F(0) if rng.random() < 0.5 else F(1, 100)
-            a = engine.certify_box(conds, box, margin=margin)
+            a = engine.certify_box(conds, box, margin=margin, use_sdp="always")
             b = engine.certify_box(conds, box, margin=margin, use_sdp=False)
             assert a.status == b.status, (spec, box, a.reason, b.reason)
 

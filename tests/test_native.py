@@ -253,3 +253,49 @@ def test_native_kernel_is_keyed_by_the_specification(tmp_path):
     k2 = native.get_native(variant, "sat", "E")
     assert k1 is not None and k2 is not None and k1.path != k2.path
     assert k1.spec_key == load_spec(None).key and k2.spec_key == variant.key
+
+
+def test_warm_kernel_skips_the_source_and_the_key_follows_design_switch_generator(
+        monkeypatch, tmp_path):
+    """A cached object is loaded without generating its C source (no SymPy derivation);
+    the cache key changes with the design, the switch and the generator's code."""
+    from pathlib import Path
+
+    monkeypatch.setenv("FORMSYNC_CACHE_DIR", str(tmp_path))
+    spec = load_spec(None)
+    variant = load_spec(Path(__file__).parent / "data" / "controller_variant_spec.py")
+    native.clear_native_cache()
+    calls: list[str] = []
+    real = native.native_source
+
+    def counted(s, switch, inverse):
+        calls.append(switch)
+        return real(s, switch, inverse)
+
+    monkeypatch.setattr(native, "native_source", counted)
+    try:
+        cold = native.get_native(spec, "sat", "E")
+        assert cold is not None and calls == ["sat"] and cold.path.parent.parent == tmp_path
+        native.clear_native_cache()  # a new process: the object on disk, nothing in memory
+        warm = native.get_native(spec, "sat", "E")
+        assert warm is not None and warm.path == cold.path and calls == ["sat"]
+        # the warm object runs like the cold one
+        assert warm.ngains == cold.ngains
+    finally:
+        native.clear_native_cache()
+    keys = {native.native_key(spec, "sat", "E"), native.native_key(spec, "sgn", "E"),
+            native.native_key(variant, "sat", "E"), native.native_key(spec, "sat", "solve")}
+    assert len(keys) == 4
+    # an edited generator (here: its digest) gives another key, hence another object
+    before = native.native_key(spec, "sat", "E")
+    monkeypatch.setattr(native, "generator_digest", lambda: "0" * 64)
+    assert native.native_key(spec, "sat", "E") != before
+
+
+def test_generator_digest_covers_the_generating_code() -> None:
+    from pathlib import Path
+
+    root = Path(native.__file__).resolve().parents[1]
+    for rel in native.GENERATOR_CODE:
+        assert (root / rel).exists(), rel
+    assert {"sim/native_c.py", "sim/bridge.py", "sim/kernels.py", "models"} <= set(native.GENERATOR_CODE)

@@ -37,15 +37,19 @@ Pipeline
    rigorous enclosure of the spectrum of ``M``: the eigenvalues of
    ``a(p) I + b(p) M`` are ``a + b mu``.  The ``(x) I_3`` factor never enters.
    (:mod:`formsync_design.certify.structure`)
-2. **Optimization (hint).** :func:`certify_box` solves, with cvxpy + Clarabel,
+2. **Optimization (hint).** The re-check (3.) first starts from LAPACK's
+   eigenvalues.  Only when that leaves some block undecided (and no witness
+   refutes the box) does :func:`certify_box` solve, with cvxpy + Clarabel,
    ``max t_b  s.t.  F_b(v) - t_b I >= 0`` for every reduced block ``b`` and
    vertex ``v`` (pencil blocks reduce to scalar constraints at the extreme
    eigenvalues of ``M``; dense blocks larger than ``SDP_MAX_BLOCK`` take their
    hint from LAPACK ``eigvalsh``; :mod:`formsync_design.certify.sdp`, each block
-   scaled to unit size).  Every solver status is mapped through
-   :data:`STATUS_MAP`.  The levels are a *hint*: an inaccurate, failed,
-   unbounded or unknown solver outcome only means the re-check starts from
-   LAPACK's eigenvalues instead; it never vetoes a re-checked certificate.
+   scaled to unit size) and re-check the undecided blocks from those levels
+   (``use_sdp="always"`` solves it first, for every box).  Every solver status
+   is mapped through :data:`STATUS_MAP`.  The levels are a *hint*: an
+   inaccurate, failed, unbounded or unknown solver outcome only means the
+   re-check keeps LAPACK's eigenvalues; it never vetoes a re-checked
+   certificate, and a box the re-check decides never needs it (nor cvxpy).
 3. **Independent re-check** of every block at every vertex, in exact or
    rigorously rounded arithmetic (never the solver's numbers):
 
@@ -262,7 +266,7 @@ def certify_box(
     *,
     margin: Any = 0,
     kv: KvCheck | None = None,
-    use_sdp: bool = True,
+    use_sdp: bool | str = True,
 ) -> CertificationResult:
     """Decide whether every ``Theta_i`` and ``Pi`` is ``> margin I`` on a whole gain box.
 
@@ -278,9 +282,12 @@ def certify_box(
         Require ``lambda_min > margin`` everywhere (``>= 0``).
     kv : KvCheck, optional
         Result of :func:`check_kv`; a failing check refutes.
-    use_sdp : bool
-        Solve the cvxpy/Clarabel SDP for the candidate levels (default).  With
-        False the hints come from LAPACK; the re-check is the same.
+    use_sdp : bool or "always"
+        True (default): solve the cvxpy/Clarabel SDP for candidate levels only
+        when the re-check from LAPACK's hints leaves a block undecided (the
+        ``solver`` of the result then says ``skipped`` when it was not needed);
+        ``"always"``: solve it first for every box; False: never.  The verdict
+        always comes from the same exact/rigorous re-check.
 
     Returns
     -------
@@ -291,6 +298,10 @@ def certify_box(
     --------
     >>> from formsync_design.derive.conditions import derive_conditions
     >>> r = certify_box(derive_conditions("ring:8"), {"K_o": (1.5, 1.7), "K_q": 0.4, "beta": 0.3})
+    >>> str(r.status), str(r.solver.outcome)
+    ('certified', 'skipped')
+    >>> r = certify_box(derive_conditions("ring:8"), {"K_o": (1.5, 1.7), "K_q": 0.4, "beta": 0.3},
+    ...                 use_sdp="always")
     >>> str(r.status), str(r.solver.outcome)
     ('certified', 'ok')
     >>> r = certify_box(derive_conditions("star:8"), {"K_o": 1.6, "K_q": 0.4, "beta": 0.3})
@@ -306,19 +317,26 @@ def certify_box(
     st = analyze(conditions.families)
     verts = bx.vertices()
     maff = all(b.multiaffine for b in st.blocks)
-    if use_sdp:
-        levels, stats = sdp_levels(st, verts)
-    else:
-        levels, stats = {}, SolverStats(
-            "none", "skipped", SolverOutcome.SKIPPED, 0.0, None, 0, None, "LAPACK hints"
-        )
+    if use_sdp not in (True, False, "always"):
+        raise InputError(f"expected use_sdp True, False or 'always', received {use_sdp!r}")
     # the hint guides, never vetoes: a failed/inaccurate solve gives no candidate
     # levels (LAPACK hints instead), and blocks a candidate left undecided are
-    # re-checked once more from their own LAPACK hint
-    cand = levels if stats.outcome in (SolverOutcome.OK, SolverOutcome.INACCURATE) else None
-    vr = evaluate_vertices(st, verts, mg, candidates=cand)
-    if cand:
-        _retry_without_hint(st, verts, mg, vr)
+    # re-checked once more from their own LAPACK hint (and the other way round)
+    if use_sdp == "always":
+        levels, stats = sdp_levels(st, verts)
+        cand = levels if stats.outcome in (SolverOutcome.OK, SolverOutcome.INACCURATE) else None
+        vr = evaluate_vertices(st, verts, mg, candidates=cand)
+        if cand:
+            _retry(st, verts, mg, vr)
+    else:
+        vr = evaluate_vertices(st, verts, mg)
+        stats = SolverStats("none", "skipped", SolverOutcome.SKIPPED, 0.0, None, 0, None,
+                            "LAPACK hints" if not use_sdp else
+                            "not needed: the re-check from LAPACK hints decided every block")
+        if use_sdp and _needs_hint(st, vr):
+            levels, stats = sdp_levels(st, verts)
+            if stats.outcome in (SolverOutcome.OK, SolverOutcome.INACCURATE) and levels:
+                _retry(st, verts, mg, vr, candidates=levels)
     sub: dict[int, tuple[bool, Fraction | None, int]] = {}
     for b in st.blocks:
         if not b.multiaffine and not vr.witness[b.index]:
@@ -382,14 +400,24 @@ def certify_box(
     )
 
 
-def _retry_without_hint(
-    st: Structure, verts: list[tuple[Fraction, ...]], mg: Fraction, vr: VertexResults
+def _needs_hint(st: Structure, vr: VertexResults) -> bool:
+    """True when a multi-affine block is undecided at some vertex and no witness refutes
+    the box (then, and only then, the SDP's levels could change the verdict)."""
+    if any(vr.witness[b.index] for b in st.blocks):
+        return False
+    return any(b.multiaffine and np.any(vr.status[b.index] == 0) for b in st.blocks)
+
+
+def _retry(
+    st: Structure, verts: list[tuple[Fraction, ...]], mg: Fraction, vr: VertexResults,
+    candidates: Mapping[int, float] | None = None,
 ) -> None:
-    """Re-check, from their own LAPACK hints, the blocks a candidate level left undecided."""
+    """Re-check the blocks left undecided, from ``candidates`` (the SDP's levels) or, when
+    None, from their own LAPACK hints; a vertex keeps the first decision reached."""
     redo = [b.index for b in st.blocks if np.any(vr.status[b.index] == 0)]
     if not redo:
         return
-    again = evaluate_vertices(st, verts, mg, blocks=redo)
+    again = evaluate_vertices(st, verts, mg, candidates=candidates, blocks=redo)
     for bi in redo:
         better = (vr.status[bi] == 0) & (again.status[bi] != 0)
         vr.status[bi][better] = again.status[bi][better]

@@ -10,26 +10,80 @@ event-, self- and dynamic-event triggering, representation-agnostic); :mod:`~.sa
 :mod:`~.hybrid`); agent designs (:mod:`formsync_design.spec.agent`): :mod:`~.agent_kernel`
 (their compiled formation kernels), :mod:`~.agents` (formations, options, results, the
 continuous driver) and :mod:`~.agent_sampled` (their sampled path).
+
+The public names are imported on first use (PEP 562, as in :mod:`formsync_design`), so
+importing one submodule (e.g. :mod:`~.native`) does not load SciPy's integrators, the
+agent drivers and matplotlib with it.
 """
 
-from formsync_design.sim.agents import (
-    AgentFormation,
-    AgentOptions,
-    AgentResult,
-    AgentStatus,
-    Reference,
-    simulate_agents,
-)
-from formsync_design.sim.formation import SimStatus
-from formsync_design.sim.hybrid import HybridOptions, HybridResult, HybridStatus, simulate_hybrid
-from formsync_design.sim.montecarlo import (
-    MonteCarloResult,
-    MonteCarloSettings,
-    RunStatus,
-    run_montecarlo,
-)
-from formsync_design.sim.sampled import SampledResult, TriggerSpec, parse_trigger, simulate_sampled
-from formsync_design.sim.simulator import Formation, Gains, SimOptions, SimResult, simulate
+from __future__ import annotations
+
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
+    from formsync_design.sim.agents import (
+        AgentFormation as AgentFormation,
+        AgentOptions as AgentOptions,
+        AgentResult as AgentResult,
+        AgentStatus as AgentStatus,
+        Reference as Reference,
+        simulate_agents as simulate_agents,
+    )
+    from formsync_design.sim.formation import SimStatus as SimStatus
+    from formsync_design.sim.hybrid import (
+        HybridOptions as HybridOptions,
+        HybridResult as HybridResult,
+        HybridStatus as HybridStatus,
+        simulate_hybrid as simulate_hybrid,
+    )
+    from formsync_design.sim.montecarlo import (
+        MonteCarloResult as MonteCarloResult,
+        MonteCarloSettings as MonteCarloSettings,
+        RunStatus as RunStatus,
+        run_montecarlo as run_montecarlo,
+    )
+    from formsync_design.sim.sampled import (
+        SampledResult as SampledResult,
+        TriggerSpec as TriggerSpec,
+        parse_trigger as parse_trigger,
+        simulate_sampled as simulate_sampled,
+    )
+    from formsync_design.sim.simulator import (
+        Formation as Formation,
+        Gains as Gains,
+        SimOptions as SimOptions,
+        SimResult as SimResult,
+        simulate as simulate,
+    )
+
+#: public name -> the submodule that defines it
+_LAZY: dict[str, str] = {
+    "AgentFormation": "formsync_design.sim.agents",
+    "AgentOptions": "formsync_design.sim.agents",
+    "AgentResult": "formsync_design.sim.agents",
+    "AgentStatus": "formsync_design.sim.agents",
+    "Reference": "formsync_design.sim.agents",
+    "simulate_agents": "formsync_design.sim.agents",
+    "SimStatus": "formsync_design.sim.formation",
+    "HybridOptions": "formsync_design.sim.hybrid",
+    "HybridResult": "formsync_design.sim.hybrid",
+    "HybridStatus": "formsync_design.sim.hybrid",
+    "simulate_hybrid": "formsync_design.sim.hybrid",
+    "MonteCarloResult": "formsync_design.sim.montecarlo",
+    "MonteCarloSettings": "formsync_design.sim.montecarlo",
+    "RunStatus": "formsync_design.sim.montecarlo",
+    "run_montecarlo": "formsync_design.sim.montecarlo",
+    "SampledResult": "formsync_design.sim.sampled",
+    "TriggerSpec": "formsync_design.sim.sampled",
+    "parse_trigger": "formsync_design.sim.sampled",
+    "simulate_sampled": "formsync_design.sim.sampled",
+    "Formation": "formsync_design.sim.simulator",
+    "Gains": "formsync_design.sim.simulator",
+    "SimOptions": "formsync_design.sim.simulator",
+    "SimResult": "formsync_design.sim.simulator",
+    "simulate": "formsync_design.sim.simulator",
+}
 
 __all__ = [
     "Formation",
@@ -57,3 +111,16 @@ __all__ = [
     "Reference",
     "simulate_agents",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'formsync_design.sim' has no attribute {name!r}")
+    value = getattr(import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -21,6 +21,7 @@ import shutil
 import subprocess
 import tempfile
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import casadi as ca
@@ -100,21 +101,30 @@ def warn_no_compiler(stacklevel: int = 3) -> None:
     )
 
 
-def build_shared(name: str, src: str, key: str, cc: str, flags: tuple[str, ...] = CFLAGS,
-                 libs: tuple[str, ...] = ("-lm",)) -> Path:
+def build_shared(name: str, src: str | Callable[[], str], key: str, cc: str,
+                 flags: tuple[str, ...] = CFLAGS, libs: tuple[str, ...] = ("-lm",)) -> Path:
     """Compile ``src`` to ``cache_dir()/kernels/<name>_<digest>.so`` unless it is cached.
 
-    ``key`` is extra material of the digest (the specification's content key).
+    ``src`` is the C source, or a function returning it.  With the source itself the
+    digest covers it and ``key`` (extra material: the specification's content key).
+    With a function the digest covers ``key`` alone, which must then identify the
+    source completely (the specification's content key, the options and the digest of
+    the generator's code, as :func:`~formsync_design.sim.native.get_native` passes), and
+    the function is called only when the object is not cached: a warm run skips
+    generating the source.  Flags, libraries, the CasADi version and the host are
+    always part of the digest.
     Raises :class:`~formsync_design.errors.CompilerError` when the compiler fails or
     the cache folder is not writable.
     """
-    material = "\n".join([src, key, " ".join(flags), " ".join(libs),
-                          str(getattr(ca, "__version__", "")), host_tag()])
+    tail = [key, " ".join(flags), " ".join(libs), str(getattr(ca, "__version__", "")), host_tag()]
+    material = "\n".join(["keyed by the generator", *tail] if callable(src) else [src, *tail])
     digest = hashlib.sha256(material.encode()).hexdigest()[:20]
     d = cache_dir() / "kernels"
     so = d / f"{name}_{digest}.so"
     if so.is_file():
         return so
+    if callable(src):
+        src = src()
     try:
         d.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryDirectory(dir=d) as td:

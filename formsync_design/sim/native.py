@@ -10,13 +10,18 @@ batch of runs (:meth:`NativeKernel.batch`); nothing happens per step in Python.
 The object does not depend on the number of spacecraft or on the graph (the driver
 loops over spacecraft and the Laplacian's nonzeros), so one compilation serves every
 formation of a design.  It is cached in :func:`~formsync_design.sim.ccompile.cache_dir`
-``/kernels`` under the digest of its source (which embeds the specification's
-controller) and the specification's content key.
+``/kernels`` under a digest of the specification's content key, the switch and inverse,
+and the code that generates the source (:func:`generator_digest`: these modules, the
+model's, the bridge's and the specification loader's, with the versions of
+formsync-design, SymPy and CasADi), so a warm run loads the object without deriving
+the model in SymPy or generating C, and a changed design or generator builds anew.
 """
 
 from __future__ import annotations
 
 import ctypes
+import functools
+import hashlib
 import os
 import tempfile
 import time
@@ -34,7 +39,7 @@ from formsync_design.sim.native_c import CFG, DRIVER_SOURCE, EVENTS, INFO, LAYOU
 from formsync_design.spec.loader import Spec
 
 __all__ = ["NativeKernel", "RunOutput", "get_native", "clear_native_cache", "native_source",
-           "layout_offsets", "METHODS", "SWITCH_EVENTS"]
+           "generator_digest", "native_key", "layout_offsets", "METHODS", "SWITCH_EVENTS"]
 
 #: The driver's integrators (``cfg[method]``).
 METHODS = {"rk4": 0, "dopri5": 1}
@@ -78,6 +83,52 @@ def native_source(spec: Spec, switch: str, inverse: str) -> str:
         f"#define FSD_SZ_W {sizes['sz_w']}",
     ])
     return gen + "\n" + head + "\n" + DRIVER_SOURCE
+
+
+#: The package folders and modules whose code determines the generated source (paths
+#: relative to the package): the model, the bridge, the specification loader and views,
+#: the kernels' closed loop and parameter layout, this module and the C driver.
+GENERATOR_CODE = ("models", "spec", "sim/bridge.py", "sim/kernels.py", "sim/layout.py",
+                  "sim/formation.py", "sim/metrics.py", "sim/native.py", "sim/native_c.py",
+                  "sim/ccompile.py", "derive", "gains.py", "safeexpr.py")
+
+
+@functools.cache
+def generator_digest() -> str:
+    """SHA-256 of the code that generates a kernel's source (:data:`GENERATOR_CODE`) and of
+    the versions of formsync-design, SymPy and CasADi: part of every kernel's cache key,
+    so an edited generator never loads an object built by the old one.
+
+    >>> len(generator_digest())
+    64
+    """
+    from importlib.metadata import PackageNotFoundError, version
+
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256()
+    for dist in ("formsync-design", "sympy", "casadi"):
+        try:
+            h.update(f"{dist}={version(dist)}\n".encode())
+        except PackageNotFoundError:
+            h.update(f"{dist}=?\n".encode())
+    for rel in GENERATOR_CODE:
+        p = root / rel
+        files = sorted(p.rglob("*.py")) if p.is_dir() else [p]
+        for f in files:
+            h.update(f.relative_to(root).as_posix().encode() + b"\0")
+            h.update(f.read_bytes())
+    return h.hexdigest()
+
+
+def native_key(spec: Spec, switch: str, inverse: str) -> str:
+    """The cache key of the compiled kernel of ``spec`` (its content key), ``switch`` and
+    ``inverse``, and the generator (:func:`generator_digest`).
+
+    >>> from formsync_design.spec.loader import load_spec
+    >>> native_key(load_spec(None), "sat", "E") != native_key(load_spec(None), "sgn", "E")
+    True
+    """
+    return "|".join(["fsd_kernel", spec.key, switch, inverse, generator_digest()])
 
 
 def _ptr(a: np.ndarray) -> Any:
@@ -185,8 +236,8 @@ def get_native(spec: Spec, switch: str, inverse: str, compile: bool = True) -> N
         _NATIVE[key] = None
         return None
     t0 = time.perf_counter()
-    src = native_source(spec, switch, inverse)
-    so = build_shared("fsd_kernel", src, spec.key, cc, libs=("-lm", "-pthread"))
+    so = build_shared("fsd_kernel", lambda: native_source(spec, switch, inverse),
+                      native_key(spec, switch, inverse), cc, libs=("-lm", "-pthread"))
     try:
         lib = ctypes.CDLL(str(so))
     except OSError as e:
