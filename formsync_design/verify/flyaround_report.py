@@ -13,6 +13,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from formsync_design.outdir import write_text
 from formsync_design.verify.flyaround import QUANTITIES, FlyaroundVerification
 from formsync_design.verify.output import display_path, report_marker, report_paths
 
@@ -245,6 +246,5 @@ def write_flyaround_report(res: FlyaroundVerification, out: str | Path, case_dis
                                 if k.startswith("fuel:")})
     paths = [save_figure(fig, figdir / f"{name}.png") for name, fig in figs.items()]
     rel = figdir.relative_to(md.parent).as_posix()
-    md.write_text(flyaround_markdown(res, case_display, command, rel, list(figs)),
-                  encoding="utf-8")
+    write_text(md, flyaround_markdown(res, case_display, command, rel, list(figs)))
     return md, paths
