@@ -22,6 +22,7 @@ from formsync_design.analysis.compare import (
 from formsync_design.analysis.spectrum import laplacian_spectrum
 from formsync_design.gains import GainBox
 from formsync_design.graphs import make_graph
+from formsync_design.outdir import save_figure as save_atomic_figure, write_text
 
 __all__ = ["DEFAULT_BOX", "PAPER_GAINS", "write_certificates_report", "design_section"]
 
@@ -61,7 +62,7 @@ def write_certificates_report(
     fig = plot_comparison(comps, beta_index=1)
     figpath = figdir / "liang2016-certificates-ko-kq.png"
     with matplotlib.rc_context({"svg.hashsalt": "formsync"}):
-        fig.savefig(figpath, dpi=110, metadata={"Software": None})
+        save_atomic_figure(fig, figpath, dpi=110, metadata={"Software": None})
     lines = [
         "# Four certificates, one comparison (Liang et al. 2016, controller (4))",
         "",
@@ -134,7 +135,7 @@ def write_certificates_report(
     ]
     lines += list(extra_sections)
     md = root / "reports" / "liang2016-certificates.md"
-    md.write_text("\n".join(lines).rstrip() + "\n", encoding="utf-8")
+    write_text(md, "\n".join(lines).rstrip() + "\n")
     return md
 
 

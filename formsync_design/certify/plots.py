@@ -24,6 +24,7 @@ from formsync_design.certify.region import (
     region_map,
 )
 from formsync_design.errors import InputError
+from formsync_design.outdir import save_figure as save_atomic_figure, write_text
 
 __all__ = ["plot_slices", "plot_3d", "write_region", "region_report"]
 
@@ -171,7 +172,7 @@ def plot_3d(maps: Sequence[RegionMap], *, max_voxels: int = 20) -> Any:
 def _save(fig: Any, path: Path) -> None:
     import matplotlib.pyplot as plt
 
-    fig.savefig(path, dpi=110, metadata={"Software": None})
+    save_atomic_figure(fig, path, dpi=110, metadata={"Software": None})
     plt.close(fig)
 
 
@@ -198,7 +199,7 @@ def write_region(
     if overlay is not None:
         doc["overlay"] = [map_to_dict(m, timing=timing, boxes=boxes) for m in overlay if m is not None]
     p = d / f"{stem}.json"
-    p.write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n")
+    write_text(p, json.dumps(doc, indent=1, allow_nan=False) + "\n")
     paths.append(p)
     m0 = maps[0]
     gi = m0.gains
@@ -387,5 +388,5 @@ def region_report(
     md = rep / "liang2016-region.md"
     w("Regenerate: `.venv/bin/python verification/region_report.py` (about a minute).")
     w("")
-    md.write_text("\n".join(lines))
+    write_text(md, "\n".join(lines))
     return md

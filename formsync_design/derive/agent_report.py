@@ -17,6 +17,7 @@ from typing import Any
 import sympy as sp
 
 from formsync_design.derive.agent import AgentConditions, agent_closed_loop, agent_conditions
+from formsync_design.outdir import write_text
 from formsync_design.spec.agent import QUANTITIES, AgentDesign, agent_expressions
 
 __all__ = ["AgentDerivation", "agent_derivation", "write_agent_derivation_report",
@@ -198,5 +199,5 @@ def write_agent_derivation_report(d: AgentDerivation, out: str | Path, command: 
                      f"{', '.join(f.gains)}): ${_family_latex(f)}$")
         L.append("")
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(L) + "\n", encoding="utf-8")
+    write_text(path, "\n".join(L) + "\n")
     return path

@@ -25,6 +25,7 @@ from formsync_design.derive.conditions import (
 )
 from formsync_design.graphs.build import Graph, make_graph
 from formsync_design.models.attitude import derive_attitude_model
+from formsync_design.outdir import write_text
 from formsync_design.spec.declarations import CLASSIC
 from formsync_design.spec.loader import ControllerView, LyapunovView, Spec, gain_symbols
 
@@ -403,7 +404,7 @@ def write_derivation_report(
                 w(f"   - {name}: `{_fmt_value(val)}`")
         w("")
     md = out / f"{base}.md"
-    md.write_text("\n".join(L) + "\n")
+    write_text(md, "\n".join(L) + "\n")
 
     # LaTeX fragment
     T: list[str] = [
@@ -429,5 +430,5 @@ def write_derivation_report(
         T[-1] = T[-1][: -len(" \\\\")]
     T.append("\\end{align}")
     tex = out / f"{base}.tex"
-    tex.write_text("\n".join(T) + "\n")
+    write_text(tex, "\n".join(T) + "\n")
     return DerivationReport(markdown=md, latex=tex, findings=findings, brute_force_checked=brute_ok)

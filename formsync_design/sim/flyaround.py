@@ -22,12 +22,21 @@ attitude is the desired attitude at ``t = 0`` rotated by the 3-2-1 angles
 >>> isinstance(sc, FlyaroundScenario), sc.gains["k_p"]
 (True, (807.0,))
 >>> run = simulate_flyaround(sc, FlyaroundOptions(tf=2.0))
->>> run.t.shape, run.states.shape, round(run.fuel, 4) > 0
-((10,), (11, 12), True)
+>>> run.t.shape, run.states.shape, round(run.fuel, 4) > 0, str(run.status)
+((10,), (11, 12), True, 'completed')
+
+A state that goes non-finite is a finding, not an error: the run ends at the last finite
+state with the status ``diverged`` and the time (a plant of almost no inertia):
+
+>>> from dataclasses import replace
+>>> bad = simulate_flyaround(replace(sc, inertia=1e-9 * np.eye(3)), FlyaroundOptions(tf=200.0))
+>>> str(bad.status), bad.diverged_time > 0, bool(np.isfinite(bad.states).all())
+('diverged', True, True)
 """
 
 from __future__ import annotations
 
+import enum
 import math
 import time
 from dataclasses import dataclass, field
@@ -35,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-from formsync_design.errors import InputError, SimulationError
+from formsync_design.errors import InputError
 from formsync_design.gains import json_number
 from formsync_design.models.flyaround import (
     ZHANG2014_FLYAROUND,
@@ -78,6 +87,7 @@ __all__ = [
     "FlyaroundScenario",
     "FlyaroundOptions",
     "FlyaroundRun",
+    "FlyaroundStatus",
     "simulate_flyaround",
     "initial_state",
     "lqr_for",
@@ -247,6 +257,14 @@ class FlyaroundOptions:
         return int(round(self.tf / self.sample_period))
 
 
+class FlyaroundStatus(enum.StrEnum):
+    """How a fly-around run ended: ``completed`` (every sample to ``tf``) or ``diverged``
+    (a non-finite state at ``diverged_time``; the run ends at the last finite state)."""
+
+    COMPLETED = "completed"
+    DIVERGED = "diverged"
+
+
 @dataclass(frozen=True)
 class FlyaroundRun:
     """A simulated fly-around.
@@ -271,6 +289,11 @@ class FlyaroundRun:
         Kernel build (generation + compilation, or the cache hit).
     lp_fallbacks : int
         Samples of an ``lp`` run solved by the bounded LP (upper bounds binding).
+    status : FlyaroundStatus
+        ``completed``, or ``diverged``: the state was non-finite at ``diverged_time``, and
+        ``t``, ``states`` and ``outputs`` end at the last finite state before it.
+    diverged_time : float or None
+        The first sample time with a non-finite state (status ``diverged``).
     """
 
     t: np.ndarray
@@ -282,6 +305,17 @@ class FlyaroundRun:
     seconds: float
     build_seconds: float
     lp_fallbacks: int = 0
+    status: FlyaroundStatus = FlyaroundStatus.COMPLETED
+    diverged_time: float | None = None
+
+    @property
+    def message(self) -> str:
+        """One line on how the run ended (``diverged at t = ...`` for a diverged run)."""
+        if self.status == FlyaroundStatus.DIVERGED:
+            return (f"diverged at t = {self.diverged_time:g} s (non-finite state; the run ends at "
+                    f"t = {float(self.states.shape[0] - 1) * self.options.sample_period:g} s): "
+                    "check the gains, the inertia and the sample period")
+        return f"completed {self.t.size} samples to t = {self.options.tf:g} s"
 
     @property
     def impulses(self) -> np.ndarray:
@@ -320,7 +354,9 @@ class FlyaroundRun:
                 "delta_v_m_s": json_number(self.delta_v),
                 "delta_v_net_m_s": json_number(self.delta_v_net),
                 "allocation": self.options.allocation, "seconds": json_number(self.seconds),
-                "lp_fallbacks": self.lp_fallbacks}
+                "lp_fallbacks": self.lp_fallbacks, "status": str(self.status),
+                "diverged_time": None if self.diverged_time is None
+                else json_number(self.diverged_time)}
 
 
 def lqr_for(spec: Spec, scenario: FlyaroundScenario) -> tuple[LQRDesign, np.ndarray, np.ndarray]:
@@ -491,10 +527,10 @@ def simulate_flyaround(scenario: FlyaroundScenario,
     spec : Spec or str, optional
         A tracking design (default ``zhang2014_flyaround``).
 
-    Raises
-    ------
-    SimulationError
-        A non-finite state (exit 3).
+    Returns
+    -------
+    FlyaroundRun
+        A non-finite state is the status ``diverged`` with its time (no exception).
     """
     sc = scenario
     opt = options if options is not None else FlyaroundOptions()
@@ -512,8 +548,9 @@ def simulate_flyaround(scenario: FlyaroundScenario,
     states[0] = x0
     t0 = time.perf_counter()
     fallbacks = 0
+    bad: int | None = None  # the first index of ``states`` that is not finite
     if opt.allocation == "lp":
-        fallbacks = _run_lp(kern, sc, p, x0, c0, t, out, states)
+        fallbacks, bad = _run_lp(kern, sc, p, x0, c0, t, out, states)
     else:
         x, c = x0, c0
         for k0 in range(0, nk, CHUNK):
@@ -524,20 +561,30 @@ def simulate_flyaround(scenario: FlyaroundScenario,
             states[k0 + 1:k0 + 1 + take] = xs[:, :take].T
             out[k0:k0 + take] = os_[:, :take].T
             x, c = xs[:, take - 1], np.asarray(cs)[:, take - 1]
-            if not np.all(np.isfinite(x)):
-                raise SimulationError(f"the fly-around state became non-finite by t = "
-                                      f"{tt[take - 1]:g} s; check the gains and the time step")
+            rows = np.flatnonzero(~np.isfinite(states[k0 + 1:k0 + 1 + take]).all(axis=1))
+            if rows.size:  # a finding: the run ends at the last finite state
+                bad = k0 + 1 + int(rows[0])
+                break
     seconds = time.perf_counter() - t0
+    status, tdiv = FlyaroundStatus.COMPLETED, None
+    if bad is not None:
+        # states[bad] (at t_bad) is the first non-finite one: keep the samples before it,
+        # whose states (t_0 .. t_{bad-1}) are all finite
+        status, tdiv = FlyaroundStatus.DIVERGED, float(bad * opt.sample_period)
+        t, out, states = t[:bad - 1], out[:bad - 1], states[:bad]
     outputs, pos = {}, 0
     for name, w in OUTPUTS:
         outputs[name] = out[:, pos:pos + w] if w > 1 else out[:, pos]
         pos += w
-    return FlyaroundRun(t, states, outputs, lqr, opt, sc, seconds, kern.seconds, fallbacks)
+    return FlyaroundRun(t, states, outputs, lqr, opt, sc, seconds, kern.seconds, fallbacks,
+                        status, tdiv)
 
 
 def _run_lp(kern: _Kernel, sc: FlyaroundScenario, p: np.ndarray, x0: np.ndarray,
-            c0: np.ndarray, t: np.ndarray, out: np.ndarray, states: np.ndarray) -> int:
-    """The per-sample loop of an ``lp`` run (compiled control and propagation)."""
+            c0: np.ndarray, t: np.ndarray, out: np.ndarray,
+            states: np.ndarray) -> tuple[int, int | None]:
+    """The per-sample loop of an ``lp`` run (compiled control and propagation): the LP
+    fallbacks and the first index of ``states`` that is not finite (None: all are)."""
     from formsync_design.models.allocation import MinFuelAllocator
     from formsync_design.sim.kernels import compile_function
 
@@ -579,8 +626,8 @@ def _run_lp(kern: _Kernel, sc: FlyaroundScenario, p: np.ndarray, x0: np.ndarray,
         c[:] = cn
         states[k + 1] = xn
         if not np.all(np.isfinite(xn)):
-            raise SimulationError(f"the fly-around state became non-finite by t = {t[k]:g} s")
-    return fb
+            return fb, k + 1
+    return fb, None
 
 
 def rotation_vectors(sigma: np.ndarray) -> np.ndarray:

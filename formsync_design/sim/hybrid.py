@@ -52,6 +52,14 @@ A trigger of agent ``i`` less than ``min_interevent`` after its previous one sto
 with status :attr:`HybridStatus.ZENO`; more than ``max_triggers`` triggers in total (the
 initial broadcasts excluded) stops it with :attr:`HybridStatus.MAX_TRIGGERS`. Both say so
 in ``message``; the trajectory up to the stop is returned.
+
+Divergence
+----------
+Accepted integrator steps are always finite (a non-finite error estimate rejects the
+step). When the dynamics give a non-finite value beyond the last accepted step (the state
+or a held input blows up) and the integrator cannot go on, the run stops with status
+:attr:`HybridStatus.DIVERGED` and ``diverged_time`` = the time of that last finite state
+(a finding, not an error); the trajectory up to it is returned.
 """
 
 from __future__ import annotations
@@ -93,6 +101,7 @@ class HybridStatus(enum.StrEnum):
     ZENO = "zeno"
     MAX_TRIGGERS = "max-triggers"
     SOLVER_FAILED = "solver-failed"
+    DIVERGED = "diverged"
 
 
 class TriggerKind(enum.StrEnum):
@@ -206,6 +215,7 @@ class HybridResult:
     min_interevent, mean_interevent : (N,) per agent (nan with fewer than two triggers)
     control_effort : (N,) ``int ||u_i||^2 dt`` over the run (exact: ``u`` is piecewise constant)
     stop_time : end of the simulated trajectory
+    diverged_time : the time of the last finite state of a ``diverged`` run (else None)
     """
 
     status: HybridStatus
@@ -222,6 +232,7 @@ class HybridResult:
     control_effort: np.ndarray
     stop_time: float
     stats: dict[str, Any] = field(default_factory=dict)
+    diverged_time: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (numbers through :func:`~formsync_design.gains.json_number`)."""
@@ -233,6 +244,7 @@ class HybridResult:
             "status": self.status.value,
             "message": self.message,
             "stop_time": json_number(self.stop_time),
+            "diverged_time": None if self.diverged_time is None else json_number(self.diverged_time),
             "trigger_times": [[json_number(v) for v in ts] for ts in self.trigger_times],
             "transmissions": [int(v) for v in self.transmissions],
             "min_interevent": nums(self.min_interevent),
@@ -328,6 +340,8 @@ def simulate_hybrid(
     n_segments = 0
     nfev = 0
     status, message = HybridStatus.COMPLETED, ""
+    diverged_time: float | None = None
+    nonfinite = [-math.inf]  # the latest time the dynamics gave a non-finite value
 
     def g_of(i: int, t: float, x: np.ndarray) -> float:
         rule = rules[i]
@@ -338,7 +352,10 @@ def simulate_hybrid(
         x = yy[: n_agents * n].reshape(n_agents, n)
         dx = np.asarray(f(t, x, u), dtype=float).reshape(n_agents * n)
         deta = [-rules[i].beta * yy[dyn_slot[i]] - g_of(i, t, x) for i in dyn]
-        return np.concatenate([dx, deta])
+        out = np.concatenate([dx, deta])
+        if not np.isfinite(out).all():
+            nonfinite[0] = max(nonfinite[0], t)
+        return out
 
     def trigger_value(i: int, t: float, yy: np.ndarray) -> float:
         x = yy[: n_agents * n].reshape(n_agents, n)
@@ -444,6 +461,14 @@ def simulate_hybrid(
         )
         n_segments += 1
         nfev += int(sol.nfev)
+        t_last = float(sol.t[-1])
+        if sol.status == -1 and nonfinite[0] >= t_last:  # a finding: it ends at the last finite state
+            record(sol.sol, t, t_last, last=True)
+            effort += np.sum(u**2, axis=1) * (t_last - t)
+            t, status, diverged_time = t_last, HybridStatus.DIVERGED, t_last
+            message = (f"diverged at t = {t_last:g} s (the dynamics are not finite beyond the state "
+                       "at that time): check the gains, the torque limit and the sample period")
+            break
         if sol.status == -1:
             status = HybridStatus.SOLVER_FAILED
             message = f"solve_ivp failed at t={t:g}: {sol.message}; try looser tolerances"
@@ -479,4 +504,5 @@ def simulate_hybrid(
         control_effort=effort,
         stop_time=t,
         stats={"segments": n_segments, "rhs_evaluations": nfev, "triggers": n_triggers},
+        diverged_time=diverged_time,
     )

@@ -125,6 +125,7 @@ class SampledResult:
             "trigger": self.trigger.text(),
             "status": str(h.status),
             "message": h.message,
+            "diverged_time": None if h.diverged_time is None else json_number(h.diverged_time),
             "converged": self.converged,
             "convergence_time": json_number(self.convergence_time),
             "final_q_m": json_number(float(self.q_m[-1])),

@@ -17,6 +17,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from formsync_design.gains import json_number
+from formsync_design.outdir import write_text
 from formsync_design.sim.figures import save_figure
 from formsync_design.verify.theoremcheck import cycle_figure
 
@@ -415,6 +416,5 @@ def write_comparison_report(res: Any, out: str, stem: str, command: str) -> tupl
     for name, fig in comparison_figures(res).items():
         figs.append(save_figure(fig, fd / f"{name}.png"))
     md = od / f"{stem}-verification.md"
-    md.write_text(comparison_markdown(res, f"figures/{stem}-verification", command),
-                  encoding="utf-8")
+    write_text(md, comparison_markdown(res, f"figures/{stem}-verification", command))
     return md, figs

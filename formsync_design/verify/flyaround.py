@@ -23,7 +23,10 @@ Judging rules (every verdict computed in the run)
 * ``transition_overshoot_deg``: the elevation of ``rho`` above the fly-around plane; the
   largest rise of its magnitude above its running minimum;
 * ``pointing_error_deg``: the angle between the body ``x`` axis and the line of sight to
-  the target (``-rho``) at ``t >= 100 s``.
+  the target (``-rho``) at ``t >= 100 s``;
+* a run whose state went non-finite (status ``diverged``) has no steady state: every
+  quantity is nan and every claim judged on it fails, its rule naming the divergence time;
+  ``formsync verify`` then exits 1 (a negative finding) and says ``diverged at t = ...``.
 """
 
 from __future__ import annotations
@@ -43,7 +46,7 @@ from formsync_design.gains import json_number
 from formsync_design.sim.flyaround import rotation_vectors
 from formsync_design.verify.kinds import VerifyRequest
 
-__all__ = ["QUANTITIES", "Verdict", "ClaimResult", "FlyaroundVerification", "run_metrics",
+__all__ = ["QUANTITIES", "METRICS", "Verdict", "diverged_time", "ClaimResult", "FlyaroundVerification", "run_metrics",
            "verify_flyaround", "verify_flyaround_case", "pointing_errors"]
 
 #: Time after which the paper says the pulses are mostly minimum pulses (s).
@@ -94,8 +97,26 @@ def _max(a: np.ndarray) -> float:
     return float(np.max(a)) if np.size(a) else math.nan
 
 
+#: The names :func:`run_metrics` returns, in order.
+METRICS = ("rate_error_deg_s", "attitude_error_deg", "attitude_error_axis", "velocity_error_m_s",
+           "position_error_m", "delta_v_m_s", "fuel_kg", "min_pulse_fraction",
+           "final_plane_error_deg", "final_radius_error_m", "transition_overshoot_deg",
+           "pointing_error_deg", "delta_v_net_m_s", "pulses_after_100s", "final_elevation_deg",
+           "initial_elevation_deg", "shadow_switches", "raw_min_thrust_n",
+           "negative_samples_fraction", "allocation_shortfall_max",
+           "allocation_shortfall_after_100s", "saturated_samples", "fallback_frames")
+
+
+def diverged_time(run: Any) -> float | None:
+    """The time a run's state went non-finite (None: the run completed)."""
+    return run.diverged_time if str(getattr(run, "status", "")) == "diverged" else None
+
+
 def run_metrics(run: Any, steady_from: float) -> dict[str, float]:
-    """Every quantity of :data:`QUANTITIES` and the report's further numbers for a run."""
+    """Every quantity of :data:`QUANTITIES` and the report's further numbers for a run
+    (:data:`METRICS`; all nan for a diverged run)."""
+    if diverged_time(run) is not None:
+        return dict.fromkeys(METRICS, math.nan)
     o = run.outputs
     sc = run.scenario
     opt = run.options
@@ -187,8 +208,15 @@ class ClaimResult:
                 "verdict": str(self.verdict), "why": self.why}
 
 
-def judge(case: Any, metrics: dict[str, float]) -> list[ClaimResult]:
-    """The claims of ``case`` judged on ``metrics`` (module docstring)."""
+def judge(case: Any, metrics: dict[str, float], diverged: float | None = None) -> list[ClaimResult]:
+    """The claims of ``case`` judged on ``metrics`` (module docstring); ``diverged``: the
+    time the run went non-finite, which fails every claim."""
+    if diverged is not None:
+        note = f"the run diverged at t = {diverged:g} s (non-finite state)"
+        return [ClaimResult(c["id"], c["text"], c["quantity"], math.nan, Verdict.FAILS, note,
+                            c["value"], c["why"]) for c in case.published] + [
+                ClaimResult(c["id"], c["text"], c["quantity"], math.nan, Verdict.FAILS, note, None,
+                            c["why"]) for c in case.qualitative]
     out = []
     for c in case.published:
         v = metrics[c["quantity"]]
@@ -313,7 +341,7 @@ def verify_flyaround(path: str | Path | None = None, spec: Any = None,
     say(f"simulate {case.options.tf:g} s ({case.options.samples} samples)")
     run = simulate_flyaround(case.scenario, case.options, design)
     metrics = run_metrics(run, case.steady_from)
-    claims = judge(case, metrics)
+    claims = judge(case, metrics, diverged_time(run))
     series = {f"fuel:{case.options.allocation}": _cumulative_fuel(run),
               "elevation:corrected": _elevation(run)}
     alloc: dict[str, dict] = {case.options.allocation: metrics}
@@ -325,7 +353,7 @@ def verify_flyaround(path: str | Path | None = None, spec: Any = None,
         r = simulate_flyaround(case.scenario, replace(case.options, allocation=name), design)
         alloc[name] = run_metrics(r, case.steady_from)
         series[f"fuel:{name}"] = _cumulative_fuel(r)
-        if name == "lp":
+        if name == "lp" and diverged_time(r) is None:
             say("re-solve LP samples with cvxpy + Clarabel")
             lp_check = _lp_check(r)
         del r  # a run holds ~60 MB: keep only what the figures need
@@ -382,8 +410,10 @@ def verify_flyaround_case(req: VerifyRequest) -> int:
         sys.stdout.write(json.dumps(res.to_dict(), indent=2, sort_keys=True) + "\n")
     else:
         sys.stdout.write(f"wrote {md} ({len(figs)} figures)\n")
+        if diverged_time(res.run) is not None:
+            sys.stdout.write(f"  the simulation {res.run.message}\n")
         for c in res.claims:
             sys.stdout.write(f"  {c.verdict:6s} {c.text}\n")
-    if req.strict and not res.all_hold:
+    if diverged_time(res.run) is not None or (req.strict and not res.all_hold):
         return 1
     return 0

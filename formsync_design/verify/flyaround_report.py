@@ -13,7 +13,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-from formsync_design.verify.flyaround import QUANTITIES, FlyaroundVerification
+from formsync_design.outdir import write_text
+from formsync_design.verify.flyaround import QUANTITIES, FlyaroundVerification, diverged_time
 from formsync_design.verify.output import display_path, report_marker, report_paths
 
 __all__ = ["write_flyaround_report", "flyaround_markdown"]
@@ -26,6 +27,11 @@ def _g(v: Any, digits: int = 4) -> str:
     if math.isnan(v):
         return "nan"
     return f"{v:.{digits}g}"
+
+
+def _n(v: float) -> str:
+    """A count, ``-`` when it was not measured (nan: a diverged run)."""
+    return str(int(v)) if math.isfinite(v) else "-"
 
 
 def _pct(ours: float, paper: float) -> str:
@@ -58,7 +64,10 @@ def flyaround_markdown(res: FlyaroundVerification, case_display: str, command: s
           f"{opt.min_pulse * 1e3:g} ms, rounding error {'carried' if opt.carry else 'not carried'}; "
           f"truth: the nonlinear relative orbit dynamics about the circular target orbit and "
           f"the rigid-body attitude (MRP, shadow switch at |σ| = 1: "
-          f"{int(m['shadow_switches'])} switches in this run).", ""]
+          f"{_n(m['shadow_switches'])} switches in this run).", ""]
+    if diverged_time(res.run) is not None:
+        L += [f"**The simulation {res.run.message}.** Every claim fails: a diverged run has no "
+              "steady state, and the quantities judged on it are not measured (nan).", ""]
     L += ["## Claims", "",
           "Every verdict below is computed in this run from the simulated trajectory; the "
           "tolerance of each published number is stated with the reason we consider it a "
@@ -126,7 +135,7 @@ def flyaround_markdown(res: FlyaroundVerification, case_display: str, command: s
         L.append(_metrics_row(f"`{name}`", am)[:-1] + f"| {_g(am['delta_v_net_m_s'])} | "
                  f"{_g(am['allocation_shortfall_max'])} / "
                  f"{_g(am['allocation_shortfall_after_100s'], 3)} | "
-                 f"{int(am['saturated_samples'])} |")
+                 f"{_n(am['saturated_samples'])} |")
     if res.lp_check:
         L += ["", f"Check of the LP: {int(res.lp_check['samples'])} samples of the LP run "
               "re-solved by the bounded LP in cvxpy + Clarabel; largest relative fuel "
@@ -204,10 +213,10 @@ def flyaround_markdown(res: FlyaroundVerification, case_display: str, command: s
           f"{_g(f['impulse_fuel_of_paper_dv_kg'])} kg as impulse over exhaust velocity, not "
           "11.0926 kg.",
           f"* After {100:g} s our pulses are {m['min_pulse_fraction']:.1%} minimum pulses "
-          f"({int(m['pulses_after_100s'])} pulses), as the paper says; the initial velocity "
+          f"({_n(m['pulses_after_100s'])} pulses), as the paper says; the initial velocity "
           "error (the reference starts moving at 0.61 m/s while the chaser is at rest "
           "relative to the target) is removed in the first tens of seconds, with "
-          f"{int(m['saturated_samples'])} samples in which a thruster is on for the whole sample.",
+          f"{_n(m['saturated_samples'])} samples in which a thruster is on for the whole sample.",
           f"* The largest steady-state attitude error is about the body "
           f"{'xyz'[int(m['attitude_error_axis'])] if math.isfinite(m['attitude_error_axis']) else '-'} "
           f"axis ({_g(m['attitude_error_deg'])}°; x is the sensor axis, a rotation about it "
@@ -215,7 +224,7 @@ def flyaround_markdown(res: FlyaroundVerification, case_display: str, command: s
           f"{_g(m['pointing_error_deg'])}°.  The error is the minimum-pulse dead band: a "
           "torque command below what one 30 ms pulse per sample delivers is rounded to zero.",
           f"* The desired-frame fallback (straight-line or no relative motion) is never "
-          f"needed in this case ({int(m['fallback_frames'])} samples).", ""]
+          f"needed in this case ({_n(m['fallback_frames'])} samples).", ""]
     L += ["## Figures", ""]
     for name in figures:
         L.append(f"![{name}]({figdir_rel}/{name}.png)")
@@ -245,6 +254,5 @@ def write_flyaround_report(res: FlyaroundVerification, out: str | Path, case_dis
                                 if k.startswith("fuel:")})
     paths = [save_figure(fig, figdir / f"{name}.png") for name, fig in figs.items()]
     rel = figdir.relative_to(md.parent).as_posix()
-    md.write_text(flyaround_markdown(res, case_display, command, rel, list(figs)),
-                  encoding="utf-8")
+    write_text(md, flyaround_markdown(res, case_display, command, rel, list(figs)))
     return md, paths

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from formsync_design.gains import json_number
+from formsync_design.outdir import write_text
 
 __all__ = ["write_lv2012_report", "outcome_json", "figures"]
 
@@ -238,7 +239,7 @@ def write_lv2012_report(outcomes: list[Any], out: str | Path, stem: str, case_di
     for o in outcomes:
         L += _case_section(o, rel)
     text = "\n".join(L).rstrip() + "\n"
-    md.write_text(text, encoding="utf-8")
+    write_text(md, text)
     return md, paths
 
 

@@ -10,6 +10,8 @@ from typing import Any
 
 import numpy as np
 
+from formsync_design.outdir import write_text
+
 __all__ = ["tradeoff_figure", "history_figure", "interevent_figure", "write_selftrigger_report",
            "reconstructions"]
 
@@ -232,7 +234,7 @@ def write_selftrigger_report(res: Any, out_dir: str, stem: str, case_display: st
             L.append(f"| {k + 1} | {s} | {r.total_transmissions} | {int(r.evaluations.sum())} | "
                      f"{_g(r.interevent_min)} | {_g(r.tail_angle_deg)} | {_g(r.f_ratio)} |")
     L.append("")
-    md.write_text("\n".join(L), encoding="utf-8")
+    write_text(md, "\n".join(L))
     return md, paths
 
 
