@@ -13,7 +13,18 @@ Every result a notebook cell shows (:class:`~formsync_design.sim.result.SimResul
 * ``_repr_html_()`` / ``_repr_markdown_()``: the headline figures (status, margin,
   convergence time, ...), every text HTML-escaped.
 
-The result classes call :func:`frame`, :func:`html` and :func:`markdown` of this module.
+The result classes inherit :class:`NotebookViews`, which calls :func:`frame`, :func:`html`
+and :func:`markdown` of this module.
+
+The ``to_pandas()`` columns of each type:
+
+* :class:`AgentResult`: The time series (``t``, ``attitude_error_deg``, ``rate_error``, ``reference_error_deg`` with a leader, torques ``u<axis>_<spacecraft>``)
+* :class:`SimResult`: The time series (``t``, ``q_m``, ``omega_m``, torques ``u<axis>_<spacecraft>``)
+* :class:`MonteCarloResult`: One row per run (the columns of ``runs.csv``)
+* :class:`AgentMonteCarloResult`: One row per run (the columns of ``runs.csv``)
+* :class:`RegionMap`: One row per box of the subdivision (``<gain>_lo``, ``<gain>_hi``, ``status``, ``family``, ``reason``)
+* :class:`CertificationResult`: One row per matrix family (``family``, ``size``, ``status``, bounds of its smallest eigenvalue)
+* :class:`VerificationResult`: One row per claim (``key``, ``claim``, ``verdict``, ``reason``, the verdict per topology)
 
 >>> from formsync_design.certify import certify_box
 >>> from formsync_design.derive import derive_conditions
@@ -30,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["require_pandas", "frame", "html", "markdown", "headline"]
+__all__ = ["NotebookViews", "require_pandas", "frame", "html", "markdown", "headline"]
 
 
 def require_pandas() -> Any:
@@ -218,6 +229,23 @@ def _view(obj: Any) -> tuple[Any, Any]:
 def headline(obj: Any) -> tuple[str, list[tuple[str, str]]]:
     """``(title, [(label, value), ...])``: the headline figures of a result."""
     return _view(obj)[0](obj)
+
+
+class NotebookViews:
+    """The notebook methods every result type shares (a mixin without fields): ``to_pandas``
+    (:func:`frame`; the columns per type are in the module docstring), ``_repr_html_``
+    (:func:`html`) and ``_repr_markdown_`` (:func:`markdown`)."""
+
+    def to_pandas(self) -> Any:
+        """The result as a :class:`pandas.DataFrame` (module docstring; pandas: the
+        ``notebook`` extra)."""
+        return frame(self)
+
+    def _repr_html_(self) -> str:
+        return html(self)
+
+    def _repr_markdown_(self) -> str:
+        return markdown(self)
 
 
 def frame(obj: Any) -> Any:

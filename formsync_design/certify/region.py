@@ -42,6 +42,7 @@ from formsync_design.certify.engine import (
     uniform_refutation,
 )
 from formsync_design.errors import InputError
+from formsync_design.notebook import NotebookViews
 
 __all__ = [
     "CLASSES",
@@ -76,7 +77,7 @@ class RegionBox:
 
 
 @dataclass(frozen=True)
-class RegionMap:
+class RegionMap(NotebookViews):
     """A classified subdivision of a gain box (see module doc)."""
 
     graph: str
@@ -92,21 +93,6 @@ class RegionMap:
     recheck: dict[str, int]
     elapsed: float
 
-    def to_pandas(self) -> Any:
-        """One row per box of the subdivision (``<gain>_lo``, ``<gain>_hi``, ``status``, ``family``, ``reason``) as a :class:`pandas.DataFrame` (pandas: the ``notebook`` extra)."""
-        from formsync_design.notebook import frame
-
-        return frame(self)
-
-    def _repr_html_(self) -> str:
-        from formsync_design.notebook import html
-
-        return html(self)
-
-    def _repr_markdown_(self) -> str:
-        from formsync_design.notebook import markdown
-
-        return markdown(self)
 
     def grid(self, axis: int) -> list[Fraction]:
         lo, hi = self.ranges[axis]

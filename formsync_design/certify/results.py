@@ -13,6 +13,7 @@ from fractions import Fraction
 from typing import Any
 
 from formsync_design.gains import GainBox, json_number
+from formsync_design.notebook import NotebookViews
 
 __all__ = [
     "Status",
@@ -199,7 +200,7 @@ class KvCheck:
 
 
 @dataclass(frozen=True)
-class CertificationResult:
+class CertificationResult(NotebookViews):
     """Outcome of :func:`certify_box` (status plus evidence)."""
 
     status: Status
@@ -218,21 +219,6 @@ class CertificationResult:
     kv: KvCheck | None
     elapsed: float
 
-    def to_pandas(self) -> Any:
-        """One row per matrix family (``family``, ``size``, ``status``, bounds of its smallest eigenvalue) as a :class:`pandas.DataFrame` (pandas: the ``notebook`` extra)."""
-        from formsync_design.notebook import frame
-
-        return frame(self)
-
-    def _repr_html_(self) -> str:
-        from formsync_design.notebook import html
-
-        return html(self)
-
-    def _repr_markdown_(self) -> str:
-        from formsync_design.notebook import markdown
-
-        return markdown(self)
 
     @property
     def certified(self) -> bool:
@@ -272,6 +258,5 @@ class CertificationResult:
             "reason": self.reason,
             "elapsed_s": self.elapsed,
         }
-
 
 

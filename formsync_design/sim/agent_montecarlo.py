@@ -25,6 +25,7 @@ import numpy as np
 
 from formsync_design.errors import InputError
 from formsync_design.gains import GainBox, json_number
+from formsync_design.notebook import NotebookViews
 from formsync_design.sim.agents import AgentFormation, AgentOptions, simulate_agents
 from formsync_design.sim.formation import Gains
 
@@ -123,7 +124,7 @@ class AgentRun:
 
 
 @dataclass(frozen=True)
-class AgentMonteCarloResult:
+class AgentMonteCarloResult(NotebookViews):
     """A campaign: its runs, the settings, the box and the box's certificate status
     (``None`` when not certified here)."""
 
@@ -135,21 +136,6 @@ class AgentMonteCarloResult:
     certificate: str | None
     certificate_reason: str = ""
 
-    def to_pandas(self) -> Any:
-        """One row per run (the columns of ``runs.csv``) as a :class:`pandas.DataFrame` (pandas: the ``notebook`` extra)."""
-        from formsync_design.notebook import frame
-
-        return frame(self)
-
-    def _repr_html_(self) -> str:
-        from formsync_design.notebook import html
-
-        return html(self)
-
-    def _repr_markdown_(self) -> str:
-        from formsync_design.notebook import markdown
-
-        return markdown(self)
 
     @property
     def failures(self) -> tuple[AgentRun, ...]:

@@ -34,6 +34,7 @@ from formsync_design.gains import json_number
 from formsync_design.graphs.digraph import Digraph
 from formsync_design.models.disturbances import DisturbanceModel, kernel_parameters, no_disturbance
 from formsync_design.models.inertia import check_inertias
+from formsync_design.notebook import NotebookViews
 from formsync_design.sim.agent_kernel import (
     agent_state_names,
     gain_vector,
@@ -259,7 +260,7 @@ def attitude_disagreement(Q: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class AgentResult:
+class AgentResult(NotebookViews):
     """A finished agent-design run (frozen; arrays are per output time).
 
     Attributes
@@ -309,21 +310,6 @@ class AgentResult:
     integrator: str = "rk4"
     diverged_time: float | None = None
 
-    def to_pandas(self) -> Any:
-        """The time series (``t``, ``attitude_error_deg``, ``rate_error``, ``reference_error_deg`` with a leader, torques ``u<axis>_<spacecraft>``) as a :class:`pandas.DataFrame` (pandas: the ``notebook`` extra)."""
-        from formsync_design.notebook import frame
-
-        return frame(self)
-
-    def _repr_html_(self) -> str:
-        from formsync_design.notebook import html
-
-        return html(self)
-
-    def _repr_markdown_(self) -> str:
-        from formsync_design.notebook import markdown
-
-        return markdown(self)
 
     def time_to(self, angle_deg: float) -> float | None:
         """First output time from which the attitude disagreement stays <= ``angle_deg``."""

@@ -45,6 +45,7 @@ import numpy as np
 
 from formsync_design.errors import InputError, SimulationError
 from formsync_design.gains import GainBox, GainRange, json_number
+from formsync_design.notebook import NotebookViews
 from formsync_design.sim.adaptive import run_vm
 from formsync_design.sim.formation import Formation, Gains, SimOptions
 from formsync_design.sim.kernels import get_kernel, pack_params
@@ -313,7 +314,7 @@ class MonteCarloRun:
 
 
 @dataclass(frozen=True)
-class MonteCarloResult:
+class MonteCarloResult(NotebookViews):
     """Statistics of a Monte-Carlo campaign (frozen); ``failures`` carry their seeds."""
 
     runs: tuple[MonteCarloRun, ...]
@@ -327,21 +328,6 @@ class MonteCarloResult:
     certification: dict
     spec_key: str = ""
 
-    def to_pandas(self) -> Any:
-        """One row per run (the columns of ``runs.csv``) as a :class:`pandas.DataFrame` (pandas: the ``notebook`` extra)."""
-        from formsync_design.notebook import frame
-
-        return frame(self)
-
-    def _repr_html_(self) -> str:
-        from formsync_design.notebook import html
-
-        return html(self)
-
-    def _repr_markdown_(self) -> str:
-        from formsync_design.notebook import markdown
-
-        return markdown(self)
 
     @property
     def failures(self) -> tuple[MonteCarloRun, ...]:

@@ -9,13 +9,14 @@ from typing import Any
 import numpy as np
 
 from formsync_design.gains import json_number
+from formsync_design.notebook import NotebookViews
 from formsync_design.sim.formation import SimOptions, SimStatus, unpack_state
 
 __all__ = ["SimResult"]
 
 
 @dataclass(frozen=True)
-class SimResult:
+class SimResult(NotebookViews):
     """A finished simulation (frozen).
 
     Attributes
@@ -68,21 +69,6 @@ class SimResult:
     spec_key: str = ""
     diverged_time: float | None = None
 
-    def to_pandas(self) -> Any:
-        """The time series (``t``, ``q_m``, ``omega_m``, torques ``u<axis>_<spacecraft>``) as a :class:`pandas.DataFrame` (pandas: the ``notebook`` extra)."""
-        from formsync_design.notebook import frame
-
-        return frame(self)
-
-    def _repr_html_(self) -> str:
-        from formsync_design.notebook import html
-
-        return html(self)
-
-    def _repr_markdown_(self) -> str:
-        from formsync_design.notebook import markdown
-
-        return markdown(self)
 
     @property
     def converged(self) -> bool:

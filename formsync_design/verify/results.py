@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from formsync_design.gains import json_number
+from formsync_design.notebook import NotebookViews
 from formsync_design.verify.claims import ClaimResult, Measurement, Verdict
 
 __all__ = ["TopologyRun", "SensitivityRow", "VerificationResult", "to_json_value"]
@@ -100,7 +101,7 @@ class SensitivityRow:
 
 
 @dataclass(frozen=True)
-class VerificationResult:
+class VerificationResult(NotebookViews):
     """Everything :func:`~formsync_design.verify.verification.verify_case` found.
 
     ``case_path`` and ``spec_source`` are display paths (repository-relative or
@@ -129,21 +130,6 @@ class VerificationResult:
     max_tf: float
     default_sim: Any = field(default=None, repr=False, compare=False)
 
-    def to_pandas(self) -> Any:
-        """One row per claim (``key``, ``claim``, ``verdict``, ``reason``, the verdict per topology) as a :class:`pandas.DataFrame` (pandas: the ``notebook`` extra)."""
-        from formsync_design.notebook import frame
-
-        return frame(self)
-
-    def _repr_html_(self) -> str:
-        from formsync_design.notebook import html
-
-        return html(self)
-
-    def _repr_markdown_(self) -> str:
-        from formsync_design.notebook import markdown
-
-        return markdown(self)
 
     @property
     def all_hold(self) -> bool:
