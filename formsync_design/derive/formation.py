@@ -43,9 +43,9 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from formsync_design.derive.linearize import LinearLoop, PolyMatrix, poly_entries
+from formsync_design.derive.linearize import LinearLoop, PolyMatrix, formation_data, poly_entries
 from formsync_design.derive.locallinear import Chart, LinearPart, as_expr
-from formsync_design.errors import DerivationError, InputError
+from formsync_design.errors import DerivationError
 
 __all__ = ["FormationLinearization", "linearize_formation", "KINEMATIC_GAIN"]
 
@@ -187,21 +187,13 @@ def linearize_formation(design: Any, graph: Any, inertias: Any, *, switch: str =
         linearisation that is not polynomial in the free gains.
     """
     from formsync_design.gains import parse_number
-    from formsync_design.graphs.digraph_io import make_digraph
     from formsync_design.spec.declarations import GainKind, GainRole
 
     if getattr(design, "form", None) != "agent":
         raise DerivationError(f"expected an agent design (FORM = 'agent') for the formation "
                               f"linearisation, received {getattr(design, 'name', design)!r}")
-    g = make_digraph(graph, pinning=pinning)
-    if design.decl.leader and not g.has_leader:
-        raise InputError(f"expected pinning gains b_i for the leader design {design.name}, "
-                         f"received graph {g.name!r} without a leader")
+    g, Jq = formation_data(design, graph, inertias, pinning)
     n = g.n
-    J = np.asarray(inertias, dtype=float)
-    if J.shape != (n, 3, 3):
-        raise InputError(f"expected {n} inertias (N, 3, 3), received shape {J.shape}")
-    Jq = [[[parse_number(float(x), "inertia") for x in row] for row in Ji] for Ji in J]
     phi_q = None if switch == "sgn" else parse_number(phi, "boundary layer phi")
     fixed_q = {k: parse_number(v, k) for k, v in (fixed or {}).items()}
     ctrl = [x for x in design.decl.gains if x.role == GainRole.CONTROLLER]

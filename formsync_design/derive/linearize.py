@@ -45,7 +45,7 @@ import sympy as sp
 
 from formsync_design.errors import DerivationError, InputError
 
-__all__ = ["PolyMatrix", "LinearLoop", "poly_entries", "linearize_agents"]
+__all__ = ["PolyMatrix", "LinearLoop", "poly_entries", "formation_data", "linearize_agents"]
 
 Exponents = tuple[int, ...]
 
@@ -212,6 +212,29 @@ def poly_entries(expr: Any, gens: Sequence[sp.Symbol], where: str) -> dict[Expon
     return out
 
 
+def formation_data(design: Any, graph: Any, inertias: Any, pinning: Any = None
+                   ) -> tuple[Any, list[list[list[Fraction]]]]:
+    """The digraph (with pinning gains for a leader design) and the inertias as exact
+    rationals (the decimals they print as) of a formation to linearise.
+
+    >>> from formsync_design.spec.loader import load_design
+    >>> g, Jq = formation_data(load_design("ma_so3"), "ring:3", [[[2, 0, 0], [0, 2, 0], [0, 0, 2]]] * 3)
+    >>> g.n, Jq[0][0][0]
+    (3, Fraction(2, 1))
+    """
+    from formsync_design.gains import parse_number
+    from formsync_design.graphs.digraph_io import make_digraph
+
+    g = make_digraph(graph, pinning=pinning)
+    if design.decl.leader and not g.has_leader:
+        raise InputError(f"expected pinning gains b_i for the leader design {design.name}, "
+                         f"received graph {g.name!r} without a leader")
+    J = np.asarray(inertias, dtype=float)
+    if J.shape != (g.n, 3, 3):
+        raise InputError(f"expected {g.n} inertias (N, 3, 3), received shape {J.shape}")
+    return g, [[[parse_number(float(x), "inertia") for x in row] for row in Ji] for Ji in J]
+
+
 def linearize_agents(design: Any, graph: Any, inertias: Any, *, pinning: Any = None) -> LinearLoop:
     """Linearise ``design`` on ``graph`` with ``inertias`` at the reference attitude.
 
@@ -228,8 +251,6 @@ def linearize_agents(design: Any, graph: Any, inertias: Any, *, pinning: Any = N
         Not a quaternion agent design, a diagonal gain, the reference not an equilibrium,
         a linearisation that is not polynomial in the gains.
     """
-    from formsync_design.gains import parse_number
-    from formsync_design.graphs.digraph_io import make_digraph
     from formsync_design.spec.declarations import GainKind, GainRole
 
     where = design.path
@@ -240,15 +261,8 @@ def linearize_agents(design: Any, graph: Any, inertias: Any, *, pinning: Any = N
     if any(g.kind == GainKind.DIAG for g in ctrl):
         raise DerivationError(f"{where}: expected scalar controller gains for the linearisation, "
                               "received a diagonal gain")
-    g = make_digraph(graph, pinning=pinning)
-    if design.decl.leader and not g.has_leader:
-        raise InputError(f"expected pinning gains b_i for the leader design {design.name}, "
-                         f"received graph {g.name!r} without a leader")
+    g, Jq = formation_data(design, graph, inertias, pinning)
     n = g.n
-    J = np.asarray(inertias, dtype=float)
-    if J.shape != (n, 3, 3):
-        raise InputError(f"expected {n} inertias (N, 3, 3), received shape {J.shape}")
-    Jq = [[[parse_number(float(x), "inertia") for x in row] for row in Ji] for Ji in J]
     gens = [g_.symbol for g_ in ctrl]
     names = tuple(g_.name for g_ in ctrl)
     nz = design.decl.state_size
