@@ -19,7 +19,7 @@ from formsync_design.cli.options import (
     parse_gain_assignments,
     write_summary_and_runs,
 )
-from formsync_design.cli.simulate import check_out_dir, options_from_args
+from formsync_design.cli.simulate import options_from_args
 from formsync_design.errors import InputError
 
 if TYPE_CHECKING:
@@ -255,21 +255,15 @@ def run(args: argparse.Namespace) -> int:
     if agent is not None:
         return run_agent_montecarlo_cli(args, agent)
     from formsync_design.cli.defaults import (
-        Defaults,
         case_label,
         gains_text,
-        lagrangian_graph,
-        refuse_tracking,
     )
-    from formsync_design.cli.simulate import lagrangian_case_and_spec, lagrangian_criterion
+    from formsync_design.cli.simulate import lagrangian_criterion, lagrangian_setup
 
-    out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
-    defaults = Defaults()
-    case, spec = lagrangian_case_and_spec(args, defaults)
-    refused = refuse_tracking("montecarlo", spec, "a Monte-Carlo campaign of a formation")
-    if refused is not None:
-        return refused
-    case, graph, theorem = lagrangian_graph(args, case, spec, defaults)
+    got = lagrangian_setup(args, "montecarlo", "a Monte-Carlo campaign of a formation")
+    if isinstance(got, int):
+        return got
+    out_dir, defaults, case, spec, graph, theorem = got
     base = case.formation(graph, args.disturbance)
     flag = {} if theorem.inside else {"outside_theorem": theorem.to_dict()}
     legacy = {name: getattr(args, attr) for attr, name in

@@ -208,6 +208,23 @@ def lagrangian_case_and_spec(args: argparse.Namespace, defaults: Any) -> tuple[A
     return case, resolve_cli_spec(args, case)
 
 
+def lagrangian_setup(args: argparse.Namespace, command: str, what: str) -> Any:
+    """The common start of ``simulate`` and ``montecarlo`` of a Lagrangian design: the
+    ``--out`` folder (claimed), the defaults, the case and design, the graph and its theorem
+    check; an ``int`` exit status instead when the command does not apply (a tracking design,
+    :func:`~formsync_design.cli.defaults.refuse_tracking`)."""
+    from formsync_design.cli.defaults import Defaults, lagrangian_graph, refuse_tracking
+
+    out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
+    defaults = Defaults()
+    case, spec = lagrangian_case_and_spec(args, defaults)
+    refused = refuse_tracking(command, spec, what)
+    if refused is not None:
+        return refused
+    case, graph, theorem = lagrangian_graph(args, case, spec, defaults)
+    return out_dir, defaults, case, spec, graph, theorem
+
+
 def lagrangian_criterion(case: Any, opt: Any) -> str:
     """The convergence criterion of a Lagrangian run in words, with where it comes from."""
     from formsync_design.cli.defaults import case_label
@@ -419,20 +436,14 @@ def run(args: argparse.Namespace) -> int:
     if agent is not None:
         return run_agent_simulate(args, agent)
     from formsync_design.cli.defaults import (
-        Defaults,
         case_label,
         gains_text,
-        lagrangian_graph,
-        refuse_tracking,
     )
 
-    out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
-    defaults = Defaults()
-    case, spec = lagrangian_case_and_spec(args, defaults)
-    refused = refuse_tracking("simulate", spec, "a formation simulation")
-    if refused is not None:
-        return refused
-    case, graph, theorem = lagrangian_graph(args, case, spec, defaults)
+    got = lagrangian_setup(args, "simulate", "a formation simulation")
+    if isinstance(got, int):
+        return got
+    out_dir, defaults, case, spec, graph, theorem = got
     opt = options_from_args(args, case.options)
     f = case.formation(graph, args.disturbance)
     if args.gain or tuple(f.gains.names) != spec.decl.controller_gains:
