@@ -71,4 +71,9 @@ def test_ctrl_c_while_the_dask_cluster_starts_is_not_lost(tmp_path: Path) -> Non
         for line in data.splitlines():
             json.loads(line)
         assert (out / "manifest.json").is_file()
+    # the folder is free for the next writer: a lock file a Ctrl-C left behind (the race
+    # with the cluster's start) holds no flock, and a new claim takes it and removes it
+    from formsync_design.outdir import claim
+
+    claim(out).release()
     assert not (out / LOCK_NAME).exists()
