@@ -225,7 +225,9 @@ class Formation:
         Q = _array(self.attitudes, "attitudes")
         if Q.shape != (n, 4):
             raise InputError(f"expected {n} quaternions (q1, q2, q3, q0), received shape {Q.shape}")
-        for i, qb in enumerate(Q):
+        ok = Q.size > 0 and bool(np.all(np.abs(np.linalg.norm(Q, axis=1) - 1) <= 1e-9)
+                             and np.all(Q[:, 3] > 0))
+        for i, qb in enumerate(() if ok else Q):  # only to name the first bad one
             nrm = float(np.linalg.norm(qb))
             if abs(nrm - 1) > 1e-9:
                 raise InputError(f"expected a unit quaternion for spacecraft {i + 1}, received norm {nrm:.12g}")

@@ -35,6 +35,7 @@ from __future__ import annotations
 import enum
 import math
 import os
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -63,6 +64,7 @@ __all__ = [
     "MAX_RUNS",
     "BATCH_SECONDS",
     "mc_gain_names",
+    "sample_formations",
     "RunStatus",
     "RUN_STATUSES",
     "mc_box",
@@ -224,7 +226,21 @@ def sample_formation(base: Formation, box: Any, settings: MonteCarloSettings, ru
     >>> g.names, bool(0.5 <= g.k_p <= 1), g.k_d, g.K_v[0]  # no switching gain: K_v = 0
     (('k_p', 'k_d'), True, 2.0, 0.0)
     """
-    rng = np.random.default_rng(int(run_seed))
+    return sample_formations(base, box, settings, [run_seed], spec)[0]
+
+
+def sample_formations(base: Formation, box: Any, settings: MonteCarloSettings,
+                      run_seeds: Any, spec: Spec | str | Path | None = None) -> list[Formation]:
+    """The formations of the runs ``run_seeds``: :func:`sample_formation` of each seed, with
+    the design and the box read once for the campaign.
+
+    >>> from formsync_design.verify.case import load_case
+    >>> f = load_case().formation()
+    >>> box = point_box(f.gains); s = MonteCarloSettings(runs=1)
+    >>> a, b = sample_formations(f, box, s, [3, 4])
+    >>> bool(np.array_equal(b.attitudes, sample_formation(f, box, s, 4).attitudes))
+    True
+    """
     n = base.n
     ctrl, sw, diag = _design(spec)
     b = mc_box(box, spec).as_floats()
@@ -232,23 +248,28 @@ def sample_formation(base: Formation, box: Any, settings: MonteCarloSettings, ru
     dims += [sw] if sw is not None else []
     lo = np.array([b[name][0] for name in dims])
     hi = np.array([b[name][1] for name in dims])
-    g = [float(v) for v in rng.uniform(lo, hi)]  # one draw for every dimension, in box order
-    vals: dict[str, Any] = {}
-    k = 0
-    for name in ctrl:
-        if name in diag:
-            vals[name], k = (g[k], g[k + 1], g[k + 2]), k + 3
-        else:
-            vals[name], k = g[k], k + 1
-    gains = Gains(vals, (g[k],) * n if sw is not None else ())
-    axis = rng.normal(size=(n, 3))
-    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-    ang = rng.uniform(0.0, math.radians(settings.max_angle_deg), size=n)
-    att = np.column_stack([axis * np.sin(ang / 2)[:, None], np.cos(ang / 2)])
-    att /= np.linalg.norm(att, axis=1, keepdims=True)
-    rates = rng.uniform(-settings.max_rate, settings.max_rate, size=(n, 3))
-    dist = base.disturbance.with_phases(rng) if settings.phases else base.disturbance
-    return Formation(base.graph, base.inertias, att, rates, gains, dist)
+    max_angle = math.radians(settings.max_angle_deg)
+    out: list[Formation] = []
+    for run_seed in run_seeds:
+        rng = np.random.default_rng(int(run_seed))
+        g = [float(v) for v in rng.uniform(lo, hi)]  # one draw for every dimension, in box order
+        vals: dict[str, Any] = {}
+        k = 0
+        for name in ctrl:
+            if name in diag:
+                vals[name], k = (g[k], g[k + 1], g[k + 2]), k + 3
+            else:
+                vals[name], k = g[k], k + 1
+        gains = Gains(vals, (g[k],) * n if sw is not None else ())
+        axis = rng.normal(size=(n, 3))
+        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+        ang = rng.uniform(0.0, max_angle, size=n)
+        att = np.column_stack([axis * np.sin(ang / 2)[:, None], np.cos(ang / 2)])
+        att /= np.linalg.norm(att, axis=1, keepdims=True)
+        rates = rng.uniform(-settings.max_rate, settings.max_rate, size=(n, 3))
+        dist = base.disturbance.with_phases(rng) if settings.phases else base.disturbance
+        out.append(Formation(base.graph, base.inertias, att, rates, gains, dist))
+    return out
 
 
 def replay(base: Formation, box: Any, settings: MonteCarloSettings, run_seed: int,
@@ -538,7 +559,10 @@ def run_montecarlo(
     build = time.perf_counter() - t_build
     cfg = driver_config(opt, sp_spec)
     seeds = _run_seeds(st)
-    forms = [sample_formation(base, bx, st, int(s), sp_spec) for s in seeds]
+    forms = sample_formations(base, bx, st, seeds, sp_spec)
+    # the box's certificate is computed while the compiled kernel runs the campaign (the
+    # kernel releases the GIL); a daemon thread, so that a Ctrl-C is not held up by it
+    cert_job = _Background(certify_sampled_box, base, bx, sp_spec) if certify else None
     runs: list[MonteCarloRun] = []
     t0 = time.perf_counter()
     # batches of about BATCH_SECONDS of wall time (at most ``batch`` runs): a Ctrl-C, seen by
@@ -555,6 +579,8 @@ def run_montecarlo(
         else:  # no compiler: the driver's Python mirror, one run at a time
             S = np.stack([_reduce(run_vm(kern, n, P[j], cfg, X0[j], 0.0, Ktot), opt) for j in range(len(fb))])
         per_run = (time.perf_counter() - tb) / len(fb)
+        if cert_job is not None and np.any(S[:, SUMMARY.index("status")] > 1):
+            cert_job.wait()  # a failed run is replayed by simulate: not beside the certificate
         for j, f in enumerate(fb):
             runs.append(_summarize_run(b0 + j, int(seeds[b0 + j]), f, S[j], opt, bx.names, sp_spec))
         if progress is not None:
@@ -569,10 +595,36 @@ def run_montecarlo(
          "max": float(ct.max())}
         if ct.size else {"min": None, "median": None, "p95": None, "max": None}
     )
-    cert = certify_sampled_box(base, bx, sp_spec) if certify else {"status": "skipped"}
+    cert = cert_job.result() if cert_job is not None else {"status": "skipped"}
     return MonteCarloResult(
         tuple(runs), bx, st, opt, counts, ct_stats, wall, build, cert, sp_spec.key
     )
+
+
+class _Background:
+    """``fn(*args)`` on a daemon thread; :meth:`result` joins it and returns its value or
+    raises its exception."""
+
+    def __init__(self, fn: Callable[..., Any], *args: Any) -> None:
+        self._value: Any = None
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, args=(fn, args), daemon=True)
+        self._thread.start()
+
+    def _run(self, fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
+        try:
+            self._value = fn(*args)
+        except BaseException as e:  # re-raised in the caller's thread by result()
+            self._error = e
+
+    def wait(self) -> None:
+        self._thread.join()
+
+    def result(self) -> Any:
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return self._value
 
 
 def _reduce(out: Any, opt: SimOptions) -> np.ndarray:
