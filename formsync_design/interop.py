@@ -8,6 +8,10 @@ reference for a leader design), at given gains, with the disturbance torques as 
 reference, or of the attitude itself at consensus), so a user runs ``control.bode``,
 ``control.step_response``, ``control.pzmap``, margins or H-infinity norms on it.  The state
 order is the linearisation's (``LinearLoop.labels``), named in the system's ``states``.
+A Lagrangian design (``liang2016``, ``pd_consensus``) is exported from its derived, cancelled
+closed loop (:func:`~formsync_design.derive.lagrangian_linear.linearize_lagrangian`: state
+``(q, q')``, consensus at the identity), the same system as its agent form's up to the
+change of coordinates ``q' = w / 2``.
 
 python-control is an optional dependency (``pip install 'formsync-design[control]'``).
 
@@ -22,6 +26,7 @@ python-control is an optional dependency (``pip install 'formsync-design[control
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -35,11 +40,32 @@ def formation_matrices(design: Any, graph: Any, inertias: Any, gains: Mapping[st
                        switch: str = "sat", phi: Any = "1/100", pinning: Any = None
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[str, ...]]:
     """``(A, B, C, state labels)`` of ``x' = A x + B d``, ``z = C x`` at ``gains`` (floats of
-    the exact linearisation; every controller gain needs a value)."""
+    the exact linearisation; every controller gain needs a value, and a Lagrangian design's
+    switching gain too).  ``design`` is an agent or a Lagrangian design, or its name or file.
+
+    >>> A, B, C, labels = formation_matrices("liang2016", "path:2", [np.eye(3)] * 2,
+    ...                                      {"K_o": 1.6, "K_q": 0.4, "beta": 0.3, "K_v": 0.01})
+    >>> A.shape, labels[6]
+    ((12, 12), 'qd1_1')
+    """
     from formsync_design.derive.formation import linearize_formation
     from formsync_design.gains import parse_number
     from formsync_design.spec.declarations import GainRole
+    from formsync_design.spec.loader import Spec
 
+    design = _design(design)
+    if isinstance(design, Spec) and design.decl.kind != "formation":
+        raise InputError(f"expected a formation design (agent or Lagrangian) for the export, "
+                         f"received {design.name} (a {design.decl.kind} design: one spacecraft, "
+                         f"no formation)")
+    if isinstance(design, Spec):  # a Lagrangian design: its derived, cancelled loop
+        from formsync_design.derive.lagrangian_linear import linearize_lagrangian
+
+        if pinning is not None:
+            raise InputError(f"expected no pinning for the Lagrangian design {design.name} "
+                             f"(it has no leader), received {pinning!r}")
+        ll = linearize_lagrangian(design, graph, inertias, gains, switch=switch, phi=phi)
+        return ll.A, ll.B, ll.C, ll.labels
     ctrl = [g.name for g in design.decl.gains if g.role == GainRole.CONTROLLER]
     missing = [g for g in ctrl if g not in gains]
     if missing:
@@ -55,6 +81,15 @@ def formation_matrices(design: Any, graph: Any, inertias: Any, gains: Mapping[st
     return A, B, C, lin.loop.labels
 
 
+def _design(design: Any) -> Any:
+    """A design value from a design, a shipped design's name or a design file."""
+    if isinstance(design, (str, Path)):
+        from formsync_design.spec.loader import load_design
+
+        return load_design(design)
+    return design
+
+
 def to_statespace(design: Any, graph: Any, inertias: Any, gains: Mapping[str, Any], *,
                   switch: str = "sat", phi: Any = "1/100", pinning: Any = None) -> Any:
     """The formation linearisation as a ``control.StateSpace`` (module docstring)."""
@@ -63,6 +98,7 @@ def to_statespace(design: Any, graph: Any, inertias: Any, gains: Mapping[str, An
     except ImportError:
         raise InputError("expected python-control for to_statespace (pip install "
                          "'formsync-design[control]'), received no module 'control'") from None
+    design = _design(design)
     A, B, C, labels = formation_matrices(design, graph, inertias, gains, switch=switch, phi=phi,
                                          pinning=pinning)
     n = B.shape[1] // 3

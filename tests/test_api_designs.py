@@ -22,11 +22,14 @@ SHIPPED = ("liang2016", "pd_consensus", "liang2016_agent", "lv2012", "ma_so3", "
            "ma_mrp_ft", "selftrigger_mrp", "zhang2014_flyaround")
 FILES = ("file:ma_mrp_ft", "file:lv2012")
 FUNCTIONS = ("derive_conditions", "write_derivation_report", "certify_box", "region_map",
-             "design_gains", "simulate", "monte_carlo")
+             "design_gains", "simulate", "monte_carlo", "to_statespace")
+
 FAST = {("derive_conditions", "file:lv2012"), ("write_derivation_report", "file:ma_mrp_ft"),
         ("certify_box", "lv2012"), ("region_map", "file:lv2012"), ("design_gains", "lv2012"),
         ("simulate", "file:ma_mrp_ft"), ("monte_carlo", "file:lv2012"),
-        ("simulate", "pd_consensus"), ("region_map", "pd_consensus")}
+        ("simulate", "pd_consensus"), ("region_map", "pd_consensus"),
+        ("to_statespace", "liang2016"), ("to_statespace", "file:lv2012"),
+        ("to_statespace", "file:ma_mrp_ft")}
 
 
 def _design(key: str, tmp_path: Path) -> tuple[object, object]:
@@ -132,6 +135,17 @@ def _call(fn: str, arg: object, d: object, tmp_path: Path) -> None:
         else:
             r = fs.simulate(case.formation(), fs.SimOptions(tf=1.0), spec=arg)  # type: ignore[attr-defined]
         assert np.all(np.isfinite(r.t))
+        return
+    if fn == "to_statespace":
+        pytest.importorskip("control")
+        f = case.formation()  # type: ignore[attr-defined]
+        gains = case.gains.as_dict()  # type: ignore[attr-defined]
+        if not agent:
+            sw = d.decl.switching  # type: ignore[attr-defined]
+            if sw is not None:
+                gains[sw] = case.gains.K_v[0]  # type: ignore[attr-defined]
+        sys = fs.to_statespace(arg, f.graph, f.inertias, gains)
+        assert sys.ninputs == 3 * f.n and np.all(np.isfinite(sys.A))
         return
     assert fn == "monte_carlo"
     settings = fs.MonteCarloSettings(runs=2, seed=3, max_angle_deg=10, max_rate=0.01)

@@ -50,3 +50,54 @@ def test_a_law_not_differentiable_at_consensus_is_refused():
     with pytest.raises(InputError, match="differentiable"):
         to_statespace(d, "ring:3", [np.eye(3)] * 3, {"K1": 1, "K2": 1, "P1": 1, "P2": 1,
                                                      "eps": "1/100"}, switch="sgn")
+
+
+def _response(sys, w):
+    return np.array([np.atleast_2d(sys(1j * x)) for x in w])
+
+
+def test_lagrangian_export_is_the_agent_form_of_the_same_law():
+    """liang2016 (Lagrangian, state (q, q')) and liang2016_agent (agent, state (q, w), a
+    second implementation of controller (4)) give the same system: equal poles and equal
+    frequency responses d -> q at the same gains and switching realisation."""
+    rng = np.random.default_rng(7)
+    J = [np.diag(rng.uniform(1, 3, 3)) for _ in range(4)]
+    g = {"K_o": 1.6, "K_q": 0.4, "beta": 0.3}
+    lag = to_statespace("liang2016", "ring:4", J, {**g, "K_v": 0.01})
+    agt = to_statespace("liang2016_agent", "ring:4", J, {**g, "k_v": 0.01})
+    assert lag.nstates == agt.nstates == 24 and list(lag.state_labels)[12] == "qd1_1"
+    np.testing.assert_allclose(np.sort_complex(np.asarray(control.poles(lag))),
+                               np.sort_complex(np.asarray(control.poles(agt))), atol=1e-8)
+    w = np.logspace(-3, 2, 40)
+    np.testing.assert_allclose(_response(lag, w), _response(agt, w), rtol=1e-8, atol=1e-12)
+
+
+def test_pd_consensus_poles_are_the_analytic_modes():
+    """pd_consensus: q'' = -k_d q' - k_p L q, so the poles are the roots of
+    s^2 + k_d s + k_p lambda_k for every Laplacian eigenvalue, three axes each."""
+    from formsync_design.graphs.build import make_graph
+
+    kp, kd = 0.7, 1.9
+    sys = to_statespace("pd_consensus", "path:5", [np.eye(3) * 2.5] * 5, {"k_p": kp, "k_d": kd})
+    lam = np.linalg.eigvalsh(np.asarray(make_graph("path:5").laplacian, dtype=float))
+    want = np.concatenate([np.roots([1, kd, kp * x]) for x in lam for _ in range(3)])
+    key = lambda z: (round(z.real, 6), round(z.imag, 6))  # noqa: E731 (repeated pairs)
+    got = sorted(np.asarray(control.poles(sys), dtype=complex), key=key)
+    np.testing.assert_allclose(got, sorted(want.astype(complex), key=key), atol=1e-7)
+    # the disturbance enters q'' through A^-1 Q^T = J^-1 / 2 at the identity
+    assert sys.B[15, 0] == pytest.approx(1 / (2 * 2.5))
+
+
+def test_lagrangian_export_refuses_sgn_missing_gains_and_pinning():
+    from formsync_design.errors import InputError
+
+    J = [np.eye(3)] * 3
+    g = {"K_o": 1.6, "K_q": 0.4, "beta": 0.3, "K_v": 0.01}
+    with pytest.raises(InputError, match="differentiable"):
+        to_statespace("liang2016", "ring:3", J, g, switch="sgn")
+    with pytest.raises(InputError, match="missing \\['K_v'\\]"):
+        to_statespace("liang2016", "ring:3", J, {"K_o": 1.6, "K_q": 0.4, "beta": 0.3})
+    with pytest.raises(InputError, match="no pinning"):
+        to_statespace("liang2016", "ring:3", J, g, pinning=[1, 0, 0])
+    with pytest.raises(InputError, match="tracking design"):
+        to_statespace("zhang2014_flyaround", "ring:3", J, g)
