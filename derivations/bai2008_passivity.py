@@ -2,18 +2,20 @@
 Automatica 44(12) (2008) 3170-3175: passivity-based attitude coordination from relative
 attitudes only, reconstructed.
 
-The paper's text was not available to us (the ``search`` corpora hold its citation, e.g. in
-Sarlette, Sepulchre, Leonard, Automatica 45 (2009) 572-577, and the title of the authors'
-book *Cooperative Control Design*, Springer 2011, whose chapter on attitude agreement
-restates it, but neither body).  What we take from the paper's title, abstract as cited and
-the passivity framework it applies (Arcak, *Passivity as a design tool for group
-coordination*, IEEE TAC 52 (2007) 1380-1390): every rigid body ``i`` measures its own body
-rate ``w_i`` and, for each link of an undirected connected graph, the relative attitude to
-the neighbour, never an attitude in an inertial frame; the torque is a passive rate feedback
-plus, per link, the gradient of a link potential of the relative attitude, expressed in body
-frame ``i``; the storage function (kinetic energy + link potentials) is non-increasing and
-the relative attitudes converge to the desired ones.  Each detail we could not read is an
-assumption ``P1``-``P6`` (the case file repeats them):
+The paper's text was not available to us: the ``search`` corpora hold its citation only (e.g.
+the reference list of HAL hal-02394405; Sarlette, Sepulchre, Leonard, *Autonomous rigid body
+attitude synchronization*, Automatica 45 (2009) 572-577, cite the same line of work), not its
+body, nor that of the authors' book *Cooperative Control Design* (Springer 2011).  What we take
+from the title and from the passivity framework the paper applies (Arcak, *Passivity as a
+design tool for group coordination*, IEEE TAC 52 (2007) 1380-1390): every rigid body ``i``
+measures its own body rate ``w_i`` and, for each link of an undirected connected graph, the
+relative attitude to the neighbour, never an attitude in an inertial frame; the torque is a
+passive rate feedback plus, per link, the gradient of a link potential of the relative
+attitude, expressed in body frame ``i``; the storage function (kinetic energy + link
+potentials) is non-increasing, and the trajectories converge to the set where every
+spacecraft's link terms cancel (Arcak 2007: ``(D x I) psi = 0``), which is ``psi = 0``
+(synchronisation) on a tree and may contain other points on a graph with cycles.  Each detail
+we could not read is an assumption ``P1``-``P6`` (the case file repeats them):
 
 P1 (relative attitude, link variable).  The unit quaternion of the relative attitude
    ``R_i^T R_j`` of neighbour ``j`` seen from ``i``: ``q_ji = q_i^* (x) q_j``, vector part
@@ -22,19 +24,22 @@ P1 (relative attitude, link variable).  The unit quaternion of the relative atti
    the same coordinates in body frames ``i`` and ``j`` (it is the axis of ``R_i^T R_j``
    times ``sin(theta/2)``), and ``e_ji = -e_ij``.  Both depend on ``R_i^T R_j`` only: a
    common rotation of every attitude (``q_k -> p (x) q_k``) leaves them unchanged, which is
-   the "without inertial frame information" of the title.  Source: the paper's unit-quaternion
-   parametrisation of the relative attitude (Section on parametrisations, as cited).
+   the "without inertial frame information" of the title.  The unit quaternion is one of the
+   parametrisations a passivity design of this kind admits (Arcak 2007's link variables; the
+   quaternion passivity of P2); which one the paper's simulation uses we could not read.
 P2 (link potential).  ``P_ij = 2 k_p (1 - c_ij)`` per link, whose gradient along the
    relative-attitude kinematics is ``k_p e_ij``: ``c_ij' = e_ij . (w_i - w_j) / 2``.  This is
    the passivity of the quaternion kinematics from the rate to the vector part with storage
    ``(1 - q0)^2 + |q|^2 = 2 (1 - q0)`` (Wen, Kreutz-Delgado, IEEE TAC 36 (1991);
    Lizarralde, Wen, IEEE TAC 41 (1996)), the choice of the paper's third author.
-P3 (passive rate feedback).  ``f_i(w_i) = K w_i`` with ``K`` diagonal positive (the paper
-   allows any strictly passive ``f_i``; linear is the simplest member).
+P3 (passive rate feedback).  ``f_i(w_i) = K w_i`` with ``K`` diagonal positive (the
+   framework of Arcak 2007 allows any strictly passive rate feedback; linear is the simplest
+   member).
 P4 (reference rate, desired relative attitudes).  No reference angular velocity
    (``w^d = 0``: the group comes to rest) and identity desired relative attitudes
-   (synchronisation).  The paper treats a common ``w^d(t)`` and arbitrary desired relative
-   attitudes; both are outside this file.
+   (synchronisation).  From our recollection of the paper's abstract (not checked against its
+   text) it also treats a common reference rate and prescribed relative attitudes; both are
+   outside this file.
 P5 (weights).  The link weight is the graph's ``a_ij`` (1 on the toolbox's graph specs); on an
    undirected graph ``a_ij = a_ji``, so each link's potential is ``2 k_p a_ij (1 - c_ij)``.
 P6 (double cover).  The quaternions are used as integrated (not sign-chosen per step), so

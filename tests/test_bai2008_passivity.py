@@ -275,3 +275,36 @@ def test_the_storage_certificate_is_derived_and_refuses_a_non_passive_law(design
         agent_conditions(wrong, "path:3")
     with pytest.raises(DerivationError, match="undirected"):
         agent_conditions(design, [[0, 1, 0], [0, 0, 1], [1, 0, 0]])
+
+
+# ------------------------------------------------- cycles: a non-synchronised equilibrium
+
+
+def test_on_a_ring_the_twisted_state_is_an_equilibrium_that_a_run_leaves(design):
+    """On ring:6 the quaternions ``q_k = (sin(2 pi k/6) z, cos(2 pi k/6))`` (one winding of
+    S^3) at rest are an equilibrium that is not synchronised: each spacecraft's two link terms
+    cancel exactly (the set where ``D psi = 0`` is larger than ``psi = 0`` on a cyclic graph).
+    A run started 0.01 away leaves it and synchronises (it is not an attractor: on S^3 the
+    winding loop can shrink off its great circle)."""
+    from formsync_design.graphs.digraph_io import make_digraph
+    from formsync_design.sim.agents import AgentFormation
+    from formsync_design.sim.formation import Gains
+
+    n = 6
+    half = 2 * np.pi * np.arange(n) / n
+    Q = np.column_stack([np.zeros(n), np.zeros(n), np.sin(half), np.cos(half)])
+    u = symbolic_law(design, 2)
+    for i in range(n):
+        nbrs = [(1.0, Q[(i - 1) % n]), (1.0, Q[(i + 1) % n])]
+        np.testing.assert_allclose(u(Q[i], np.zeros(3), nbrs), 0.0, atol=1e-12)
+        assert np.linalg.norm(qmul(conj(Q[i]), Q[(i + 1) % n])[:3]) > 0.8   # 120 deg apart
+    rng = np.random.default_rng(6)
+    P = Q + 0.01 * rng.normal(size=Q.shape)
+    P /= np.linalg.norm(P, axis=1, keepdims=True)
+    J = np.tile(np.diag([50.0, 55.0, 60.0]), (n, 1, 1))
+    r = simulate_agents(design, AgentFormation(make_digraph("ring:6"), J, P, np.zeros((n, 3)),
+                                               Gains(K=20.0, k_p=10.0)),
+                        AgentOptions(tf=600, output_step=1.0, step=0.02, angle_tol=0.01,
+                                     rate_tol=1e-4))
+    assert r.attitude_error[0] > 100 and r.attitude_error[-1] < 0.01
+    assert str(r.status) == "converged"
