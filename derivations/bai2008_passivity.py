@@ -136,21 +136,23 @@ def dissipation(loop):
 def conditions(c):
     """The passivity (storage) certificate, derived for every in-degree of the graph.
 
-    For each in-degree ``m``: ``D_i`` (:func:`dissipation`) is computed along the symbolic
-    closed loop and checked to be exactly ``w_i^T d_i - w_i^T K w_i`` (a polynomial identity in the view's
-    symbols); so ``V' = sum_i (w_i^T d_i - w_i^T K w_i)`` on an undirected graph.  The
-    Hessian of ``-D_i`` in ``w_i`` at ``d = 0`` gives the family ``K`` (each axis the box's
-    ``K``), and ``V >= 0`` with its minimum exactly at synchronisation needs the link weight
-    ``k_p > 0``: families ``> 0`` on a box prove ``V' <= 0`` on the whole box (the passivity
-    part of the argument; convergence of the relative attitudes is the invariance argument of
-    the paper, not decided here)."""
+    Undirected graph: for each in-degree ``m``, ``D_i`` (:func:`dissipation`) is computed
+    along the symbolic closed loop and checked to be exactly ``w_i^T d_i - w_i^T K w_i`` (a
+    polynomial identity in the view's symbols); so ``V' = sum_i (w_i^T d_i - w_i^T K w_i)``.
+    The Hessian of ``-D_i`` in ``w_i`` at ``d = 0`` gives the family ``K`` (each axis the
+    box's ``K``), and ``V >= 0`` with its minimum exactly at synchronisation needs the link
+    weight ``k_p > 0``: families ``> 0`` on a box prove ``V' <= 0`` on the whole box (the
+    passivity part of the argument; convergence of the relative attitudes is the invariance
+    argument, not decided here).
+
+    Directed graph (outside the design's class): :func:`directed_families`, the storage
+    argument's failure there, derived (every box refuted, with an exact witness).
+    """
     from formsync_design.errors import DerivationError
 
     g = c.graph
     if not g.is_undirected:
-        raise DerivationError("bai2008_passivity: conditions(c): expected an undirected graph "
-                              "(a_ij = a_ji: the link potentials' halves pair up), received a "
-                              "directed one")
+        return directed_families(c)
     K, kp = c.gains["K"], c.gains["k_p"]
     degrees = sorted({len(g.receives_from(i)) for i in range(g.n)})
     hess = None
@@ -172,3 +174,55 @@ def conditions(c):
         ("dissipation: -V' = w^T K w at d = 0", hess, ("w_1", "w_2", "w_3")),
         ("storage: link-potential weight k_p", sp.Matrix([[kp]]), ("k_p",)),
     ]
+
+
+def directed_families(c):
+    """On a digraph the link potentials do not pair up: the storage with each arc's potential
+    at its receiver, ``V = sum_i (w_i^T J_i w_i / 2 + sum_j 2 k_p a_ij (1 - c_ij))``, has
+    ``V' = sum_i D_i`` with ``D_i`` the derivative of spacecraft ``i``'s terms with every
+    neighbour moving; ``D_i`` is checked to be exactly ``w_i^T d_i - w_i^T K w_i + k_p sum_j
+    a_ij e_ij . w_j`` (the torque's coupling work no longer cancels the potentials' motion).
+    With ``e_ij`` as free variables (near synchronisation they range over a ball, independent
+    of the rates), ``-D_i`` at ``d = 0`` is a quadratic form in ``(w_i, w_j, e_ij)`` whose
+    ``(w_j, e_ij)`` block is ``[[0, -k_p a_ij / 2], [-k_p a_ij / 2, 0]]``: indefinite for
+    every gain.  One family per in-degree (the first spacecraft of that in-degree's weights).
+    This refutes this storage argument on the digraph, not the formation's stability, which
+    ``formsync certify`` decides separately on the linearisation."""
+    from formsync_design.derive.agent import time_derivative
+    from formsync_design.errors import DerivationError
+
+    g = c.graph
+    K = c.gains["K"]
+    out = []
+    for m in sorted({len(g.receives_from(i)) for i in range(g.n)} - {0}):
+        i = next(k for k in range(g.n) if len(g.receives_from(k)) == m)
+        weights = [a for r, _, a in g.arcs if r == i]
+        loop = c.closed_loop(m)
+        v = loop.view
+        Jwdot = loop.u - v.w.cross(v.J * v.w) + loop.disturbance
+        if v.J.inv() * Jwdot != loop.wdot:
+            raise DerivationError("bai2008_passivity: the closed loop's w' is not "
+                                  "J^-1 (u - w x J w + d)")
+        _, links = storage_terms(v)
+        D = sp.expand((v.w.T * Jwdot)[0, 0] + time_derivative(sum(links, sp.Integer(0)),
+                                                              loop.rates))
+        coupling = sum((n.a * relative(v, n)[0].dot(n.w) for n in v.nbrs), sp.Integer(0))
+        expected = ((v.w.T * loop.disturbance)[0, 0] - (v.w.T * v.K * v.w)[0, 0]
+                    + v.k_p * coupling)
+        if sp.expand(D - expected) != 0:
+            raise DerivationError(f"bai2008_passivity: conditions(c): on a digraph V' is not "
+                                  f"w.d - w^T K w + k_p sum_j a_ij e_ij . w_j for in-degree {m}")
+        ebar = [sp.Matrix(sp.symbols(f"e_{n.tag}_1:4", real=True)) for n in v.nbrs]
+        form = ((v.w.T * v.K * v.w)[0, 0]
+                - v.k_p * sum((n.a * eb.dot(n.w) for n, eb in zip(v.nbrs, ebar)), sp.Integer(0)))
+        xs = [*v.w, *(s for n, eb in zip(v.nbrs, ebar) for s in (*n.w, *eb))]
+        H = sp.hessian(form, xs) / 2
+        H = H.xreplace({**{s: K for s in v.K.diagonal()},
+                        **{n.a: sp.Rational(a) for n, a in zip(v.nbrs, weights)}})
+        labels = tuple(str(x) for x in xs)
+        out.append((f"digraph storage, in-degree {m}: -V' = w^T K w - k_p sum_j a_ij e_ij . w_j "
+                     "at d = 0", H, labels))
+    if not out:
+        raise DerivationError("bai2008_passivity: conditions(c): expected a graph with at least "
+                              "one arc, received none")
+    return out

@@ -273,8 +273,25 @@ def test_the_storage_certificate_is_derived_and_refuses_a_non_passive_law(design
         conditions=mod["conditions"])
     with pytest.raises(DerivationError, match="V' is not"):
         agent_conditions(wrong, "path:3")
-    with pytest.raises(DerivationError, match="undirected"):
-        agent_conditions(design, [[0, 1, 0], [0, 0, 1], [1, 0, 0]])
+
+
+def test_on_a_digraph_the_storage_argument_is_refuted_for_every_gain(design):
+    """Outside the class: the derived digraph family has the indefinite block ``[[0, -k_p/2],
+    [-k_p/2, 0]]`` in ``(w_j, e_ij)``, refuted on the whole gain range with one exact
+    witness; the formation's own verdict on C4 (certified) is a separate question."""
+    from formsync_design.certify.agent import certify_agent
+
+    c4 = [[0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1], [1, 0, 0, 0]]
+    conds = agent_conditions(design, c4)
+    (fam,) = conds.families
+    assert fam.name.startswith("digraph storage, in-degree 1")
+    box = GainBox.parse({"K": "1:50", "k_p": "1:50"})
+    assert certify_agent(design, conds, box).status == Status.REFUTED
+    r = certify_formation(design, digraph_from_edges([(1, 2, 1), (2, 3, 1), (3, 4, 1), (4, 1, 1)],
+                                                     n=4, name="C4"),
+                          np.tile(55.0 * np.eye(3), (4, 1, 1)), GainBox.parse({"K": "20",
+                                                                                "k_p": "10"}))
+    assert r.status == Status.CERTIFIED
 
 
 # ------------------------------------------------- cycles: a non-synchronised equilibrium
