@@ -80,6 +80,7 @@ def relative(v, n):
 
 
 def controller(v):
+    """``u_i = -K w_i + k_p sum_j a_ij e_ij`` (P1-P5): the own rate and relative attitudes only."""
     coupling = sp.zeros(3, 1)
     for n in v.nbrs:
         coupling += n.a * relative(v, n)[0]
