@@ -21,7 +21,7 @@ from formsync_design.verify.case import load_case
 from formsync_design.verify.defaults import case_source, cycle_case
 
 DESIGNS = ("liang2016", "pd_consensus", "liang2016_agent", "lv2012", "ma_so3", "ma_quat_smc",
-           "ma_mrp_ft", "selftrigger_mrp", "zhang2014_flyaround")
+           "ma_mrp_ft", "selftrigger_mrp", "zhang2014_flyaround", "bai2008_passivity")
 COMMANDS = ("derive", "certify", "region", "design", "simulate", "montecarlo", "sweep", "verify")
 
 # options that keep a cell small (a user's options, not defaults the command needs)
@@ -34,7 +34,13 @@ FAST = {("derive", "liang2016_agent"), ("certify", "pd_consensus"),
         ("certify", "zhang2014_flyaround"), ("certify", "ma_quat_smc"), ("region", "ma_so3"),
         ("design", "lv2012"), ("simulate", "pd_consensus"), ("simulate", "ma_mrp_ft"),
         ("montecarlo", "liang2016"), ("montecarlo", "selftrigger_mrp"),
-        ("sweep", "pd_consensus"), ("verify", "pd_consensus")}
+        ("sweep", "pd_consensus"), ("verify", "pd_consensus"), ("certify", "bai2008_passivity")}
+
+# cells that cannot pass yet, with the reason (strict: the cell passing fails the suite, so the
+# marker is removed when the reason goes)
+PENDING = {("verify", "bai2008_passivity"):
+           "its case has no [case] kind and no [claims] until the case-driven engine (issue 23 "
+           "item 3) reads it: the default kind 'formation' refuses the agent case's [simulation]"}
 
 
 def test_the_matrix_covers_every_shipped_design_and_its_fast_part_every_row_and_column() -> None:
@@ -47,7 +53,9 @@ def _cells() -> list:
     out = []
     for cmd in COMMANDS:
         for d in DESIGNS:
-            marks = () if (cmd, d) in FAST else (pytest.mark.slow,)
+            marks: tuple = () if (cmd, d) in FAST else (pytest.mark.slow,)
+            if (cmd, d) in PENDING:
+                marks += (pytest.mark.xfail(reason=PENDING[cmd, d], strict=True),)
             out.append(pytest.param(cmd, d, marks=marks, id=f"{cmd}-{d}"))
     return out
 
