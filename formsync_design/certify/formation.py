@@ -172,7 +172,9 @@ def _vertices(box: Any, names: tuple[str, ...]) -> list[dict[str, Fraction]]:
 
 def _scope(design: Any, lin: Any, graph: Any, leader: bool) -> Scope:
     assumptions = []
-    if lin.switch == "sgn":
+    if not lin.switching:
+        pass  # the law has no switching function: nothing is realised
+    elif lin.switch == "sgn":
         assumptions.append("sgn realised as the ideal sign")
     else:
         assumptions.append(f"sgn realised as {lin.switch}(x/phi), phi = {lin.phi} "

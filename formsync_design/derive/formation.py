@@ -64,7 +64,8 @@ class FormationLinearization:
     ``loop``: the :class:`LinearLoop`; ``covered``: whether the law is differentiable at
     the equilibrium (else ``loop`` is ``None`` and ``why`` names the term); ``switch``,
     ``phi``: how ``sgn`` was realised; ``fixed``: the gains substituted by their value;
-    ``emulation``: a sampled design linearised with held values equal to current ones.
+    ``emulation``: a sampled design linearised with held values equal to current ones;
+    ``switching``: whether the law has a switching function ``sgn`` at all.
     """
 
     design: str
@@ -77,6 +78,7 @@ class FormationLinearization:
     fixed: Mapping[str, Fraction]
     emulation: bool
     representation: str
+    switching: bool = True
 
 
 def _charts(att: Any, rep: str, w: Any, z: Sequence[Any], base: int) -> dict[Any, Chart]:
@@ -162,7 +164,9 @@ def _agent_rows(design: Any, m: int, switch: str, phi: Fraction | None) -> Any:
             raise DerivationError(f"{design.path}: expected consensus at rest to be an "
                                   f"equilibrium, received {what} = {r.v0} there")
         rows.append(r.lin)
-    out = ("ok", rows, v, p)
+    from formsync_design.spec.agent_view import sgn
+
+    out = ("ok", rows, v, p, sp.Matrix(exprs).has(sgn))
     _CACHE[key] = out
     return out
 
@@ -220,6 +224,7 @@ def linearize_formation(design: Any, graph: Any, inertias: Any, *, switch: str =
         return 3 * i + c if c < 3 else (3 * n + 3 * i + c - 3 if c < 6 else 6 * n + nz * i + c - 6)
 
     terms: dict[tuple[int, ...], dict[tuple[int, int], Fraction]] = {}
+    switching = False
     Gm = np.zeros((nx, 3 * n))
     arcw = {(a, b): wt for a, b, wt in g.arcs}
     for i in range(n):
@@ -228,7 +233,8 @@ def linearize_formation(design: Any, graph: Any, inertias: Any, *, switch: str =
         if got[0] != "ok":
             return FormationLinearization(design.name, g, None, False, got[1], switch, phi_q,
                                           fixed_q, emulation, rep)
-        _, rows, v, _ = got
+        _, rows, v, _, has_sgn = got
+        switching = switching or has_sgn
         num: dict[Any, Any] = dict(gains_sub)
         for r in range(3):
             for c in range(3):
@@ -273,4 +279,4 @@ def linearize_formation(design: Any, graph: Any, inertias: Any, *, switch: str =
                       G=Gm, C=C, inertias=np.array([[[float(x) for x in row] for row in Ji]
                                                      for Ji in Jq]))
     return FormationLinearization(design.name, g, loop, True, "", switch, phi_q, fixed_q,
-                                  emulation, rep)
+                                  emulation, rep, switching)
