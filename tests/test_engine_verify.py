@@ -1,0 +1,256 @@
+"""``formsync verify`` of an ``engine`` case end to end: a tiny case of the shipped agent
+design ma_quat_smc, its report, verdicts recomputed independently, a byte-identical rerun,
+and bad input refused with one line (exit 2)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from formsync_design.cli.main import main
+
+CASE = """
+[case]
+kind = "engine"
+name = "tiny"
+title = "Quaternion sliding-mode coordination, tiny case"
+source = "test"
+design = "ma_quat_smc"
+graph = "ring:3"
+assumptions = ["three spacecraft of the test"]
+
+[gains]
+K1 = 1.15
+K2 = 0.15
+P2 = 0.03
+
+[simulation]
+tf = 12.0
+output_step = 0.1
+step = 0.01
+switch = "sat"
+boundary_layer = 0.01
+angle_tol = 1.0
+rate_tol = 0.01
+
+[disturbance]
+model = "none"
+
+[[spacecraft]]
+inertia = [[50, 0, 0], [0, 55, 0], [0, 0, 60]]
+rate = [0.01, 0, 0]
+q = [0.1, 0.2, 0.0]
+
+[[spacecraft]]
+inertia = [[52, 0, 0], [0, 54, 0], [0, 0, 62]]
+rate = [0, 0.01, 0]
+q = [-0.1, 0.0, 0.1]
+
+[[spacecraft]]
+inertia = [[53, 0, 0], [0, 54, 0], [0, 0, 58]]
+rate = [0, 0, 0.01]
+q = [0.0, -0.1, 0.1]
+
+[[formations]]
+name = "ring3"
+
+[[formations]]
+name = "cycle4"
+graph = "cycle:4"
+
+[[scenarios]]
+name = "nominal"
+
+[[scenarios]]
+name = "short"
+description = "a horizon too short to converge"
+simulation = {tf = 1.0}
+
+[montecarlo]
+runs = 2
+seed = 7
+max_angle = 20
+max_rate = 0.01
+
+[[metrics]]
+id = "cert"
+metric = "formation_certificate"
+
+[[metrics]]
+id = "decay"
+metric = "certified_decay_rate"
+formation = "cycle4"
+
+[[metrics]]
+id = "tconv"
+metric = "convergence_time"
+
+[[metrics]]
+id = "tshort"
+metric = "convergence_time"
+scenario = "short"
+
+[[metrics]]
+id = "err"
+metric = "final_attitude_error_deg"
+
+[[metrics]]
+id = "peak4"
+metric = "peak_torque"
+formation = "cycle4"
+
+[[metrics]]
+id = "mcfrac"
+metric = "mc_converged_fraction"
+
+[[claims]]
+id = "certified"
+text = "the formation is locally exponentially stable on the directed cycle"
+source = "Theorem 1"
+predicate = 'cert == "certified" and decay > 0'
+
+[[claims]]
+id = "fast"
+text = "converges within 11 s"
+source = "Fig. 2"
+predicate = "tconv < 11"
+
+[[claims]]
+id = "short"
+text = "converges within 0.5 s"
+predicate = "tshort < 0.5"
+
+[[claims]]
+id = "later"
+text = "takes longer than 20 s"
+predicate = "tshort > 20"
+
+[[claims]]
+id = "mc"
+text = "every run converges, and the torque stays small"
+predicate = "mcfrac == 1 and err < 1 and peak4 <= 50"
+"""
+
+
+@pytest.fixture(autouse=True)
+def _vm(monkeypatch):
+    monkeypatch.setenv("FORMSYNC_NO_COMPILE", "1")
+
+
+def _write(tmp_path: Path, text: str, name: str = "tiny.toml") -> Path:
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def _digests(folder: Path) -> dict[str, str]:
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_engine_case_end_to_end(tmp_path, capsys):
+    case = _write(tmp_path, CASE)
+    out = tmp_path / "out"
+    assert main(["verify", str(case), "--out", str(out), "--format", "json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    md = out / "tiny-verification.md"
+    text = md.read_text()
+    assert text.startswith("<!-- formsync verify: case=")
+    for section in ("## Assumptions", "## Formations and their certificates",
+                    "## Scope of the simulation evidence", "## Metrics", "## Claims",
+                    "## Semantics", "angle_tol"):
+        assert section in text
+    assert (out / "figures" / "tiny-verification" / "ring3-nominal-attitude.png").is_file()
+
+    # the verdicts, recomputed here from the library's simulation and certificate directly
+    from formsync_design.certify.formation import certify_formation
+    from formsync_design.gains import GainBox
+    from formsync_design.sim.agents import simulate_agents
+    from formsync_design.verify.agentcase import parse_agent_case
+    from formsync_design.verify.enginecase import directed_cycle
+
+    data = tomllib.loads(CASE)
+    for k in ("formations", "scenarios", "montecarlo", "metrics", "claims"):
+        data.pop(k)
+    ac = parse_agent_case(data, str(case))
+    r = simulate_agents(ac.design, ac.formation(), ac.options)
+    box = GainBox.parse({"K1": "1.15", "K2": "0.15", "P2": "0.03"})
+    c4 = ac.cycled(4)
+    cert = certify_formation(ac.design, directed_cycle(4), c4.inertias, box, switch="sat",
+                             phi="0.01")
+    claims = {c["id"]: c for c in doc["claims"]}
+    metrics = {m["id"]: m for m in doc["metrics"]}
+    assert metrics["tconv"]["value"] == r.convergence_time
+    assert claims["fast"]["verdict"] == ("holds" if r.convergence_time < 11 else "fails")
+    assert claims["fast"]["basis"] == "evidence" and claims["fast"]["evidence"] == ["simulation"]
+    assert str(cert.status) == "certified" and cert.decay > 0
+    assert metrics["decay"]["value"] == cert.decay and metrics["decay"]["bound"] == "lower"
+    assert claims["certified"]["verdict"] == "holds"
+    assert claims["certified"]["basis"] == "proof"
+    # the 1 s horizon does not converge: >= 1 s refutes "< 0.5 s", decides nothing on "> 20 s"
+    assert metrics["tshort"]["bound"] == "lower" and metrics["tshort"]["value"] == 1.0
+    assert claims["short"]["verdict"] == "fails"
+    assert claims["later"]["verdict"] == "undecided"
+    assert metrics["err"]["value"] == pytest.approx(float(r.attitude_error[-1]), abs=0)
+    assert claims["mc"]["evidence"] == ["montecarlo", "simulation"]
+    assert doc["all_hold"] is False
+    assert np.isfinite(metrics["peak4"]["value"])
+
+    # rerun: byte-identical report and figures; --strict exits 1 (not every claim holds)
+    before = _digests(out)
+    assert main(["verify", str(case), "--out", str(out)]) == 0
+    assert _digests(out) == before
+    capsys.readouterr()
+    assert main(["verify", str(case), "--out", str(out), "--strict"]) == 1
+
+
+BAD = [
+    ('id = "mcfrac"\nmetric = "mc_converged_fraction"', 'id = "mcfrac"\nmetric = "nonsense"',
+     "metric among"),
+    ('predicate = "tconv < 11"', 'predicate = "__import__(\'os\').system(\'x\') < 1"', "column"),
+    ('predicate = "tconv < 11"', 'predicate = "tconv < 11 < 12"', "one comparison"),
+    ('predicate = "tconv < 11"', 'predicate = "nothing < 11"', "metric id among"),
+    ("max_rate = 0.01", "max_rate = 1e9", "magnitude"),
+    ("runs = 2", "runs = 0", "runs"),
+    ("runs = 2", "runs = 2.5", "integer"),
+    ("seed = 7", "seed = -1", "seed"),
+    ('name = "cycle4"', 'name = "../x"', "formations[2].name"),
+    ('name = "short"', 'name = "nominal"', "once"),
+    ('id = "tshort"', 'id = "tconv"', "once"),
+    ('graph = "cycle:4"', 'graph = "cycle:1"', "cycle:N"),
+    ('graph = "cycle:4"', 'graph = "nope.txt"', ""),
+    ("simulation = {tf = 1.0}", "simulation = {tf = -1.0}", "tf"),
+    ("simulation = {tf = 1.0}", "gains = {K9 = 1.0}", "gains"),
+    ("simulation = {tf = 1.0}", "colour = 1", "unknown"),
+    ('formation = "cycle4"\n\n[[metrics]]\nid = "tconv"',
+     'formation = "cycle5"\n\n[[metrics]]\nid = "tconv"', "formation among"),
+    ('id = "err"\nmetric = "final_attitude_error_deg"',
+     'id = "err"\nmetric = "final_attitude_error_deg"\nto = "moon"', "one of"),
+    ('id = "err"\nmetric = "final_attitude_error_deg"', 'id = "err"\nmetric = "transmissions"',
+     "continuous"),
+    ('id = "peak4"\nmetric = "peak_torque"', 'id = "peak4"\nmetric = "peak_torque"\nspacecraft = -1',
+     ">= 0"),
+    ('id = "cert"', 'id = "and"', "metrics[1].id"),
+    ('kind = "engine"', 'kind = "engine"\ncolour = 2', "unknown"),
+]
+
+
+@pytest.mark.parametrize("old, new, words", BAD)
+def test_bad_input_is_one_line_exit_2(tmp_path, capsys, old, new, words):
+    assert old in CASE
+    case = _write(tmp_path, CASE.replace(old, new, 1))
+    assert main(["verify", str(case), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0], err
+    assert not (tmp_path / "out" / "tiny-verification.md").exists()
+
+
+def test_montecarlo_metric_needs_the_table(tmp_path, capsys):
+    text = CASE.replace("[montecarlo]\nruns = 2\nseed = 7\nmax_angle = 20\nmax_rate = 0.01\n", "")
+    assert main(["verify", str(_write(tmp_path, text)), "--out", str(tmp_path / "o")]) == 2
+    assert "[montecarlo]" in capsys.readouterr().err
