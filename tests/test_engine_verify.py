@@ -254,3 +254,113 @@ def test_montecarlo_metric_needs_the_table(tmp_path, capsys):
     text = CASE.replace("[montecarlo]\nruns = 2\nseed = 7\nmax_angle = 20\nmax_rate = 0.01\n", "")
     assert main(["verify", str(_write(tmp_path, text)), "--out", str(tmp_path / "o")]) == 2
     assert "[montecarlo]" in capsys.readouterr().err
+
+
+def test_the_documented_example_case_is_valid():
+    from formsync_design.verify.enginecase import load_engine_case
+
+    root = Path(__file__).resolve().parent.parent
+    case = load_engine_case(root / "docs" / "engine" / "example.toml")
+    assert [f.name for f in case.formations] == ["ring3", "cycle4"]
+    assert case.case_for("cycle4", "disturbed").n == 4
+    assert {c.id for c in case.claims} >= {"stable_on_both", "montecarlo"}
+
+
+DAMPER = '''"""A rate damper; its case measures the final kinetic energy with a metric of its own."""
+from formsync_design.verify.metrics import register_metric
+
+FORM = "agent"
+GAINS = {"k": {}}
+
+
+def controller(v):
+    return -v.k * v.J * v.w
+
+
+@register_metric("test_damper_kinetic_energy", unit="J", evidence="simulation",
+                 doc="sum of w_i^T J_i w_i / 2 at tf")
+def kinetic_energy(ctx):
+    r = ctx.run()
+    return ctx.value(float(sum(w @ J @ w for w, J in zip(r.rates[-1], ctx.case.inertias)) / 2))
+'''
+
+DAMPER_CASE = """
+[case]
+kind = "engine"
+design = "damper.py"
+graph = "path:2"
+[gains]
+k = 1.0
+[simulation]
+tf = 5.0
+output_step = 0.5
+step = 0.05
+[[spacecraft]]
+inertia = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
+rate = [0.1, 0, 0]
+q = [0, 0, 0]
+[[spacecraft]]
+inertia = [[2, 0, 0], [0, 2, 0], [0, 0, 2]]
+rate = [0, 0.05, 0]
+q = [0, 0, 0]
+[[metrics]]
+id = "energy"
+metric = "test_damper_kinetic_energy"
+[[metrics]]
+id = "cert"
+metric = "formation_certificate"
+[[claims]]
+id = "damped"
+text = "the kinetic energy decays below 1e-6 J in 5 s"
+predicate = "energy < 1e-6"
+[[claims]]
+id = "stable"
+text = "consensus is locally exponentially stable"
+predicate = 'cert == "certified"'
+"""
+
+
+def test_a_design_file_registers_its_own_metric_and_undecided_stays_undecided(tmp_path, capsys):
+    """A paper's own measurement without a library change; a marginal certificate (a damper
+    has no attitude feedback) leaves the stability claim undecided, never failed."""
+    from formsync_design.verify.metrics import METRICS
+
+    (tmp_path / "damper.py").write_text(DAMPER)
+    case = _write(tmp_path, DAMPER_CASE, "damper_case.toml")
+    try:
+        assert main(["verify", str(case), "--out", str(tmp_path / "o"), "--format", "json"]) == 0
+        doc = json.loads(capsys.readouterr().out)
+    finally:
+        METRICS.pop("test_damper_kinetic_energy", None)
+    m = {x["id"]: x for x in doc["metrics"]}
+    c = {x["id"]: x for x in doc["claims"]}
+    # k = 1, J w' = -J w: every rate decays as exp(-t), the energy as exp(-2t)
+    want = 0.5 * (1 * 0.1**2 + 2 * 0.05**2) * np.exp(-10)
+    assert m["energy"]["value"] == pytest.approx(want, rel=1e-4)
+    assert c["damped"]["verdict"] == ("holds" if want < 1e-6 else "fails")
+    assert m["cert"]["value"] is None and m["cert"]["detail"].startswith("undecided")
+    assert (c["stable"]["verdict"], c["stable"]["basis"]) == ("undecided", "evidence")
+
+
+def test_design_option_replaces_the_case_design(tmp_path, capsys):
+    """``--design`` runs the case with another design file: a damper twice as strong."""
+    (tmp_path / "strong.py").write_text(DAMPER.replace("-v.k * v.J * v.w", "-2 * v.k * v.J * v.w")
+                                        .replace("test_damper_kinetic_energy", "test_strong_energy"))
+    (tmp_path / "damper.py").write_text(DAMPER)
+    case = _write(tmp_path, DAMPER_CASE.replace("test_damper_kinetic_energy", "final_rate"),
+                  "damper_case.toml")
+    try:
+        assert main(["verify", str(case), "--out", str(tmp_path / "o"), "--format", "json",
+                     "--design", str(tmp_path / "strong.py")]) == 0
+    finally:
+        from formsync_design.verify.metrics import METRICS
+
+        METRICS.pop("test_strong_energy", None)
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["design"] == "strong"
+    # the largest rate difference at tf: |(0.1, -0.05, 0)| e^(-2 tf)
+    want = float(np.hypot(0.1, 0.05) * np.exp(-10))
+    assert doc["metrics"][0]["value"] == pytest.approx(want, rel=1e-4)
+    bad = _write(tmp_path, CASE.replace('design = "ma_quat_smc"', 'design = "nope"'))
+    assert main(["verify", str(bad), "--out", str(tmp_path / "o2")]) == 2
+    assert "design" in capsys.readouterr().err

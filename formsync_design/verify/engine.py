@@ -25,6 +25,44 @@ A claim's verdict is ``holds``, ``fails`` or ``undecided`` (a metric it needs is
 the values do not decide it); its *evidence* is the evidence of the metrics that decided it,
 and its *basis* is ``proof`` only when every one of them is a certificate, else ``evidence``
 (simulation is evidence, never proof).
+
+A rate damper ``u = -k J w`` damps the rates (simulation: evidence) but has no attitude
+feedback, so its consensus is marginal: the certificate is undecided, and so is the claim:
+
+>>> import pathlib, tempfile
+>>> d = pathlib.Path(tempfile.mkdtemp())
+>>> _ = (d / "damper.py").write_text(
+...     'FORM = "agent"\\nGAINS = {"k": {}}\\ndef controller(v):\\n    return -v.k * v.J * v.w\\n')
+>>> sc = '[[spacecraft]]\\ninertia = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]\\nrate = [0.1, 0, 0]\\nq = [0, 0, 0]\\n'
+>>> _ = (d / "c.toml").write_text('''
+... [case]
+... kind = "engine"
+... design = "damper.py"
+... graph = "path:2"
+... [gains]
+... k = 1.0
+... [simulation]
+... tf = 5.0
+... output_step = 0.5
+... step = 0.05
+... [[metrics]]
+... id = "w"
+... metric = "final_rate"
+... [[metrics]]
+... id = "cert"
+... metric = "formation_certificate"
+... [[claims]]
+... id = "damped"
+... text = "the rates decay below 0.001 rad/s in 5 s"
+... predicate = "w < 1e-3"
+... [[claims]]
+... id = "stable"
+... text = "consensus is locally exponentially stable"
+... predicate = 'cert == "certified"'
+... ''' + sc + sc)
+>>> ver = run_engine(load_engine_case(d / "c.toml"))
+>>> [(c.claim.id, c.verdict, c.basis) for c in ver.claims]
+[('damped', 'holds', 'evidence'), ('stable', 'undecided', 'evidence')]
 """
 
 from __future__ import annotations

@@ -13,8 +13,10 @@ formation, the metric's arguments, and the run's cached results) returning a fro
 
 Together with the design file, the registry is **the one extension point** of the engine
 (:mod:`formsync_design.verify.engine`): a paper that needs a measurement not listed below
-adds one registered function (in a module imported before the case is read, e.g. in the
-design file), never a case kind, case parser or report writer.  A case names a metric in
+adds one registered function, never a case kind, case parser or report writer: a general
+measurement here, beside the built-ins; a paper's own one in its design file (the case
+loads its design before it reads ``[[metrics]]``, so a decorated function there is
+registered in time, with no change to the library).  A case names a metric in
 ``[[metrics]] metric = "NAME"``; its arguments are the row's other keys (checked against
 ``args``: type, range, choices).
 
@@ -34,7 +36,7 @@ Built-in metrics (convergence by the scenario's ``angle_tol``/``rate_tol``):
 =========================  ========  ===========  ===============================================
 metric                     unit      evidence     value
 =========================  ========  ===========  ===============================================
-formation_certificate      verdict   certificate  ``certified``/``refuted``/``undecided`` (text)
+formation_certificate      verdict   certificate  ``certified`` or ``refuted`` (text); undecided: unknown
 certified_decay_rate       1/s       certificate  the certified exponential rate (lower bound)
 largest_real_part          1/s       numerical    largest real part of the disagreement's modes
 convergence_time           s         simulation   first time from which the criterion holds
@@ -49,6 +51,18 @@ mc_converged_fraction      1         montecarlo   fraction of the runs that conv
 mc_convergence_time_max    s         montecarlo   largest convergence time of the runs
 mc_peak_torque_max         N m       montecarlo   largest peak torque of the runs
 =========================  ========  ===========  ===============================================
+
+>>> sorted(METRICS)[:3]
+['certified_decay_rate', 'control_effort', 'convergence_time']
+>>> v = MetricValue(12.5, "s", "simulation", "not converged by tf = 12.5 s", bound="lower")
+>>> v.text(), v.interval()
+('>= 12.5', Interval(lo=12.5, hi=inf))
+>>> @register_metric("example_final_speed", unit="rad/s", evidence="simulation",
+...                  doc="largest |w_i| at tf")
+... def final_speed(ctx):
+...     return ctx.value(float(np.linalg.norm(ctx.run().rates[-1], axis=1).max()))
+>>> METRICS.pop("example_final_speed").unit
+'rad/s'
 """
 
 from __future__ import annotations
@@ -183,12 +197,21 @@ def register_metric(name: str, *, unit: str, evidence: str, doc: str, value: str
                          f"for metric {name}, received {value!r}, {evidence!r}")
 
     def deco(fn: Callable[[MetricContext], MetricValue]) -> Callable[[MetricContext], MetricValue]:
-        if name in METRICS and METRICS[name].fn is not fn:
-            raise InputError(f"expected metric {name!r} registered once, received a second one")
+        old = METRICS.get(name)
+        if old is not None and _origin(old.fn) != _origin(fn):
+            raise InputError(f"expected metric {name!r} registered once, received a second one "
+                             f"({_origin(fn)[1]}; the first: {_origin(old.fn)[1]})")
         METRICS[name] = MetricSpec(name, fn, unit, str(evidence), doc, value, tuple(args), applies)
         return fn
 
     return deco
+
+
+def _origin(fn: Callable[..., Any]) -> tuple[str, str]:
+    """Where a metric function is defined (a reloaded file registers it again: accepted)."""
+    code = getattr(fn, "__code__", None)
+    return (getattr(fn, "__qualname__", repr(fn)),
+            f"{getattr(code, 'co_filename', '?')}:{getattr(fn, '__qualname__', '?')}")
 
 
 def check_metric_args(spec: MetricSpec, raw: Mapping[str, Any], where: str) -> dict[str, Any]:
@@ -281,13 +304,16 @@ def _certificate_or(ctx: MetricContext) -> tuple[Any, MetricValue | None]:
 
 @register_metric("formation_certificate", unit="verdict", evidence="certificate", value="text",
                  doc="the formation-level certificate (certify/formation.py) of the scenario's "
-                 "gains on the formation's graph: certified, refuted or undecided")
+                 "gains on the formation's graph: certified or refuted (proven either way); "
+                 "undecided is no value (a claim that needs it is undecided)")
 def _formation_certificate(ctx: MetricContext) -> MetricValue:
     c, none = _certificate_or(ctx)
     if none is not None:
-        return MetricValue("undecided", none.unit, none.evidence, none.detail)
+        return ctx.value(None, f"undecided: {none.detail}")
+    if str(c.status) not in ("certified", "refuted"):  # the truth is unknown: no value
+        return ctx.value(None, f"{c.status}: {c.reason}")
     sc = c.scope
-    return ctx.value(str(c.status), c.reason or f"{sc.property} of {sc.target} on {sc.graph} "
+    return ctx.value(str(c.status), f"{sc.property} stability of {sc.target} on {sc.graph} "
                      f"[{sc.basis}]")
 
 
