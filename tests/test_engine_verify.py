@@ -224,6 +224,8 @@ BAD = [
     ('id = "tshort"', 'id = "tconv"', "once"),
     ('graph = "cycle:4"', 'graph = "cycle:1"', "cycle:N"),
     ('graph = "cycle:4"', 'graph = "nope.txt"', ""),
+    ('graph = "cycle:4"', 'graph = "cycle:9999999"', "at most 2000"),
+    ('graph = "cycle:4"', 'graph = "cycle:4"\npinning = [1, 0, 0, 0]', "no pinning"),
     ("simulation = {tf = 1.0}", "simulation = {tf = -1.0}", "tf"),
     ("simulation = {tf = 1.0}", "gains = {K9 = 1.0}", "gains"),
     ("simulation = {tf = 1.0}", "colour = 1", "unknown"),
@@ -364,3 +366,86 @@ def test_design_option_replaces_the_case_design(tmp_path, capsys):
     bad = _write(tmp_path, CASE.replace('design = "ma_quat_smc"', 'design = "nope"'))
     assert main(["verify", str(bad), "--out", str(tmp_path / "o2")]) == 2
     assert "design" in capsys.readouterr().err
+
+
+SAMPLED = """
+[case]
+kind = "engine"
+design = "selftrigger_mrp"
+[graph]
+arcs = [[1, 2, 1], [2, 1, 1], [2, 3, 1], [3, 2, 1], [1, 0, 1]]
+[gains]
+r = 0.5
+m_f = 1.5
+delta = 0.05
+eps = 0.01
+alpha = 0.1
+eta0 = 0.05
+[reference]
+attitude = [0, 0, 0, 1]
+rate = ["0.02*exp(-t/10)", "0", "0"]
+[disturbance]
+model = "none"
+[simulation]
+tf = 4.0
+output_step = 0.1
+rtol = 1e-8
+atol = 1e-10
+[[spacecraft]]
+inertia = [[20, 0, 0], [0, 20, 0], [0, 0, 20]]
+rate = [0.01, 0, 0]
+q = [0.1, 0, 0]
+[[spacecraft]]
+inertia = [[25, 0, 0], [0, 25, 0], [0, 0, 25]]
+rate = [0, 0.01, 0]
+q = [0, 0.1, 0]
+[[spacecraft]]
+inertia = [[30, 0, 0], [0, 30, 0], [0, 0, 30]]
+rate = [0, 0, 0.01]
+q = [0, 0, 0.1]
+[[formations]]
+name = "case"
+[[formations]]
+name = "ring4"
+graph = "ring:4"
+pinning = [1, 0, 0, 0]
+[[metrics]]
+id = "tx"
+metric = "transmissions"
+[[metrics]]
+id = "mie"
+metric = "min_inter_event_time"
+[[metrics]]
+id = "err4"
+metric = "final_attitude_error_deg"
+formation = "ring4"
+[[claims]]
+id = "sparse"
+text = "updates are at least 10 ms apart"
+predicate = "mie >= 0.01 and tx > 0"
+"""
+
+
+def test_a_sampled_design_with_a_leader(tmp_path, capsys):
+    """Transmissions and inter-event times of a self-triggered design with a leader, against
+    the run's own trigger instants; the 4-ring is pinned and takes the case's spacecraft
+    cycled; a formation without pinning is refused for a leader design."""
+    from formsync_design.verify.engine import EngineResults, run_engine
+    from formsync_design.verify.enginecase import load_engine_case
+
+    case = load_engine_case(_write(tmp_path, SAMPLED, "st.toml"))
+    ver = run_engine(case)
+    vals = {m.id: v for m, v in ver.metrics}
+    r = ver.results.runs[("case", "nominal")]
+    times = [np.asarray(t) for t in r.trigger_times]
+    assert vals["tx"].value == sum(len(t) for t in times)  # every update is a broadcast
+    gaps = [float(np.diff(t).min()) for t in times if len(t) > 1]
+    assert vals["mie"].value == pytest.approx(min(gaps), rel=1e-12)
+    assert ver.claims[0].verdict == ("holds" if min(gaps) >= 0.01 else "fails")
+    assert vals["err4"].detail.startswith("to the reference")
+    assert isinstance(ver.results, EngineResults)
+    c4 = case.case_for("ring4", "nominal")
+    assert c4.n == 4 and (c4.inertias[3] == case.base.inertias[0]).all()
+    bad = _write(tmp_path, SAMPLED.replace("pinning = [1, 0, 0, 0]\n", ""), "bad.toml")
+    assert main(["verify", str(bad), "--out", str(tmp_path / "o")]) == 2
+    assert "pinning" in capsys.readouterr().err

@@ -228,11 +228,14 @@ def _graph(row: dict, where: str, base: AgentCase, path: str) -> tuple[Any, str]
     if spec == "case":
         g = base.graph()
         return (g if pin is None else make_digraph(g, pinning=pin)), "the case's graph"
-    m = re.fullmatch(r"cycle:(\d{1,6})", spec)
+    m = re.fullmatch(r"cycle:(\d{1,9})", spec)
     if m:
+        from formsync_design.graphs.build import check_size
+
         n = int(m.group(1))
-        if not 2 <= n <= 10_000:
-            raise InputError(f"expected cycle:N with 2 <= N <= 10000 in {where}.graph, received {spec!r}")
+        if n < 2:
+            raise InputError(f"expected cycle:N with N >= 2 in {where}.graph, received {spec!r}")
+        check_size(n, spec)
         g = directed_cycle(n)
         return (g if pin is None else make_digraph(g, pinning=pin)), spec
     return make_digraph(case_path(spec, path), pinning=pin), spec
