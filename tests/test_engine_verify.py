@@ -449,3 +449,53 @@ def test_a_sampled_design_with_a_leader(tmp_path, capsys):
     bad = _write(tmp_path, SAMPLED.replace("pinning = [1, 0, 0, 0]\n", ""), "bad.toml")
     assert main(["verify", str(bad), "--out", str(tmp_path / "o")]) == 2
     assert "pinning" in capsys.readouterr().err
+
+
+def test_results_are_computed_once_and_fs_verify_case_returns_the_engine_result(
+        tmp_path, monkeypatch):
+    import formsync_design as fs
+    import formsync_design.certify.formation as cf
+    import formsync_design.sim.agents as sa
+
+    calls = {"sim": 0, "cert": 0}
+    sim, cert = sa.simulate_agents, cf.certify_formation
+
+    def counting_sim(*a, **k):
+        calls["sim"] += 1
+        return sim(*a, **k)
+
+    def counting_cert(*a, **k):
+        calls["cert"] += 1
+        return cert(*a, **k)
+
+    monkeypatch.setattr(sa, "simulate_agents", counting_sim)
+    monkeypatch.setattr(cf, "certify_formation", counting_cert)
+    (tmp_path / "damper.py").write_text(DAMPER.replace("test_damper_kinetic_energy",
+                                                       "test_damper_energy_once"))
+    text = DAMPER_CASE.replace("test_damper_kinetic_energy", "final_rate") + """
+[[metrics]]
+id = "peak"
+metric = "peak_torque"
+[[metrics]]
+id = "effort"
+metric = "control_effort"
+[[metrics]]
+id = "decay"
+metric = "certified_decay_rate"
+[[scenarios]]
+name = "nominal"
+[[scenarios]]
+name = "quiet"
+disturbance = {model = "none"}
+"""
+    try:
+        ver = fs.verify_case(_write(tmp_path, text, "once.toml"))
+    finally:
+        from formsync_design.verify.metrics import METRICS
+
+        METRICS.pop("test_damper_energy_once", None)
+    assert type(ver).__name__ == "EngineVerification"
+    # four metrics on one run: one simulation; two scenarios with the same certificate inputs:
+    # one certificate
+    assert calls == {"sim": 1, "cert": 1}
+    assert len(ver.certificates) == 2 and ver.certificates[0][2] is ver.certificates[1][2]
