@@ -499,3 +499,21 @@ disturbance = {model = "none"}
     # one certificate
     assert calls == {"sim": 1, "cert": 1}
     assert len(ver.certificates) == 2 and ver.certificates[0][2] is ver.certificates[1][2]
+
+
+def test_a_metric_returning_the_wrong_kind_is_refused(tmp_path, capsys):
+    from formsync_design.verify.metrics import METRICS
+
+    bad = DAMPER.replace("test_damper_kinetic_energy", "test_damper_wrong").replace(
+        "return ctx.value(float(sum(w @ J @ w for w, J in zip(r.rates[-1], ctx.case.inertias)) / 2))",
+        'return ctx.value("large")')
+    assert "large" in bad
+    (tmp_path / "damper.py").write_text(bad)
+    case = _write(tmp_path, DAMPER_CASE.replace("test_damper_kinetic_energy", "test_damper_wrong"),
+                  "wrong.toml")
+    try:
+        assert main(["verify", str(case), "--out", str(tmp_path / "o")]) == 2
+    finally:
+        METRICS.pop("test_damper_wrong", None)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "number value" in err[0]

@@ -176,7 +176,8 @@ class EngineResults:
 @dataclass(frozen=True)
 class ClaimVerdict:
     """A judged claim: the row, ``verdict``, ``deciding`` metric ids, their ``evidence``
-    kinds, the ``basis`` (``proof``/``evidence``) and the ``values`` it read (id -> text)."""
+    kinds, the ``basis`` (``proof``/``evidence``), the ``values`` it read (id -> text) and
+    its ``scope``: the formation / scenario pairs of the deciding metrics."""
 
     claim: ClaimRow
     verdict: str
@@ -184,6 +185,7 @@ class ClaimVerdict:
     evidence: tuple[str, ...]
     basis: str
     values: tuple[tuple[str, str], ...]
+    scope: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -196,20 +198,37 @@ class EngineVerification:
     metrics: tuple[tuple[MetricRow, MetricValue], ...]
     claims: tuple[ClaimVerdict, ...]
     certificates: tuple[tuple[str, str, Any], ...]
-    results: EngineResults = field(repr=False, compare=False, default=None)  # type: ignore[assignment]
+    results: EngineResults = field(repr=False, compare=False)
 
     @property
     def all_hold(self) -> bool:
         return all(c.verdict == "holds" for c in self.claims)
 
 
-def judge(claim: ClaimRow, values: dict[str, MetricValue]) -> ClaimVerdict:
-    """The verdict of ``claim`` from the metric values (module docstring)."""
+def judge(claim: ClaimRow, values: dict[str, MetricValue],
+          rows: dict[str, MetricRow] | None = None) -> ClaimVerdict:
+    """The verdict of ``claim`` from the metric values (module docstring); ``rows``: the
+    metric rows by id (for the verdict's scope)."""
     out = evaluate(claim.node, {k: v.interval() for k, v in values.items()})
     ev = tuple(sorted({str(values[m].evidence) for m in out.deciding}))
     basis = "proof" if ev == ("certificate",) and out.verdict != "undecided" else "evidence"
     read = tuple((m, values[m].text()) for m in sorted(claim.node.names()))
-    return ClaimVerdict(claim, out.verdict, out.deciding, ev, basis, read)
+    scope: tuple[str, ...] = ()
+    if rows is not None:
+        scope = tuple(sorted({f"{rows[m].formation} / {rows[m].scenario}" for m in out.deciding}))
+    return ClaimVerdict(claim, out.verdict, out.deciding, ev, basis, read, scope)
+
+
+def _checked(m: MetricRow, v: Any) -> MetricValue:
+    """A metric's result, refused (one line) unless it is a MetricValue of the declared kind."""
+    from formsync_design.errors import InputError
+
+    want = str if m.spec.value == "text" else float
+    if not isinstance(v, MetricValue) or not (v.value is None or isinstance(v.value, want)):
+        got = type(v.value if isinstance(v, MetricValue) else v).__name__
+        raise InputError(f"expected metric {m.spec.name} to return a MetricValue with a "
+                         f"{m.spec.value} value or None, received {got}")
+    return v
 
 
 def run_engine(case: EngineCase, progress: Callable[[str], None] = lambda s: None
@@ -225,10 +244,11 @@ def run_engine(case: EngineCase, progress: Callable[[str], None] = lambda s: Non
     for m in case.metrics:
         ctx = MetricContext(case.case_for(m.formation, m.scenario), m.formation, m.scenario,
                             m.spec, res, m.args)
-        v = m.spec.fn(ctx)
+        v = _checked(m, m.spec.fn(ctx))
         values[m.id] = v
         rows.append((m, v))
-    claims = tuple(judge(c, values) for c in case.claims)
+    by_id = {m.id: m for m in case.metrics}
+    claims = tuple(judge(c, values, by_id) for c in case.claims)
     return EngineVerification(case, tuple(rows), claims, tuple(certs), res)
 
 

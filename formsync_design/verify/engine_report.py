@@ -170,8 +170,8 @@ def engine_markdown(ver: Any, fig_dir: str, figures: list[str], command: str,
         vals = ", ".join(f"{k} = {t}" for k, t in c.values)
         L.append(f"| {c.claim.id} | {_cell(c.claim.text)} | {_cell(c.claim.source) or '-'} | "
                  f"`{_cell(c.claim.predicate)}` | {_cell(vals)} | **{c.verdict}** | "
-                 f"{', '.join(c.evidence) or '-'} (decided by {', '.join(c.deciding) or '-'}) | "
-                 f"{c.basis} |")
+                 f"{', '.join(c.evidence) or '-'} (decided by {', '.join(c.deciding) or '-'}"
+                 f"{'; on ' + ', '.join(c.scope) if c.scope else ''}) | {c.basis} |")
     n = {v: sum(c.verdict == v for c in ver.claims) for v in ("holds", "fails", "undecided")}
     L += ["", f"{n['holds']} hold, {n['fails']} fail, {n['undecided']} undecided.", "",
           "## Semantics", ""]
@@ -207,6 +207,8 @@ def engine_json(ver: Any, command: str) -> dict[str, Any]:
     return {
         "case": case.base.name, "design": case.base.design.name, "digest": case.digest,
         "command": command, "assumptions": list(case.base.assumptions),
+        "formations": [{"name": f.name, "graph": f.graph.name, "n": f.graph.n,
+                        "source": f.source} for f in case.formations],
         "scenarios": [{"name": s.name, "overrides": s.overrides,
                        "tf": json_number(s.case.options.tf),
                        "angle_tol": json_number(s.case.options.angle_tol),
@@ -214,7 +216,8 @@ def engine_json(ver: Any, command: str) -> dict[str, Any]:
         "certificates": [{"formation": f, "scenario": s, "graph": case.formation(f).graph.name,
                           **({"status": "undecided", "reason": c} if isinstance(c, str) else
                              {k: v for k, v in c.to_dict().items() if k != "evidence"}
-                             | {"spectral_abscissa": None if c.evidence.get("spectral_abscissa") is None
+                             | {"method": c.evidence.get("method", ""),
+                                "spectral_abscissa": None if c.evidence.get("spectral_abscissa") is None
                                 else json_number(float(c.evidence["spectral_abscissa"]))})}
                          for f, s, c in ver.certificates],
         "metrics": [{"id": m.id, "metric": m.spec.name, "formation": m.formation,
@@ -223,7 +226,8 @@ def engine_json(ver: Any, command: str) -> dict[str, Any]:
         "claims": [{"id": c.claim.id, "text": c.claim.text, "source": c.claim.source,
                     "predicate": c.claim.predicate, "verdict": c.verdict,
                     "evidence": list(c.evidence), "basis": c.basis,
-                    "deciding": list(c.deciding), "values": dict(c.values)}
+                    "deciding": list(c.deciding), "values": dict(c.values),
+                    "scope": list(c.scope)}
                    for c in ver.claims],
         "all_hold": ver.all_hold,
     }

@@ -375,7 +375,11 @@ def _claims(data: dict, metrics: tuple[MetricRow, ...], path: str) -> tuple[Clai
         cid = _unique(row, "id", where, _ID, seen)
         text = _text(row, "text", where)
         source = _text(row, "source", where, required=False, default="")
-        pred = _text(row, "predicate", where)
+        pred = row.get("predicate")
+        if not isinstance(pred, str) or not pred.strip():
+            raise InputError(f"expected {where}.predicate as a non-empty text, received "
+                             f"{pred!r:.60}")
+        pred = pred.strip()
         node = parse_predicate(pred, kinds, f"claim {cid}'s predicate")
         out.append(ClaimRow(cid, text, source, pred, node))
     return tuple(out)
