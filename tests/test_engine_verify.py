@@ -238,6 +238,8 @@ BAD = [
     ('id = "peak4"\nmetric = "peak_torque"', 'id = "peak4"\nmetric = "peak_torque"\nspacecraft = -1',
      ">= 0"),
     ('id = "cert"', 'id = "and"', "metrics[1].id"),
+    ('name = "cycle4"', 'name = "cycle4"\ncertify = false', "certify = true"),
+    ('name = "cycle4"', 'name = "cycle4"\ncertify = "no"', "true or false"),
     ('kind = "engine"', 'kind = "engine"\ncolour = 2', "unknown"),
 ]
 

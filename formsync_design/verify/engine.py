@@ -238,7 +238,8 @@ def run_engine(case: EngineCase, progress: Callable[[str], None] = lambda s: Non
     certs = []
     for f in case.formations:
         for s in case.scenarios:
-            certs.append((f.name, s.name, res.certificate(f.name, s.name)))
+            certs.append((f.name, s.name, res.certificate(f.name, s.name) if f.certify
+                          else "not computed (the formation has certify = false)"))
     values: dict[str, MetricValue] = {}
     rows = []
     for m in case.metrics:

@@ -97,7 +97,8 @@ def _certificate_section(ver: Any) -> list[str]:
     for f, s, c in ver.certificates:
         g = ver.case.formation(f).graph
         if isinstance(c, str):
-            L.append(f"| {f} | {_cell(g.name)} | {g.n} | {s} | undecided | - | - | "
+            status = "undecided" if ver.case.formation(f).certify else "not computed"
+            L.append(f"| {f} | {_cell(g.name)} | {g.n} | {s} | {status} | - | - | "
                      f"{_cell(c)} |")
             continue
         ab = c.evidence.get("spectral_abscissa")
@@ -214,7 +215,8 @@ def engine_json(ver: Any, command: str) -> dict[str, Any]:
                        "angle_tol": json_number(s.case.options.angle_tol),
                        "rate_tol": json_number(s.case.options.rate_tol)} for s in case.scenarios],
         "certificates": [{"formation": f, "scenario": s, "graph": case.formation(f).graph.name,
-                          **({"status": "undecided", "reason": c} if isinstance(c, str) else
+                          **({"status": "undecided" if case.formation(f).certify
+                              else "not computed", "reason": c} if isinstance(c, str) else
                              {k: v for k, v in c.to_dict().items() if k != "evidence"}
                              | {"method": c.evidence.get("method", ""),
                                 "spectral_abscissa": None if c.evidence.get("spectral_abscissa") is None

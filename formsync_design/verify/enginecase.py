@@ -10,7 +10,8 @@ range-checked, :mod:`formsync_design.ranges`; bad input is one line, exit 2)::
                     the agent case tables (:mod:`formsync_design.verify.agentcase`)
     [[formations]]  name, and one of: graph = "ring:6" | "cycle:8" | "edges.txt" (relative
                     to the case file) | "case" (the case's own graph, the default), or
-                    arcs = [[i, j, a_ij], ...] with n; pinning = [b_1, ..., b_N] (leader)
+                    arcs = [[i, j, a_ij], ...] with n; pinning = [b_1, ..., b_N] (leader);
+                    certify = false (no certificate: for a formation too large to certify)
     [[scenarios]]   name, description, and overrides of the base case: gains = {K1 = 2.0},
                     simulation = {tf = 40, switch = "sat"}, disturbance = {model = "none"}
                     (the disturbance table replaced whole)
@@ -61,7 +62,7 @@ _ID = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,39}")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,39}")
 _TEXT_MAX = 4000
 _KEYS = {
-    "formations": {"name", "graph", "arcs", "n", "pinning"},
+    "formations": {"name", "graph", "arcs", "n", "pinning", "certify"},
     "scenarios": {"name", "description", "gains", "simulation", "disturbance"},
     "montecarlo": {"runs", "seed", "max_angle", "max_rate", "box"},
     "claims": {"id", "text", "source", "predicate"},
@@ -71,11 +72,12 @@ _KEYS = {
 @dataclass(frozen=True)
 class FormationSpec:
     """A formation: ``name``, its :class:`~formsync_design.graphs.digraph.Digraph`, ``source``
-    (the graph as the file wrote it)."""
+    (the graph as the file wrote it), ``certify`` (whether its certificate is computed)."""
 
     name: str
     graph: Any
     source: str
+    certify: bool = True
 
 
 @dataclass(frozen=True)
@@ -259,7 +261,10 @@ def _formations(data: dict, base: AgentCase, path: str) -> tuple[FormationSpec, 
         if not d.decl.leader and g.has_leader:
             raise InputError(f"expected no pinning in {where} (design {d.name} has no leader), "
                              "received pinning gains")
-        out.append(FormationSpec(name, g, src))
+        cert = row.get("certify", True)
+        if not isinstance(cert, bool):
+            raise InputError(f"expected {where}.certify = true or false, received {cert!r:.30}")
+        out.append(FormationSpec(name, g, src, cert))
     return tuple(out)
 
 
@@ -360,6 +365,10 @@ def _metrics(data: dict, base: AgentCase, forms: tuple[FormationSpec, ...],
             raise InputError(f"expected {where}.formation among {fnames}, received {f!r:.60}")
         if s not in snames:
             raise InputError(f"expected {where}.scenario among {snames}, received {s!r:.60}")
+        if spec.evidence in ("certificate", "numerical") and not next(
+                x for x in forms if x.name == f).certify:
+            raise InputError(f"expected a formation with certify = true for the certificate "
+                             f"metric {name!r} of {where}, received {f!r} (certify = false)")
         raw = {a: v for a, v in row.items() if a not in ("id", "metric", "formation", "scenario")}
         out.append(MetricRow(mid, spec, f, s, check_metric_args(spec, raw, where)))
     return tuple(out)
