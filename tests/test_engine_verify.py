@@ -239,6 +239,7 @@ BAD = [
      ">= 0"),
     ('id = "cert"', 'id = "and"', "metrics[1].id"),
     ('name = "cycle4"', 'name = "cycle4"\ncertify = false', "certify = true"),
+    ("K1 = 1.15", "K1 = [1.15, 1.2, 1.3]", "montecarlo.box"),
     ('name = "cycle4"', 'name = "cycle4"\ncertify = "no"', "true or false"),
     ('kind = "engine"', 'kind = "engine"\ncolour = 2', "unknown"),
 ]
@@ -519,3 +520,35 @@ def test_a_metric_returning_the_wrong_kind_is_refused(tmp_path, capsys):
         METRICS.pop("test_damper_wrong", None)
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "number value" in err[0]
+
+
+def test_mutated_cases_are_read_or_refused_in_one_line(tmp_path):
+    """Seeded mutations of the engine tables (wrong types, huge or non-finite numbers, code
+    in texts, missing keys): the reader accepts the case or raises a one-line InputError."""
+    from formsync_design.errors import InputError
+    from formsync_design.verify.enginecase import parse_engine_case
+
+    base = tomllib.loads(CASE)
+    bad_values = ["x", 1e300, float("nan"), -1, 0, True, [1, 2], {"a": 1}, "__import__('os')",
+                  "ring:0", "a < ", "", 2**70]
+    rng = np.random.default_rng(2023)
+    paths = [(t, i, k) for t in ("formations", "scenarios", "metrics", "claims")
+             for i, row in enumerate(base[t]) for k in row] + [
+                 ("montecarlo", None, k) for k in base["montecarlo"]]
+    (tmp_path / "tiny.toml").write_text(CASE)
+    refused = 0
+    for _ in range(150):
+        doc = tomllib.loads(CASE)
+        for _ in range(int(rng.integers(1, 3))):
+            t, i, k = paths[int(rng.integers(len(paths)))]
+            row = doc[t] if i is None else doc[t][i]
+            if rng.random() < 0.15:
+                row.pop(k, None)
+            else:
+                row[k] = bad_values[int(rng.integers(len(bad_values)))]
+        try:
+            parse_engine_case(doc, str(tmp_path / "tiny.toml"))
+        except InputError as e:
+            refused += 1
+            assert "\n" not in str(e) and str(e).startswith("expected"), str(e)
+    assert refused > 100

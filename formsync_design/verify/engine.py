@@ -73,7 +73,13 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from formsync_design.verify.enginecase import ClaimRow, EngineCase, MetricRow, load_engine_case
+from formsync_design.verify.enginecase import (
+    ClaimRow,
+    EngineCase,
+    MetricRow,
+    load_engine_case,
+    point_gains,
+)
 from formsync_design.verify.kinds import VerifyRequest
 from formsync_design.verify.metrics import MetricContext, MetricValue
 from formsync_design.verify.predicates import evaluate
@@ -84,25 +90,12 @@ __all__ = ["EngineResults", "ClaimVerdict", "EngineVerification", "run_engine",
 
 def certificate_inputs(case: Any) -> tuple[dict[str, Fraction] | None, str, str, str]:
     """``(point, switch, phi, why)`` of the certificate of an agent case's gains: the exact
-    point (``None`` when a diagonal gain has unequal entries, ``why`` says so), the switching
-    realisation and boundary layer of its options."""
-    from formsync_design.gains import parse_number
-    from formsync_design.spec.declarations import GainRole
-
-    point: dict[str, Fraction] = {}
-    given = case.gains.as_dict()
-    for g in case.design.decl.gains:
-        if g.role != GainRole.CONTROLLER:
-            continue
-        v = given[g.name]
-        if isinstance(v, tuple):
-            if len(set(v)) != 1:
-                return (None, "", "", f"the diagonal gain {g.name} = {list(v)} has unequal "
-                        "entries (the certificate takes one value per gain)")
-            v = v[0]
-        point[g.name] = parse_number(v, g.name)
+    point (:func:`~formsync_design.verify.enginecase.point_gains`; ``None`` when a diagonal
+    gain has unequal entries, ``why`` says so), the switching realisation and boundary layer
+    of its options."""
+    point, why = point_gains(case)
     o = case.options
-    return point, str(o.switch), repr(float(o.phi)), ""
+    return point, str(o.switch), repr(float(o.phi)), why
 
 
 class EngineResults:

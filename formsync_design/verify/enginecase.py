@@ -53,7 +53,8 @@ from formsync_design.verify.metrics import METRICS, MetricSpec, check_metric_arg
 from formsync_design.verify.predicates import KEYWORDS, Node, parse_predicate
 
 __all__ = ["ENGINE_TABLES", "FormationSpec", "ScenarioSpec", "MonteCarloSpec", "MetricRow",
-           "ClaimRow", "EngineCase", "load_engine_case", "parse_engine_case", "directed_cycle"]
+           "ClaimRow", "EngineCase", "load_engine_case", "parse_engine_case", "directed_cycle",
+           "point_gains"]
 
 #: The tables an engine case adds to the agent case layout.
 ENGINE_TABLES = ("formations", "scenarios", "montecarlo", "metrics", "claims")
@@ -148,6 +149,34 @@ class EngineCase:
         g = self.formation(formation).graph
         c = self.scenario(scenario).case
         return c if g.n == c.n else c.cycled(g.n)
+
+
+def point_gains(case: AgentCase) -> tuple[dict[str, Any] | None, str]:
+    """The controller gains of ``case`` as exact numbers, one per gain (``None`` and why when
+    a diagonal gain has unequal entries: a certificate or a Monte-Carlo box takes one value
+    per gain).
+
+    >>> from formsync_design.resources import case_file
+    >>> from formsync_design.verify.agentcase import load_agent_case
+    >>> point_gains(load_agent_case(case_file("ma_so3")))[0]["K1"]
+    Fraction(23, 20)
+    """
+    from formsync_design.gains import parse_number
+    from formsync_design.spec.declarations import GainRole
+
+    point: dict[str, Any] = {}
+    given = case.gains.as_dict()
+    for g in case.design.decl.gains:
+        if g.role != GainRole.CONTROLLER:
+            continue
+        v = given[g.name]
+        if isinstance(v, tuple):
+            if len(set(v)) != 1:
+                return None, (f"the diagonal gain {g.name} = {list(v)} has unequal entries (a "
+                              "certificate or a Monte-Carlo box takes one value per gain)")
+            v = v[0]
+        point[g.name] = parse_number(v, g.name)
+    return point, ""
 
 
 def directed_cycle(n: int) -> Any:
@@ -369,6 +398,12 @@ def _metrics(data: dict, base: AgentCase, forms: tuple[FormationSpec, ...],
                 x for x in forms if x.name == f).certify:
             raise InputError(f"expected a formation with certify = true for the certificate "
                              f"metric {name!r} of {where}, received {f!r} (certify = false)")
+        if spec.evidence == "montecarlo" and mc is not None:
+            point, why = point_gains(next(x for x in scens if x.name == s).case)
+            missing = [g for g in base.design.decl.controller_gains if g not in mc.box]
+            if point is None and missing:
+                raise InputError(f"expected montecarlo.box for {missing} ({why}) for the metric "
+                                 f"{name!r} of {where}, received none")
         raw = {a: v for a, v in row.items() if a not in ("id", "metric", "formation", "scenario")}
         out.append(MetricRow(mid, spec, f, s, check_metric_args(spec, raw, where)))
     return tuple(out)
