@@ -15,8 +15,9 @@ What is computed, once per verification (:class:`EngineResults`, cached):
 * **certificates**: the formation-level certificate
   (:func:`~formsync_design.certify.formation.certify_formation`) of the scenario's gains (a
   point box) on the formation's graph and inertias, the switching function realised as the
-  scenario's ``switch`` with its boundary layer; computed for every formation under every
-  scenario (the report's table) and shared between scenarios with the same inputs.  A
+  scenario's ``switch`` with its boundary layer; computed for every formation (unless it
+  says ``certify = false``) under every scenario (the report's table) and shared between
+  scenarios with the same inputs (graph, inertias, gains, switching realisation).  A
   diagonal gain with unequal entries has no point box: no certificate (undecided, said why);
 * **Monte-Carlo**: the seeded batch of :func:`~formsync_design.sim.agent_montecarlo.run_agent_montecarlo`
   per (formation, scenario) a metric reads, the draws of ``[montecarlo]``.
