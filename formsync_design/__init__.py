@@ -37,9 +37,13 @@ data flows through the stages:
   :class:`AgentOptions`, :func:`simulate_agents` (:class:`AgentResult`), gyro models
   :class:`RateSensors`, :func:`measured_l2_gain`;
 * verification of a published case: :func:`load_case`, :func:`verify_case` (a case of
-  any kind, formation, lv2012, selftrigger, flyaround or agent-comparison, by file or
+  any kind, formation, lv2012, selftrigger, flyaround, agent-comparison or engine, by file or
   shipped name; returns that kind's result);
-  :func:`load_agent_case` (the case files of agent designs); self-triggered designs
+  :func:`load_agent_case` (the case files of agent designs); the verification engine
+  (case kind ``engine``: formations, scenarios, Monte-Carlo, metrics and claims declared
+  in the case file): :func:`load_engine_case`, :func:`run_engine` (->
+  :class:`EngineVerification`), :func:`register_metric` (the metric registry, -> a
+  :class:`MetricValue`); self-triggered designs
   (seed 001): :func:`sampling_variant` (a design under another sampling rule),
   :func:`scheme_designs`, :func:`run_scheme` (self-, event-triggered and periodic runs
   with their measurements), :func:`interevent_bound` (the certified inter-event lower
@@ -170,6 +174,11 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "VerificationResult": "formsync_design.verify",
     "verify_case": "formsync_design.verify.dispatch",
     "load_agent_case": "formsync_design.verify",
+    "load_engine_case": "formsync_design.verify.enginecase",
+    "run_engine": "formsync_design.verify.engine",
+    "EngineVerification": "formsync_design.verify.engine",
+    "register_metric": "formsync_design.verify.metrics",
+    "MetricValue": "formsync_design.verify.metrics",
     "scheme_designs": "formsync_design.verify.selftrigger_runs",
     "run_scheme": "formsync_design.verify.selftrigger_runs",
     "interevent_bound": "formsync_design.verify.selftrigger_cert",

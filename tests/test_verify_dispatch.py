@@ -37,9 +37,16 @@ def _shipped_kinds() -> dict[str, str]:
     return {k: p.stem for k, p in out.items()}
 
 
+#: kinds whose case is documented but not shipped yet (the shipped cases are rewritten in the
+#: engine's schema in a later step of issue 23; then its example is a shipped case too)
+DOCUMENTED = {"engine": Path(__file__).resolve().parent.parent / "docs" / "engine" / "example.toml"}
+
+
 def test_every_kind_has_a_result_and_a_shipped_case() -> None:
     assert set(dispatch.RESULT_KINDS) == set(KINDS)
-    assert set(_shipped_kinds()) == set(KINDS)
+    assert set(_shipped_kinds()) | set(DOCUMENTED) == set(KINDS)
+    for kind, path in DOCUMENTED.items():
+        assert case_kind(load_toml(path, "case"), str(path)) == kind
     assert fs.verify_case is dispatch.verify_case
     assert "verify_case" in fs.__all__
 

@@ -13,6 +13,7 @@ result object, writing nothing:
 ``flyaround``                 :class:`~formsync_design.verify.flyaround.FlyaroundVerification`
 ``lv2012``                    :class:`~formsync_design.verify.lv2012.CaseOutcome`
 ``agent-comparison``          :class:`~formsync_design.verify.comparison.ComparisonResult`
+``engine``                    :class:`~formsync_design.verify.engine.EngineVerification`
 ============================  ==============================================================
 
 Each result has the case's judged claims as ``claims``.  (An ``lv2012`` case that names a
@@ -42,6 +43,7 @@ RESULT_KINDS: dict[str, str] = {
     "flyaround": "FlyaroundVerification",
     "lv2012": "CaseOutcome",
     "agent-comparison": "ComparisonResult",
+    "engine": "EngineVerification",
 }
 
 
@@ -124,6 +126,11 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
         from formsync_design.verify.lv2012 import analyse_case
 
         return analyse_case(path, design=spec, progress=progress)
+    if kind == "engine":
+        from formsync_design.verify.engine import run_engine
+        from formsync_design.verify.enginecase import load_engine_case
+
+        return run_engine(load_engine_case(path, design=spec), progress or (lambda s: None))
     from formsync_design.verify.agentcase import load_agent_case
 
     case = load_agent_case(path, design=spec)

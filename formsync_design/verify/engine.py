@@ -1,0 +1,268 @@
+"""The verification engine: an ``engine`` case in, every verdict computed, one report out.
+
+``formsync verify CASE`` with ``[case] kind = "engine"`` (:mod:`formsync_design.verify.kinds`)
+reads the case (:mod:`formsync_design.verify.enginecase`), computes each ``[[metrics]]``
+row with the registered metric (:mod:`formsync_design.verify.metrics`), judges each
+``[[claims]]`` predicate (:mod:`formsync_design.verify.predicates`) and writes the report
+(:mod:`formsync_design.verify.engine_report`).  The design file and the metric registry are
+the only extension points: nothing here is specific to a paper.
+
+What is computed, once per verification (:class:`EngineResults`, cached):
+
+* **runs**: one simulation per (formation, scenario) a metric reads
+  (:func:`~formsync_design.sim.agents.simulate_agents`: the scenario's options, its
+  convergence criterion ``angle_tol``/``rate_tol``);
+* **certificates**: the formation-level certificate
+  (:func:`~formsync_design.certify.formation.certify_formation`) of the scenario's gains (a
+  point box) on the formation's graph and inertias, the switching function realised as the
+  scenario's ``switch`` with its boundary layer; computed for every formation (unless it
+  says ``certify = false``) under every scenario (the report's table) and shared between
+  scenarios with the same inputs (graph, inertias, gains, switching realisation).  A
+  diagonal gain with unequal entries has no point box: no certificate (undecided, said why);
+* **Monte-Carlo**: the seeded batch of :func:`~formsync_design.sim.agent_montecarlo.run_agent_montecarlo`
+  per (formation, scenario) a metric reads, the draws of ``[montecarlo]``.
+
+A claim's verdict is ``holds``, ``fails`` or ``undecided`` (a metric it needs is unknown, or
+the values do not decide it); its *evidence* is the evidence of the metrics that decided it,
+and its *basis* is ``proof`` only when every one of them is a certificate, else ``evidence``
+(simulation is evidence, never proof).
+
+A rate damper ``u = -k J w`` damps the rates (simulation: evidence) but has no attitude
+feedback, so its consensus is marginal: the certificate is undecided, and so is the claim:
+
+>>> import pathlib, tempfile
+>>> d = pathlib.Path(tempfile.mkdtemp())
+>>> _ = (d / "damper.py").write_text(
+...     'FORM = "agent"\\nGAINS = {"k": {}}\\ndef controller(v):\\n    return -v.k * v.J * v.w\\n')
+>>> sc = '[[spacecraft]]\\ninertia = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]\\nrate = [0.1, 0, 0]\\nq = [0, 0, 0]\\n'
+>>> _ = (d / "c.toml").write_text('''
+... [case]
+... kind = "engine"
+... design = "damper.py"
+... graph = "path:2"
+... [gains]
+... k = 1.0
+... [simulation]
+... tf = 5.0
+... output_step = 0.5
+... step = 0.05
+... [[metrics]]
+... id = "w"
+... metric = "final_rate"
+... [[metrics]]
+... id = "cert"
+... metric = "formation_certificate"
+... [[claims]]
+... id = "damped"
+... text = "the rates decay below 0.001 rad/s in 5 s"
+... predicate = "w < 1e-3"
+... [[claims]]
+... id = "stable"
+... text = "consensus is locally exponentially stable"
+... predicate = 'cert == "certified"'
+... ''' + sc + sc)
+>>> ver = run_engine(load_engine_case(d / "c.toml"))
+>>> [(c.claim.id, c.verdict, c.basis) for c in ver.claims]
+[('damped', 'holds', 'evidence'), ('stable', 'undecided', 'evidence')]
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any
+
+from formsync_design.verify.enginecase import (
+    ClaimRow,
+    EngineCase,
+    MetricRow,
+    load_engine_case,
+    point_gains,
+)
+from formsync_design.verify.kinds import VerifyRequest
+from formsync_design.verify.metrics import MetricContext, MetricValue
+from formsync_design.verify.predicates import evaluate
+
+__all__ = ["EngineResults", "ClaimVerdict", "EngineVerification", "run_engine",
+           "verify_engine_case", "certificate_inputs"]
+
+
+def certificate_inputs(case: Any) -> tuple[dict[str, Fraction] | None, str, str, str]:
+    """``(point, switch, phi, why)`` of the certificate of an agent case's gains: the exact
+    point (:func:`~formsync_design.verify.enginecase.point_gains`; ``None`` when a diagonal
+    gain has unequal entries, ``why`` says so), the switching realisation and boundary layer
+    of its options."""
+    point, why = point_gains(case)
+    o = case.options
+    return point, str(o.switch), repr(float(o.phi)), why
+
+
+class EngineResults:
+    """The runs, certificates and Monte-Carlo batches of one verification, each computed once
+    (implements :class:`~formsync_design.verify.metrics.Results`)."""
+
+    def __init__(self, case: EngineCase, progress: Callable[[str], None] = lambda s: None) -> None:
+        self.case = case
+        self.progress = progress
+        self.runs: dict[tuple[str, str], Any] = {}
+        self.mc: dict[tuple[str, str], Any] = {}
+        self._certs: dict[tuple[Any, ...], Any] = {}
+        self.cert_keys: dict[tuple[str, str], tuple[Any, ...]] = {}
+
+    def run(self, formation: str, scenario: str) -> Any:
+        from formsync_design.sim.agents import simulate_agents
+
+        key = (formation, scenario)
+        if key not in self.runs:
+            self.progress(f"simulate {formation} / {scenario}")
+            c = self.case.case_for(formation, scenario)
+            f = c.formation(self.case.formation(formation).graph)
+            self.runs[key] = simulate_agents(c.design, f, c.options)
+        return self.runs[key]
+
+    def certificate(self, formation: str, scenario: str) -> Any:
+        from formsync_design.certify.formation import certify_formation
+        from formsync_design.gains import GainBox
+
+        c = self.case.case_for(formation, scenario)
+        point, switch, phi, why = certificate_inputs(c)
+        if point is None:
+            return why
+        g = self.case.formation(formation).graph
+        ckey = (formation, tuple(sorted(point.items())), switch, phi,
+                c.inertias.tobytes())
+        self.cert_keys[(formation, scenario)] = ckey
+        if ckey not in self._certs:
+            self.progress(f"certify {formation} / {scenario}")
+            box = GainBox.parse({k: (v, v) for k, v in point.items()})
+            self._certs[ckey] = certify_formation(c.design, g, c.inertias, box, switch=switch,
+                                                  phi=phi)
+        return self._certs[ckey]
+
+    def montecarlo(self, formation: str, scenario: str) -> Any:
+        from formsync_design.gains import GainBox
+        from formsync_design.sim.agent_montecarlo import run_agent_montecarlo
+
+        key = (formation, scenario)
+        if key not in self.mc:
+            mc = self.case.montecarlo
+            assert mc is not None  # the case refuses montecarlo metrics without [montecarlo]
+            c = self.case.case_for(formation, scenario)
+            point, _, _, why = certificate_inputs(c)
+            ranges: dict[str, Any] = dict(mc.box)
+            for k in c.design.decl.controller_gains:
+                if k not in ranges:
+                    if point is None:
+                        from formsync_design.errors import InputError
+
+                        raise InputError(f"expected montecarlo.box.{k} ({why}), received none")
+                    ranges[k] = (point[k], point[k])
+            box = GainBox.parse(ranges, list(c.design.decl.controller_gains))
+            self.progress(f"Monte-Carlo {formation} / {scenario} ({mc.settings.runs} runs)")
+            f = c.formation(self.case.formation(formation).graph)
+            self.mc[key] = run_agent_montecarlo(c.design, f, box, mc.settings, c.options,
+                                                certify=False)
+        return self.mc[key]
+
+
+@dataclass(frozen=True)
+class ClaimVerdict:
+    """A judged claim: the row, ``verdict``, ``deciding`` metric ids, their ``evidence``
+    kinds, the ``basis`` (``proof``/``evidence``), the ``values`` it read (id -> text) and
+    its ``scope``: the formation / scenario pairs of the deciding metrics."""
+
+    claim: ClaimRow
+    verdict: str
+    deciding: tuple[str, ...]
+    evidence: tuple[str, ...]
+    basis: str
+    values: tuple[tuple[str, str], ...]
+    scope: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class EngineVerification:
+    """The verification of an engine case: the ``metrics`` (row, value), the ``claims``
+    (:class:`ClaimVerdict`), the certificate of every formation x scenario, and the
+    cached ``results`` (runs and batches, for the figures)."""
+
+    case: EngineCase
+    metrics: tuple[tuple[MetricRow, MetricValue], ...]
+    claims: tuple[ClaimVerdict, ...]
+    certificates: tuple[tuple[str, str, Any], ...]
+    results: EngineResults = field(repr=False, compare=False)
+
+    @property
+    def all_hold(self) -> bool:
+        return all(c.verdict == "holds" for c in self.claims)
+
+
+def judge(claim: ClaimRow, values: dict[str, MetricValue],
+          rows: dict[str, MetricRow] | None = None) -> ClaimVerdict:
+    """The verdict of ``claim`` from the metric values (module docstring); ``rows``: the
+    metric rows by id (for the verdict's scope)."""
+    out = evaluate(claim.node, {k: v.interval() for k, v in values.items()})
+    ev = tuple(sorted({str(values[m].evidence) for m in out.deciding}))
+    basis = "proof" if ev == ("certificate",) and out.verdict != "undecided" else "evidence"
+    read = tuple((m, values[m].text()) for m in sorted(claim.node.names()))
+    scope: tuple[str, ...] = ()
+    if rows is not None:
+        scope = tuple(sorted({f"{rows[m].formation} / {rows[m].scenario}" for m in out.deciding}))
+    return ClaimVerdict(claim, out.verdict, out.deciding, ev, basis, read, scope)
+
+
+def _checked(m: MetricRow, v: Any) -> MetricValue:
+    """A metric's result, refused (one line) unless it is a MetricValue of the declared kind."""
+    from formsync_design.errors import InputError
+
+    want = str if m.spec.value == "text" else float
+    if not isinstance(v, MetricValue) or not (v.value is None or isinstance(v.value, want)):
+        got = type(v.value if isinstance(v, MetricValue) else v).__name__
+        raise InputError(f"expected metric {m.spec.name} to return a MetricValue with a "
+                         f"{m.spec.value} value or None, received {got}")
+    return v
+
+
+def run_engine(case: EngineCase, progress: Callable[[str], None] = lambda s: None
+               ) -> EngineVerification:
+    """Compute every metric, certificate and verdict of ``case`` (module docstring)."""
+    res = EngineResults(case, progress)
+    certs = []
+    for f in case.formations:
+        for s in case.scenarios:
+            certs.append((f.name, s.name, res.certificate(f.name, s.name) if f.certify
+                          else "not computed (the formation has certify = false)"))
+    values: dict[str, MetricValue] = {}
+    rows = []
+    for m in case.metrics:
+        ctx = MetricContext(case.case_for(m.formation, m.scenario), m.formation, m.scenario,
+                            m.spec, res, m.args)
+        v = _checked(m, m.spec.fn(ctx))
+        values[m.id] = v
+        rows.append((m, v))
+    by_id = {m.id: m for m in case.metrics}
+    claims = tuple(judge(c, values, by_id) for c in case.claims)
+    return EngineVerification(case, tuple(rows), claims, tuple(certs), res)
+
+
+def verify_engine_case(req: VerifyRequest) -> int:
+    """``formsync verify`` of an ``engine`` case (exit status: :mod:`formsync_design.verify.kinds`)."""
+    import json
+
+    from formsync_design.verify.engine_report import engine_json, write_engine_report
+
+    case = load_engine_case(req.path, design=req.design)
+    ver = run_engine(case, req.progress)
+    req.progress("write report")
+    md, figs = write_engine_report(ver, req.out, req.path.stem, req.command())
+    if req.format == "json":
+        sys.stdout.write(json.dumps(engine_json(ver, req.command()), indent=2) + "\n")
+    else:
+        sys.stdout.write(f"wrote {md} ({len(figs)} figures)\n")
+        for c in ver.claims:
+            sys.stdout.write(f"  {c.verdict:10s} [{c.basis}] {c.claim.id}: {c.claim.text}\n")
+    if req.strict and not ver.all_hold:
+        return 1
+    return 0

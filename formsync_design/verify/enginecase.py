@@ -1,0 +1,456 @@
+"""Case files of kind ``engine``: one verification of any agent design, driven by the file.
+
+A new paper is verified by a design file (``FORM = "agent"``, :mod:`formsync_design.spec.agent`)
+and one case file; the engine (:mod:`formsync_design.verify.engine`) derives, certifies,
+simulates, measures and judges what the file declares.  Layout (TOML; every number
+range-checked, :mod:`formsync_design.ranges`; bad input is one line, exit 2)::
+
+    [case]          kind = "engine", design, name, title, source, assumptions, graph
+    [gains] [[spacecraft]] [simulation] [disturbance] [reference] [orbit] [graph]
+                    the agent case tables (:mod:`formsync_design.verify.agentcase`)
+    [[formations]]  name, and one of: graph = "ring:6" | "cycle:8" | "edges.txt" (relative
+                    to the case file) | "case" (the case's own graph, the default), or
+                    arcs = [[i, j, a_ij], ...] with n; pinning = [b_1, ..., b_N] (leader);
+                    certify = false (no certificate: for a formation too large to certify)
+    [[scenarios]]   name, description, and overrides of the base case: gains = {K1 = 2.0},
+                    simulation = {tf = 40, switch = "sat"}, disturbance = {model = "none"}
+                    (the disturbance table replaced whole)
+    [montecarlo]    runs, seed, max_angle (deg), max_rate (rad/s), box = {K1 = "1:2", ...}
+                    (the gains drawn; default the scenario's gains)
+    [[metrics]]     id, metric (a name of the registry, formsync_design/verify/metrics.py),
+                    formation, scenario (default the first of each), the metric's arguments
+    [[claims]]      id, text (the paper's words), source (where in the paper),
+                    predicate over metric ids (formsync_design/verify/predicates.py)
+
+Without ``[[formations]]`` the one formation ``case`` is the case's graph; without
+``[[scenarios]]`` the one scenario ``nominal`` is the base case (list it as a scenario
+without overrides to keep it beside others).  ``cycle:N`` is the directed cycle (spacecraft
+``i`` receives from ``i - 1``, spacecraft 1 from ``N``, unit weights); every other graph
+specification is :func:`~formsync_design.graphs.digraph_io.make_digraph`'s.  A formation of
+another size than the case takes the case's spacecraft cycled (spacecraft ``i`` is the
+case's ``i mod N``: :meth:`~formsync_design.verify.agentcase.AgentCase.cycled`).  A scenario
+is the base case's tables with its overrides, validated by the same agent case parser.
+Ids of metrics and claims are a letter then letters, digits, ``_``; names of formations and
+scenarios are letters, digits, ``_ . -`` (they name figure files).
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from formsync_design.errors import InputError
+from formsync_design.ranges import check_range
+from formsync_design.sim.agent_montecarlo import MAX_AGENT_RUNS, AgentMonteCarloSettings
+from formsync_design.tomlio import load_toml
+from formsync_design.verify.agentcase import AgentCase, parse_agent_case
+from formsync_design.verify.case import case_path
+from formsync_design.verify.metrics import METRICS, MetricSpec, check_metric_args
+from formsync_design.verify.predicates import KEYWORDS, Node, parse_predicate
+
+__all__ = ["ENGINE_TABLES", "FormationSpec", "ScenarioSpec", "MonteCarloSpec", "MetricRow",
+           "ClaimRow", "EngineCase", "load_engine_case", "parse_engine_case", "directed_cycle",
+           "point_gains"]
+
+#: The tables an engine case adds to the agent case layout.
+ENGINE_TABLES = ("formations", "scenarios", "montecarlo", "metrics", "claims")
+
+_ID = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,39}")
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,39}")
+_TEXT_MAX = 4000
+_KEYS = {
+    "formations": {"name", "graph", "arcs", "n", "pinning", "certify"},
+    "scenarios": {"name", "description", "gains", "simulation", "disturbance"},
+    "montecarlo": {"runs", "seed", "max_angle", "max_rate", "box"},
+    "claims": {"id", "text", "source", "predicate"},
+}
+
+
+@dataclass(frozen=True)
+class FormationSpec:
+    """A formation: ``name``, its :class:`~formsync_design.graphs.digraph.Digraph`, ``source``
+    (the graph as the file wrote it), ``certify`` (whether its certificate is computed)."""
+
+    name: str
+    graph: Any
+    source: str
+    certify: bool = True
+
+
+@dataclass(frozen=True)
+class ScenarioSpec:
+    """A scenario: ``name``, ``description``, the validated ``case`` (base + overrides) and the
+    ``overrides`` as written."""
+
+    name: str
+    description: str
+    case: AgentCase
+    overrides: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class MonteCarloSpec:
+    """``settings`` (runs, seed, spreads) and ``box`` (gain -> ``"lo:hi"``, ``{}``: the
+    scenario's gains)."""
+
+    settings: AgentMonteCarloSettings
+    box: dict[str, str]
+
+
+@dataclass(frozen=True)
+class MetricRow:
+    """A ``[[metrics]]`` row: ``id``, the registered ``spec``, ``formation``, ``scenario``,
+    ``args`` (checked)."""
+
+    id: str
+    spec: MetricSpec
+    formation: str
+    scenario: str
+    args: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class ClaimRow:
+    """A ``[[claims]]`` row: ``id``, ``text``, ``source``, ``predicate`` (as written) and its
+    parsed ``node``."""
+
+    id: str
+    text: str
+    source: str
+    predicate: str
+    node: Node
+
+
+@dataclass(frozen=True)
+class EngineCase:
+    """A validated engine case (module docstring)."""
+
+    path: str
+    base: AgentCase
+    formations: tuple[FormationSpec, ...]
+    scenarios: tuple[ScenarioSpec, ...]
+    montecarlo: MonteCarloSpec | None
+    metrics: tuple[MetricRow, ...]
+    claims: tuple[ClaimRow, ...]
+    digest: str = ""
+
+    def formation(self, name: str) -> FormationSpec:
+        return next(f for f in self.formations if f.name == name)
+
+    def scenario(self, name: str) -> ScenarioSpec:
+        return next(s for s in self.scenarios if s.name == name)
+
+    def case_for(self, formation: str, scenario: str) -> AgentCase:
+        """The scenario's case resized to the formation (spacecraft cycled when it differs)."""
+        g = self.formation(formation).graph
+        c = self.scenario(scenario).case
+        return c if g.n == c.n else c.cycled(g.n)
+
+
+def point_gains(case: AgentCase) -> tuple[dict[str, Any] | None, str]:
+    """The controller gains of ``case`` as exact numbers, one per gain (``None`` and why when
+    a diagonal gain has unequal entries: a certificate or a Monte-Carlo box takes one value
+    per gain).
+
+    >>> from formsync_design.resources import case_file
+    >>> from formsync_design.verify.agentcase import load_agent_case
+    >>> point_gains(load_agent_case(case_file("ma_so3")))[0]["K1"]
+    Fraction(23, 20)
+    """
+    from formsync_design.gains import parse_number
+    from formsync_design.spec.declarations import GainRole
+
+    point: dict[str, Any] = {}
+    given = case.gains.as_dict()
+    for g in case.design.decl.gains:
+        if g.role != GainRole.CONTROLLER:
+            continue
+        v = given[g.name]
+        if isinstance(v, tuple):
+            if len(set(v)) != 1:
+                return None, (f"the diagonal gain {g.name} = {list(v)} has unequal entries (a "
+                              "certificate or a Monte-Carlo box takes one value per gain)")
+            v = v[0]
+        point[g.name] = parse_number(v, g.name)
+    return point, ""
+
+
+def directed_cycle(n: int) -> Any:
+    """The directed cycle on ``n`` spacecraft (``i`` receives from ``i - 1``, 1 from ``n``).
+
+    >>> g = directed_cycle(4)
+    >>> g.name, g.n, g.is_undirected
+    ('cycle:4', 4, False)
+    """
+    from formsync_design.graphs.digraph_io import digraph_from_edges
+
+    return digraph_from_edges([(i, i - 1 if i > 1 else n, 1) for i in range(1, n + 1)], n=n,
+                              name=f"cycle:{n}")
+
+
+def _rows(data: dict, key: str, path: str) -> list[dict]:
+    v = data.get(key, [])
+    if not isinstance(v, list) or not all(isinstance(r, dict) for r in v):
+        raise InputError(f"expected [[{key}]] tables in {path}, received {type(v).__name__}")
+    return v
+
+
+def _text(row: dict, key: str, where: str, *, required: bool = True, default: str = "") -> str:
+    if key not in row:
+        if required:
+            raise InputError(f"expected {where}.{key}, received none")
+        return default
+    v = row[key]
+    if not isinstance(v, str) or (required and not v.strip()) or len(v) > _TEXT_MAX:
+        raise InputError(f"expected {where}.{key} as a non-empty text of at most {_TEXT_MAX} "
+                         f"characters, received {v!r:.60}")
+    return " ".join(v.split())
+
+
+def _unique(row: dict, key: str, where: str, pattern: re.Pattern[str], seen: set[str]) -> str:
+    v = row.get(key)
+    if not isinstance(v, str) or not pattern.fullmatch(v) or v in KEYWORDS:
+        raise InputError(f"expected {where}.{key} matching {pattern.pattern} (not and/or/not), "
+                         f"received {v!r:.60}")
+    if v in seen:
+        raise InputError(f"expected each {where}.{key} once, received {v!r} twice")
+    seen.add(v)
+    return v
+
+
+def _check_keys(row: dict, table: str, where: str) -> None:
+    extra = sorted(set(row) - _KEYS[table])
+    if extra:
+        raise InputError(f"expected keys {sorted(_KEYS[table])} in {where}, received unknown {extra}")
+
+
+def _graph(row: dict, where: str, base: AgentCase, path: str) -> tuple[Any, str]:
+    from formsync_design.graphs.digraph_io import digraph_from_edges, make_digraph
+
+    pin = row.get("pinning")
+    if pin is not None:
+        if not isinstance(pin, list) or not pin:
+            raise InputError(f"expected {where}.pinning = [b_1, ..., b_N], received {pin!r:.60}")
+        for k, b in enumerate(pin, 1):
+            if isinstance(b, bool) or not isinstance(b, (int, float)):
+                raise InputError(f"expected numbers in {where}.pinning, received {b!r:.30}")
+            check_range(b, "weight", f"{where}.pinning[{k}]")
+    if "arcs" in row:
+        if "graph" in row:
+            raise InputError(f"expected one of {where}.graph or {where}.arcs, received both")
+        arcs = row["arcs"]
+        if not isinstance(arcs, list) or not all(isinstance(a, list) for a in arcs):
+            raise InputError(f"expected {where}.arcs = [[i, j, a_ij], ...], received {arcs!r:.60}")
+        n = row.get("n")
+        if n is not None and (isinstance(n, bool) or not isinstance(n, int)):
+            raise InputError(f"expected {where}.n as an integer, received {n!r:.30}")
+        return digraph_from_edges([tuple(a) for a in arcs], n=n, pinning=pin,
+                                  name=str(row["name"])), "arcs"
+    if "n" in row:
+        raise InputError(f"expected {where}.n only with {where}.arcs, received it with a graph")
+    spec = row.get("graph", "case")
+    if not isinstance(spec, str) or not spec.strip():
+        raise InputError(f"expected {where}.graph as a graph spec or file, received {spec!r:.60}")
+    spec = spec.strip()
+    if spec == "case":
+        g = base.graph()
+        return (g if pin is None else make_digraph(g, pinning=pin)), "the case's graph"
+    m = re.fullmatch(r"cycle:(\d{1,9})", spec)
+    if m:
+        from formsync_design.graphs.build import check_size
+
+        n = int(m.group(1))
+        if n < 2:
+            raise InputError(f"expected cycle:N with N >= 2 in {where}.graph, received {spec!r}")
+        check_size(n, spec)
+        g = directed_cycle(n)
+        return (g if pin is None else make_digraph(g, pinning=pin)), spec
+    return make_digraph(case_path(spec, path), pinning=pin), spec
+
+
+def _formations(data: dict, base: AgentCase, path: str) -> tuple[FormationSpec, ...]:
+    rows = _rows(data, "formations", path)
+    if not rows:
+        return (FormationSpec("case", base.graph(), "the case's graph"),)
+    out: list[Any] = []
+    seen: set[str] = set()
+    for k, row in enumerate(rows, 1):
+        where = f"formations[{k}]"
+        _check_keys(row, "formations", where)
+        name = _unique(row, "name", where, _NAME, seen)
+        g, src = _graph(row, where, base, path)
+        d = base.design
+        if d.decl.leader and not g.has_leader:
+            raise InputError(f"expected {where}.pinning (design {d.name} has a leader), received "
+                             f"graph {g.name!r} without pinning gains")
+        if not d.decl.leader and g.has_leader:
+            raise InputError(f"expected no pinning in {where} (design {d.name} has no leader), "
+                             "received pinning gains")
+        cert = row.get("certify", True)
+        if not isinstance(cert, bool):
+            raise InputError(f"expected {where}.certify = true or false, received {cert!r:.30}")
+        out.append(FormationSpec(name, g, src, cert))
+    return tuple(out)
+
+
+def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[ScenarioSpec, ...]:
+    rows = _rows(data, "scenarios", path)
+    if not rows:
+        return (ScenarioSpec("nominal", "the base case", base, {}),)
+    out: list[Any] = []
+    seen: set[str] = set()
+    for k, row in enumerate(rows, 1):
+        where = f"scenarios[{k}]"
+        _check_keys(row, "scenarios", where)
+        name = _unique(row, "name", where, _NAME, seen)
+        desc = _text(row, "description", where, required=False)
+        merged = copy.deepcopy(agent)
+        over: dict[str, Any] = {}
+        for table in ("gains", "simulation", "disturbance"):
+            if table not in row:
+                continue
+            t = row[table]
+            if not isinstance(t, dict):
+                raise InputError(f"expected {where}.{table} as a table, received {t!r:.60}")
+            over[table] = dict(t)
+            if table == "disturbance":
+                merged[table] = dict(t)
+            else:
+                merged[table] = {**merged.get(table, {}), **t}
+        case = parse_agent_case(merged, path, design=base.design)
+        out.append(ScenarioSpec(name, desc, case, over))
+    return tuple(out)
+
+
+def _int(v: Any, where: str, lo: int, hi: int) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+        raise InputError(f"expected {where} an integer in [{lo}, {hi}], received {v!r:.40}")
+    return v
+
+
+def _number(v: Any, where: str, quantity: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise InputError(f"expected {where} as a number, received {v!r:.40}")
+    check_range(v, quantity, where)
+    return float(v)
+
+
+def _montecarlo(data: dict, base: AgentCase) -> MonteCarloSpec | None:
+    from formsync_design.gains import parse_gain_range
+
+    t = data.get("montecarlo")
+    if t is None:
+        return None
+    if not isinstance(t, dict):
+        raise InputError(f"expected a [montecarlo] table, received {t!r:.60}")
+    _check_keys(t, "montecarlo", "[montecarlo]")
+    settings = AgentMonteCarloSettings(
+        runs=_int(t.get("runs", 20), "montecarlo.runs", 1, MAX_AGENT_RUNS),
+        seed=_int(t.get("seed", 0), "montecarlo.seed", 0, 2**63 - 1),
+        max_angle_deg=_number(t.get("max_angle", 90.0), "montecarlo.max_angle", "angle"),
+        max_rate=_number(t.get("max_rate", 0.01), "montecarlo.max_rate", "rate"))
+    box = t.get("box", {})
+    if not isinstance(box, dict):
+        raise InputError(f"expected montecarlo.box = {{gain = \"lo:hi\"}}, received {box!r:.60}")
+    ctrl = list(base.design.decl.controller_gains)
+    unknown = sorted(set(box) - set(ctrl))
+    if unknown:
+        raise InputError(f"expected montecarlo.box gains among {ctrl}, received unknown {unknown}")
+    out = {}
+    for k, v in box.items():
+        if isinstance(v, bool) or not isinstance(v, (str, int, float)):
+            raise InputError(f"expected montecarlo.box.{k} as \"lo:hi\" or a number, received {v!r:.40}")
+        parse_gain_range(str(v), f"montecarlo.box.{k}")
+        out[k] = str(v)
+    return MonteCarloSpec(settings, out)
+
+
+def _metrics(data: dict, base: AgentCase, forms: tuple[FormationSpec, ...],
+             scens: tuple[ScenarioSpec, ...], mc: MonteCarloSpec | None) -> tuple[MetricRow, ...]:
+    out: list[Any] = []
+    seen: set[str] = set()
+    fnames, snames = [f.name for f in forms], [s.name for s in scens]
+    for k, row in enumerate(_rows(data, "metrics", base.path), 1):
+        where = f"metrics[{k}]"
+        mid = _unique(row, "id", where, _ID, seen)
+        name = row.get("metric")
+        if not isinstance(name, str) or name not in METRICS:
+            raise InputError(f"expected {where}.metric among {sorted(METRICS)}, received {name!r:.60}")
+        spec = METRICS[name]
+        why = spec.applies(base.design) if spec.applies is not None else None
+        if why is not None:
+            raise InputError(f"expected a metric that applies to the design in {where}, received "
+                             f"{name!r} ({why})")
+        if spec.evidence == "montecarlo" and mc is None:
+            raise InputError(f"expected a [montecarlo] table for the metric {name!r} of {where}, "
+                             "received none")
+        f = row.get("formation", fnames[0])
+        s = row.get("scenario", snames[0])
+        if f not in fnames:
+            raise InputError(f"expected {where}.formation among {fnames}, received {f!r:.60}")
+        if s not in snames:
+            raise InputError(f"expected {where}.scenario among {snames}, received {s!r:.60}")
+        if spec.evidence in ("certificate", "numerical") and not next(
+                x for x in forms if x.name == f).certify:
+            raise InputError(f"expected a formation with certify = true for the certificate "
+                             f"metric {name!r} of {where}, received {f!r} (certify = false)")
+        if spec.evidence == "montecarlo" and mc is not None:
+            point, why = point_gains(next(x for x in scens if x.name == s).case)
+            missing = [g for g in base.design.decl.controller_gains if g not in mc.box]
+            if point is None and missing:
+                raise InputError(f"expected montecarlo.box for {missing} ({why}) for the metric "
+                                 f"{name!r} of {where}, received none")
+        raw = {a: v for a, v in row.items() if a not in ("id", "metric", "formation", "scenario")}
+        out.append(MetricRow(mid, spec, f, s, check_metric_args(spec, raw, where)))
+    return tuple(out)
+
+
+def _claims(data: dict, metrics: tuple[MetricRow, ...], path: str) -> tuple[ClaimRow, ...]:
+    kinds = {m.id: m.spec.value for m in metrics}
+    out: list[Any] = []
+    seen: set[str] = set()
+    for k, row in enumerate(_rows(data, "claims", path), 1):
+        where = f"claims[{k}]"
+        _check_keys(row, "claims", where)
+        cid = _unique(row, "id", where, _ID, seen)
+        text = _text(row, "text", where)
+        source = _text(row, "source", where, required=False, default="")
+        pred = row.get("predicate")
+        if not isinstance(pred, str) or not pred.strip():
+            raise InputError(f"expected {where}.predicate as a non-empty text, received "
+                             f"{pred!r:.60}")
+        pred = pred.strip()
+        node = parse_predicate(pred, kinds, f"claim {cid}'s predicate")
+        out.append(ClaimRow(cid, text, source, pred, node))
+    return tuple(out)
+
+
+def parse_engine_case(data: dict, path: str = "<memory>", design: Any = None) -> EngineCase:
+    """Validate a parsed engine case document (module docstring)."""
+    meta = data.get("case", {})
+    if not isinstance(meta, dict) or meta.get("kind") != "engine":
+        got = meta.get("kind") if isinstance(meta, dict) else meta
+        raise InputError(f"expected [case] kind = \"engine\" in {path}, received {got!r:.40}")
+    agent = {k: v for k, v in data.items() if k not in ENGINE_TABLES}
+    base = parse_agent_case(copy.deepcopy(agent), path, design=design)
+    forms = _formations(data, base, path)
+    scens = _scenarios(data, agent, base, path)
+    mc = _montecarlo(data, base)
+    metrics = _metrics(data, base, forms, scens, mc)
+    claims = _claims(data, metrics, path)
+    if not claims and not metrics:
+        raise InputError(f"expected [[metrics]] and [[claims]] in {path}, received neither")
+    return EngineCase(path, base, forms, scens, mc, metrics, claims)
+
+
+def load_engine_case(path: str | Path, design: Any = None) -> EngineCase:
+    """Load and validate an engine case file (``design``: overrides ``[case] design``)."""
+    from dataclasses import replace
+
+    p = Path(path)
+    case = parse_engine_case(load_toml(p, "case TOML file"), str(p), design=design)
+    return replace(case, digest=hashlib.sha256(p.read_bytes()).hexdigest())
