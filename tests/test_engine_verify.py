@@ -552,3 +552,16 @@ def test_mutated_cases_are_read_or_refused_in_one_line(tmp_path):
             refused += 1
             assert "\n" not in str(e) and str(e).startswith("expected"), str(e)
     assert refused > 100
+
+
+def test_load_agent_case_reads_an_engine_cases_base_case() -> None:
+    """Every other command (simulate, montecarlo, ...) reads an engine case's base case: the
+    agent tables, without the engine's; the same case the engine itself starts from."""
+    from formsync_design.verify.agentcase import load_agent_case
+    from formsync_design.verify.enginecase import load_engine_case
+
+    path = Path(__file__).resolve().parent.parent / "docs" / "engine" / "example.toml"
+    base = load_agent_case(path)
+    eng = load_engine_case(path)
+    assert base.n == eng.base.n == 3 and base.gains.as_dict() == eng.base.gains.as_dict()
+    np.testing.assert_array_equal(base.attitudes, eng.base.attitudes)

@@ -76,9 +76,13 @@ from formsync_design.verify.case import (
     make_disturbance,
 )
 
-__all__ = ["AgentCase", "load_agent_case", "parse_agent_case", "euler321_to_quat",
+__all__ = ["ENGINE_TABLES", "AgentCase", "load_agent_case", "parse_agent_case", "euler321_to_quat",
            "case_design_ref", "case_is_agent", "shipped_agent_case", "formation_case_path",
            "formation_inertias"]
+
+#: The tables an engine case (``[case] kind = "engine"``, :mod:`formsync_design.verify.enginecase`)
+#: adds to the agent case layout; :func:`load_agent_case` reads such a file's base case without them.
+ENGINE_TABLES = ("formations", "scenarios", "montecarlo", "metrics", "claims")
 
 _TABLES: dict[str, set[str] | None] = {
     "case": {"name", "title", "source", "kind", "design", "assumptions", "graph"},
@@ -200,6 +204,9 @@ def load_agent_case(path: str | Path, design: Any = None) -> AgentCase:
     """Load and validate an agent case file (``design``: overrides ``[case] design``)."""
     p = Path(path)
     data = load_toml(p, "case TOML file")
+    meta = data.get("case")
+    if isinstance(meta, dict) and meta.get("kind") == "engine":  # its base case (the engine's
+        data = {k: v for k, v in data.items() if k not in ENGINE_TABLES}  # tables: enginecase)
     case = parse_agent_case(data, str(p), design=design)
     return replace(case, digest=hashlib.sha256(p.read_bytes()).hexdigest())
 

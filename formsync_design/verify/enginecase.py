@@ -47,17 +47,16 @@ from formsync_design.errors import InputError
 from formsync_design.ranges import check_range
 from formsync_design.sim.agent_montecarlo import MAX_AGENT_RUNS, AgentMonteCarloSettings
 from formsync_design.tomlio import load_toml
-from formsync_design.verify.agentcase import AgentCase, parse_agent_case
+from formsync_design.verify.agentcase import ENGINE_TABLES, AgentCase, parse_agent_case
 from formsync_design.verify.case import case_path
 from formsync_design.verify.metrics import METRICS, MetricSpec, check_metric_args
 from formsync_design.verify.predicates import KEYWORDS, Node, parse_predicate
 
-__all__ = ["ENGINE_TABLES", "FormationSpec", "ScenarioSpec", "MonteCarloSpec", "MetricRow",
+__all__ = ["FormationSpec", "ScenarioSpec", "MonteCarloSpec", "MetricRow",
            "ClaimRow", "EngineCase", "load_engine_case", "parse_engine_case", "directed_cycle",
            "point_gains"]
 
 #: The tables an engine case adds to the agent case layout.
-ENGINE_TABLES = ("formations", "scenarios", "montecarlo", "metrics", "claims")
 
 _ID = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,39}")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,39}")
