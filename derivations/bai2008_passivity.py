@@ -56,7 +56,10 @@ synchronisation (``q_i ~ theta_i / 2``): ``J_i theta_i'' = -K theta_i' - (k_p / 
 (theta_i - theta_j)``, a damped Laplacian oscillator on the graph.
 """
 
+import numpy as np
 import sympy as sp
+
+from formsync_design.verify.metrics import register_metric
 
 FORM = "agent"
 NAME = "bai2008_passivity"
@@ -227,3 +230,19 @@ def directed_families(c):
         raise DerivationError("bai2008_passivity: conditions(c): expected a graph with at least "
                               "one arc, received none")
     return out
+
+
+@register_metric("storage_rise", unit="1", evidence="simulation",
+                 doc="largest rise of the storage function V = sum_i storage_i (the monitor) "
+                 "along the run above its running minimum, relative to V(0): 0 for a "
+                 "non-increasing V (rounding and the integrator's error aside)")
+def storage_rise(ctx):
+    """The passivity claim's measurement: ``max_t (V(t) - min_{s <= t} V(s)) / V(0)`` from the
+    run's ``storage`` monitor summed over the spacecraft (each link's potential is split
+    between its two ends, so the sum is ``V``)."""
+    r = ctx.run()
+    V = np.asarray(r.monitors["storage"], dtype=float).sum(axis=1)
+    if not np.all(np.isfinite(V)) or V[0] <= 0:
+        return ctx.value(None, f"storage not positive and finite along the run (V(0) = {V[0]:g})")
+    rise = float(np.max(V - np.minimum.accumulate(V)) / V[0])
+    return ctx.value(rise, f"V(0) = {V[0]:.6g} J, V(tf) = {V[-1]:.6g} J over {len(V)} samples")

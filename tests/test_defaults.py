@@ -37,10 +37,8 @@ FAST = {("derive", "liang2016_agent"), ("certify", "pd_consensus"),
         ("sweep", "pd_consensus"), ("verify", "pd_consensus"), ("certify", "bai2008_passivity")}
 
 # cells that cannot pass yet, with the reason (strict: the cell passing fails the suite, so the
-# marker is removed when the reason goes)
-PENDING = {("verify", "bai2008_passivity"):
-           "its case has no [case] kind and no [claims] until the case-driven engine (issue 23 "
-           "item 3) reads it: the default kind 'formation' refuses the agent case's [simulation]"}
+# marker is removed when the reason goes); none at present
+PENDING: dict[tuple[str, str], str] = {}
 
 
 def test_the_matrix_covers_every_shipped_design_and_its_fast_part_every_row_and_column() -> None:

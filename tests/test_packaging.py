@@ -140,15 +140,9 @@ from formsync_design.tomlio import load_toml
 from formsync_design.verify.kinds import case_kind
 from formsync_design.verify.flyaround_case import load_flyaround_case
 loaders = {{"formation": load_case, "flyaround": load_flyaround_case}}
-from formsync_design.verify.agentcase import case_is_agent
 for name in resources.case_names():
     path = resources.case_file(name)
-    kind = case_kind(load_toml(path), str(path))
-    # a case without [case] kind is read as "formation" unless its design is an agent design
-    # (bai2008_passivity's case, until the case-driven engine gives it a kind)
-    if kind == "formation" and case_is_agent(path):
-        kind = "agents"
-    loaders.get(kind, load_agent_case)(path)
+    loaders.get(case_kind(load_toml(path), str(path)), load_agent_case)(path)
 print("default-spec", Path(str(load_spec(None).path)).name)
 """
 

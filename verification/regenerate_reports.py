@@ -22,6 +22,9 @@ documented commands produce:
 * ``formsync verify ma_so3`` -> reports/ma_so3-verification.md (+ figures): the SO(3)
   sliding-mode design of seed paper 002 against its comparison methods, the Lagrangian
   designs and its certificates on digraph families;
+* ``formsync verify bai2008_passivity`` -> reports/bai2008_passivity-verification.md (+
+  figures): the sixth design (Bai, Arcak, Wen 2008, reconstructed), a design file and an
+  ``engine`` case only - formations, Monte-Carlo, metrics and claims declared in the case;
 * ``verification/region_report.py`` -> reports/liang2016-region.md (+ figures);
 * ``verification/analysis_report.py`` -> reports/liang2016-certificates.md (+ figure): the
   paper's, exact, searched and spectral certificates side by side;
@@ -102,6 +105,7 @@ def main() -> int:
         ["verify", "zhang2014_flyaround"],
         ["verify", "lv2012"],
         ["verify", "ma_so3"],
+        ["verify", "bai2008_passivity"],
         ["sweep", "--campaign", "verification/sweep_atlas6.toml", "--out", "reports/sweep-atlas6",
          "--overwrite"],
         ["sweep", "--campaign", "verification/sweep_pd_atlas5.toml", "--out",
