@@ -74,7 +74,7 @@ def test_linearisation_against_finite_differences_of_the_compiled_loop(design, s
     n = g.n
     kern = get_agent_kernel(design, tuple(g.receives_from(i) for i in range(n)), "sgn", 1, 1,
                             compile=False)
-    from formsync_design.sim.agents import agent_parameters
+    from formsync_design.sim.agent_kernel import agent_parameters
 
     f = AgentFormation(g, J, np.tile([0, 0, 0, 1.0], (n, 1)), np.zeros((n, 3)), Gains(GAINS),
                        None, Reference())
@@ -107,7 +107,7 @@ def test_storage_derivative_along_the_compiled_loop(design, small):
     n = g.n
     kern = get_agent_kernel(design, tuple(g.receives_from(i) for i in range(n)), "sgn", 1, 1,
                             compile=False)
-    from formsync_design.sim.agents import agent_parameters
+    from formsync_design.sim.agent_kernel import agent_parameters
 
     f = AgentFormation(g, J, np.tile([0, 0, 0, 1.0], (n, 1)), np.zeros((n, 3)), Gains(GAINS),
                        None, Reference())
