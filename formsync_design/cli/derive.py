@@ -94,7 +94,8 @@ def numeric_conditions(conds: Any, point: tuple[float, ...]) -> dict:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_derive
+    from formsync_design.cli.agent_commands import run_agent_derive
+    from formsync_design.cli.agent_inputs import agent_design_or_none
     from formsync_design.cli.certify import default_graph
     from formsync_design.cli.defaults import Defaults
     from formsync_design.cli.options import design_graph

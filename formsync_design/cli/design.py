@@ -75,7 +75,8 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from formsync_design.certify.design import design_gains
-    from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_design
+    from formsync_design.cli.agent_commands import run_agent_design
+    from formsync_design.cli.agent_inputs import agent_design_or_none
     from formsync_design.cli.certify import (
         default_graph,
         gain_box_from_args,

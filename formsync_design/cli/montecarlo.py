@@ -245,7 +245,8 @@ def _resolve_spec(args: argparse.Namespace, case: Any) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_montecarlo_cli
+    from formsync_design.cli.agent_commands import run_agent_montecarlo_cli
+    from formsync_design.cli.agent_inputs import agent_design_or_none
     from formsync_design.graphs.build import Graph
     from formsync_design.sim.montecarlo import MonteCarloSettings, replay, run_montecarlo
     from formsync_design.sim.simulator import simulate

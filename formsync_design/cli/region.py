@@ -125,7 +125,8 @@ def add_parser(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from formsync_design.certify.plots import write_region
     from formsync_design.certify.region import region_map
-    from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_region
+    from formsync_design.cli.agent_commands import run_agent_region
+    from formsync_design.cli.agent_inputs import agent_design_or_none
     from formsync_design.cli.certify import (
         default_graph,
         gain_box_from_args,
@@ -139,8 +140,7 @@ def run(args: argparse.Namespace) -> int:
         lagrangian_range_gains,
         refuse_tracking,
     )
-    from formsync_design.cli.options import design_graph
-    from formsync_design.cli.simulate import check_out_dir
+    from formsync_design.cli.options import check_out_dir, design_graph
     from formsync_design.spec.loader import load_spec
 
     check_out_dir(args.out, overwrite=args.overwrite, results=("region.json",))

@@ -319,7 +319,7 @@ def _flag_defaults(args: argparse.Namespace) -> int | None:
         return refused
     defaults = Defaults()
     if getattr(design, "form", None) == "agent":
-        from formsync_design.cli.agent_commands import agent_case_for
+        from formsync_design.cli.agent_inputs import agent_case_for
 
         case = agent_case_for(design, None, None, defaults)
         n = case.n
