@@ -20,7 +20,8 @@ from formsync_design.certify.engine import (
     rigorous_lower_bound,
 )
 from formsync_design.cli.main import main
-from formsync_design.derive.conditions import derive_conditions, paper_conditions, required_kv
+from formsync_design.derive.closed_form import required_kv
+from formsync_design.derive.conditions import derive_conditions, paper_conditions
 from formsync_design.derive.families import family_from_sympy
 from formsync_design.errors import InputError
 from formsync_design.graphs.build import make_graph
@@ -466,7 +467,7 @@ def test_exact_boundary_decided_by_rationals() -> None:
     """On the Theta boundary (from derive.closed_form_conditions, solved for K_q) the
     matrix is singular: refuted with an exact witness of value 0; 1e-15 above it the
     float test is inconclusive and exact LDL^T certifies."""
-    from formsync_design.derive.conditions import closed_form_conditions
+    from formsync_design.derive.closed_form import closed_form_conditions
     from formsync_design.spec.loader import gain_symbols
 
     conds = derive_conditions("star:3")

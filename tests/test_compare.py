@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from formsync_design.derive.closed_form import required_kv
 from formsync_design.derive.compare import (
     VERDICTS,
     Verdict,
@@ -23,7 +24,7 @@ from formsync_design.derive.compare import (
     lyapunov_findings,
     model_findings,
 )
-from formsync_design.derive.conditions import derive_conditions, paper_conditions, required_kv
+from formsync_design.derive.conditions import derive_conditions, paper_conditions
 from formsync_design.derive.families import FamilyTerm, MatrixFamily
 from formsync_design.derive.findings import compare_families
 from formsync_design.derive.printed import load_printed

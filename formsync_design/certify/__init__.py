@@ -15,7 +15,8 @@ from formsync_design.certify.engine import (
     check_kv,
 )
 from formsync_design.certify.multipliers import certify_with_multipliers
-from formsync_design.certify.region import RegionMap, region_map
+from formsync_design.certify.region import region_map
+from formsync_design.certify.subdivision import RegionMap
 
 __all__ = [
     "Status",

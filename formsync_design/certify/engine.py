@@ -204,8 +204,8 @@ def check_kv(
     kv: Any, inertias: Sequence[Any], ubar: Any, *, switching_matches: bool | None = True
 ) -> KvCheck:
     """Check ``K_vi >= K_vi*`` for every spacecraft with the derivation's bound
-    (:func:`~formsync_design.derive.conditions.required_kv`, decided exactly by
-    :func:`~formsync_design.derive.conditions.kv_condition_holds`).
+    (:func:`~formsync_design.derive.closed_form.required_kv`, decided exactly by
+    :func:`~formsync_design.derive.closed_form.kv_condition_holds`).
 
     Parameters
     ----------
@@ -221,7 +221,7 @@ def check_kv(
     >>> check_kv(0.01, [50 * np.eye(3)] * 2, 0.5).holds
     True
     """
-    from formsync_design.derive.conditions import kv_condition_holds, required_kv
+    from formsync_design.derive.closed_form import kv_condition_holds, required_kv
 
     n = len(inertias)
 

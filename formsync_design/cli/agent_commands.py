@@ -387,7 +387,7 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     from formsync_design.certify.agent import agent_multipliers, region_agent
     from formsync_design.certify.formation import conditions_scope
     from formsync_design.certify.plots import plot_slices
-    from formsync_design.certify.region import map_to_dict
+    from formsync_design.certify.subdivision import map_to_dict
     from formsync_design.cli.defaults import Defaults, default_out, refuse_uncertified
     from formsync_design.cli.options import Progress, to_json_value
     from formsync_design.derive.agent import agent_conditions

@@ -235,7 +235,7 @@ def _run_design(args: argparse.Namespace, spec: Any, box: Any, margin: Any, req:
 
     from formsync_design.certify.multiregion import region_with_multipliers
     from formsync_design.certify.plots import plot_slices
-    from formsync_design.certify.region import map_to_dict
+    from formsync_design.certify.subdivision import map_to_dict
     from formsync_design.cli.options import to_json_value
     from formsync_design.derive.conditions import derive_conditions
     from formsync_design.graphs import make_graph

@@ -413,7 +413,8 @@ def certify_sampled_box(base: Formation, box: Any, spec: Spec | str | Path | Non
     try:
         from formsync_design.certify.engine import certify_box, check_kv
         from formsync_design.certify.multipliers import certify_with_multipliers
-        from formsync_design.derive.conditions import derive_conditions, required_kv
+        from formsync_design.derive.closed_form import required_kv
+        from formsync_design.derive.conditions import derive_conditions
     except ImportError as e:  # pragma: no cover - depends on the other modules
         return {"status": "unavailable", "reason": str(e)}
     sp = load_spec(spec)
@@ -493,7 +494,7 @@ def run_montecarlo(
     spec : Spec, AgentDesign, str, Path or None
         The design whose controller is simulated and whose gains are sampled (default:
         the paper's); its kernel is cached under ``spec.key``.  An agent design runs
-        :func:`~formsync_design.designs_api.monte_carlo_agents` (``base`` an
+        :func:`~formsync_design.sim.agent_montecarlo.monte_carlo_agents` (``base`` an
         ``AgentFormation``, ``options`` ``AgentOptions``) and returns an
         ``AgentMonteCarloResult``.
     progress : callable, optional
@@ -510,7 +511,8 @@ def run_montecarlo(
     >>> len(r.runs), str(r.runs[0].status)  # 5 s is too short to synchronise
     (2, 'not-converged')
     """
-    from formsync_design.designs_api import agent_design_of, monte_carlo_agents
+    from formsync_design.sim.agent_montecarlo import monte_carlo_agents
+    from formsync_design.spec.loader import agent_design_of
 
     agent = agent_design_of(spec)
     if agent is not None:  # an agent design: its own campaign (AgentMonteCarloResult)

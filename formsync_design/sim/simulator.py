@@ -181,7 +181,7 @@ def simulate(
     >>> str(r.status), r.final_q_m < 1e-4
     ('converged', True)
     """
-    from formsync_design.designs_api import agent_design_of
+    from formsync_design.spec.loader import agent_design_of
 
     agent = agent_design_of(spec)
     if agent is not None:  # an agent design: simulate_agents (an AgentResult)

@@ -121,8 +121,9 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
     """
     from formsync_design.certify.engine import certify_box, check_kv
     from formsync_design.certify.multipliers import certify_with_multipliers
+    from formsync_design.derive.closed_form import required_kv
     from formsync_design.derive.compare import all_findings
-    from formsync_design.derive.conditions import derive_conditions, paper_conditions, required_kv
+    from formsync_design.derive.conditions import derive_conditions, paper_conditions
     from formsync_design.derive.report import report_basename
     from formsync_design.graphs.theorem import check_theorem_graph
     from formsync_design.sim.simulator import simulate
