@@ -246,7 +246,7 @@ def map_to_dict(m: RegionMap, *, timing: bool = True, boxes: bool = True) -> dic
     ``boxes=False`` keeps only the summary).
 
     >>> from formsync_design.derive.conditions import derive_conditions
-    >>> m = region_map(derive_conditions("ring:4"), {"K_o": (0.1, 4), "K_q": 1, "beta": 0.3},
+    >>> m = subdivide(derive_conditions("ring:4"), {"K_o": (0.1, 4), "K_q": 1, "beta": 0.3},
     ...                resolution=4)
     >>> d = map_to_dict(m)
     >>> d["resolution"], sum(d["counts"].values()) == len(d["boxes"])
@@ -286,7 +286,7 @@ def rasterize(m: RegionMap) -> np.ndarray:
     shape ``(max(R_0,1), max(R_1,1), max(R_2,1))``.
 
     >>> from formsync_design.derive.conditions import derive_conditions
-    >>> m = region_map(derive_conditions("ring:4"), {"K_o": (0.1, 4), "K_q": 1, "beta": 0.3},
+    >>> m = subdivide(derive_conditions("ring:4"), {"K_o": (0.1, 4), "K_q": 1, "beta": 0.3},
     ...                resolution=4)
     >>> rasterize(m)[:, 0, 0].tolist()   # K_o > 4 beta = 1.2 is admissible
     [-1, 0, 1, 1]
