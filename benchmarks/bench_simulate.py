@@ -61,11 +61,11 @@ from formsync_design.sim import native  # noqa: E402
 from formsync_design.sim.formation import Formation  # noqa: E402
 from formsync_design.sim.montecarlo import (  # noqa: E402
     DEFAULT_OPTIONS,
-    MonteCarloSettings,
     point_box,
     replay,
     run_montecarlo,
 )
+from formsync_design.sim.montecarlo_data import MonteCarloSettings  # noqa: E402
 from formsync_design.sim.simulator import SimOptions, simulate  # noqa: E402
 from formsync_design.spec.loader import load_spec  # noqa: E402
 from formsync_design.verify.case import load_case  # noqa: E402

@@ -16,7 +16,8 @@ from formsync_design.models.disturbances import constant_disturbance, no_disturb
 from formsync_design.sim import native
 from formsync_design.sim.kernels import get_kernel, pack_params
 from formsync_design.sim.metrics import formation_metrics, linear_metrics
-from formsync_design.sim.montecarlo import MonteCarloSettings, mc_box, replay, run_montecarlo
+from formsync_design.sim.montecarlo import mc_box, replay, run_montecarlo
+from formsync_design.sim.montecarlo_data import MonteCarloSettings
 from formsync_design.sim.simulator import Formation, Gains, SimOptions, simulate
 from formsync_design.spec.loader import load_spec
 from formsync_design.verify.case import load_case

@@ -26,18 +26,12 @@ from typing import Any, cast
 
 import numpy as np
 
-from formsync_design.certify.engine import (
-    CLARABEL_OPTIONS,
-    STATUS_MAP,
-    Bounds,
-    CertificationResult,
-    analyze,
-    as_box,
-    certify_box,
-)
+from formsync_design.certify.engine import Bounds, as_box, certify_box
 from formsync_design.certify.growbox import largest_certified_box
 from formsync_design.certify.multipliers import agent_multiplier_ranges
-from formsync_design.certify.structure import pencil_spectrum
+from formsync_design.certify.results import STATUS_MAP, CertificationResult
+from formsync_design.certify.sdp import CLARABEL_OPTIONS
+from formsync_design.certify.structure import analyze, pencil_spectrum
 from formsync_design.errors import DerivationError, InputError
 
 __all__ = ["BetaStep", "DesignResult", "design_gains"]

@@ -7,7 +7,8 @@ from __future__ import annotations
 from fractions import Fraction
 from typing import Any
 
-from formsync_design.certify.engine import Bounds, CertificationResult, certify_box
+from formsync_design.certify.engine import Bounds, certify_box
+from formsync_design.certify.results import CertificationResult
 
 __all__ = ["largest_certified_box"]
 

@@ -23,8 +23,8 @@ from dataclasses import replace
 from fractions import Fraction
 from typing import Any
 
-from formsync_design.certify.engine import KvCheck, as_box, certify_box
-from formsync_design.certify.results import CertificationResult, Status
+from formsync_design.certify.engine import as_box, certify_box
+from formsync_design.certify.results import CertificationResult, KvCheck, Status
 from formsync_design.errors import InputError
 from formsync_design.gains import GainBox, GainRange
 

@@ -38,13 +38,9 @@ from typing import Any
 
 import numpy as np
 
-from formsync_design.certify.engine import (
-    Bounds,
-    analyze,
-    as_box,
-    evaluate_vertices,
-    uniform_refutation,
-)
+from formsync_design.certify.engine import Bounds, as_box
+from formsync_design.certify.structure import analyze
+from formsync_design.certify.vertices import evaluate_vertices, uniform_refutation
 from formsync_design.errors import InputError
 from formsync_design.notebook import NotebookViews
 

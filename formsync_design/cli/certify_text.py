@@ -1,5 +1,5 @@
 """The text ``formsync certify`` prints: a
-:class:`~formsync_design.certify.engine.CertificationResult` (statuses, lower bounds, the exact
+:class:`~formsync_design.certify.results.CertificationResult` (statuses, lower bounds, the exact
 witness) and a :class:`~formsync_design.analysis.requirements.RequirementResult`."""
 
 from __future__ import annotations
@@ -67,7 +67,7 @@ def _g(q: Fraction | None) -> str:
 
 
 def format_result(res: Any) -> str:
-    """Human-readable report of a :class:`~formsync_design.certify.engine.CertificationResult`."""
+    """Human-readable report of a :class:`~formsync_design.certify.results.CertificationResult`."""
     lines = []
     box = ", ".join(
         f"{r.name}={float(r.lo):g}" if r.is_point else f"{r.name} in [{float(r.lo):g}, {float(r.hi):g}]"

@@ -248,7 +248,8 @@ def run(args: argparse.Namespace) -> int:
     from formsync_design.cli.agent_commands import run_agent_montecarlo_cli
     from formsync_design.cli.agent_inputs import agent_design_or_none
     from formsync_design.graphs.build import Graph
-    from formsync_design.sim.montecarlo import MonteCarloSettings, replay, run_montecarlo
+    from formsync_design.sim.montecarlo import replay, run_montecarlo
+    from formsync_design.sim.montecarlo_data import MonteCarloSettings
     from formsync_design.sim.simulator import simulate
 
     check_run_options(args)

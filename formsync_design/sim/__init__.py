@@ -37,11 +37,11 @@ if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
         HybridStatus as HybridStatus,
         simulate_hybrid as simulate_hybrid,
     )
-    from formsync_design.sim.montecarlo import (
+    from formsync_design.sim.montecarlo import run_montecarlo as run_montecarlo
+    from formsync_design.sim.montecarlo_data import (
         MonteCarloResult as MonteCarloResult,
         MonteCarloSettings as MonteCarloSettings,
         RunStatus as RunStatus,
-        run_montecarlo as run_montecarlo,
     )
     from formsync_design.sim.sampled import (
         SampledResult as SampledResult,
@@ -70,9 +70,9 @@ _LAZY: dict[str, str] = {
     "HybridResult": "formsync_design.sim.hybrid",
     "HybridStatus": "formsync_design.sim.hybrid",
     "simulate_hybrid": "formsync_design.sim.hybrid",
-    "MonteCarloResult": "formsync_design.sim.montecarlo",
-    "MonteCarloSettings": "formsync_design.sim.montecarlo",
-    "RunStatus": "formsync_design.sim.montecarlo",
+    "MonteCarloResult": "formsync_design.sim.montecarlo_data",
+    "MonteCarloSettings": "formsync_design.sim.montecarlo_data",
+    "RunStatus": "formsync_design.sim.montecarlo_data",
     "run_montecarlo": "formsync_design.sim.montecarlo",
     "SampledResult": "formsync_design.sim.sampled",
     "TriggerSpec": "formsync_design.sim.sampled",

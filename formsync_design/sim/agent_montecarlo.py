@@ -220,7 +220,7 @@ def monte_carlo_agents(design: Any, base: Any, box: Any = None, settings: Any = 
     """:func:`run_agent_montecarlo` from the generic
     arguments of ``fs.monte_carlo``: ``box`` default the point of ``base.gains``; ``settings``
     an :class:`AgentMonteCarloSettings` or a
-    :class:`~formsync_design.sim.montecarlo.MonteCarloSettings` (runs, seed, angles, rates
+    :class:`~formsync_design.sim.montecarlo_data.MonteCarloSettings` (runs, seed, angles, rates
     taken from it); ``options`` an :class:`~formsync_design.sim.agents.AgentOptions`."""
     if box is None:
         vals = {}

@@ -118,7 +118,8 @@ def _task_spec(task: dict[str, Any]) -> Any:
 def _run_mc(graph: Graph, mc: dict, schema: SweepSchema, gains: Sequence[Fraction] | None,
             spec: Any = None) -> dict[str, Any]:
     from formsync_design.gains import GainBox
-    from formsync_design.sim.montecarlo import MonteCarloSettings, run_montecarlo
+    from formsync_design.sim.montecarlo import run_montecarlo
+    from formsync_design.sim.montecarlo_data import MonteCarloSettings
     from formsync_design.sim.simulator import SimOptions
 
     out: dict[str, Any] = {"mc_gains": mc["gains"]}

@@ -80,7 +80,7 @@ def verify_flyaround(path: str | Path | None = None, spec: Any = None,
     from formsync_design.analysis.flyaround import attitude_certificate, orbit_certificate
     from formsync_design.derive.tracking import derive_tracking_attitude
     from formsync_design.models.flyaround import printed_phi_finding
-    from formsync_design.models.thrusters import rocket_fuel
+    from formsync_design.models.pwm import rocket_fuel
     from formsync_design.sim.flyaround import simulate_flyaround
     from formsync_design.spec.loader import load_spec
     from formsync_design.verify.flyaround_case import apply_variant, load_flyaround_case
