@@ -29,7 +29,8 @@ from formsync_design.derive.conditions import brute_force_vdot, derive_condition
 from formsync_design.derive.templates import derive_local_template
 from formsync_design.errors import DerivationError
 from formsync_design.graphs.build import make_graph
-from formsync_design.spec.loader import ControllerView, LyapunovView, load_spec
+from formsync_design.spec.lagrangian_view import ControllerView, LyapunovView
+from formsync_design.spec.loader import load_spec
 
 from .helpers import cross, model_numeric, random_inertia, random_quaternion
 

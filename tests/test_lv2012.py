@@ -14,13 +14,8 @@ import numpy as np
 import pytest
 
 from formsync_design.analysis.l2design import budget_bound, design_l2_gains
-from formsync_design.analysis.l2gain import (
-    certify_gamma,
-    certify_l2_box,
-    frequency_witness,
-    harmonic_steady_bound,
-    hinf_norm,
-)
+from formsync_design.analysis.l2freq import frequency_witness, hinf_norm
+from formsync_design.analysis.l2gain import certify_gamma, certify_l2_box, harmonic_steady_bound
 from formsync_design.derive.linearize import linearize_agents
 from formsync_design.errors import InputError
 from formsync_design.graphs.digraph_io import make_digraph

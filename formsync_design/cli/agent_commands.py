@@ -61,9 +61,10 @@ __all__ = [
 
 def run_agent_simulate(args: argparse.Namespace, design: Any) -> int:
     """``formsync simulate`` of an agent design (module docstring)."""
-    from formsync_design.cli.defaults import Defaults, agent_criterion, agent_graph
+    from formsync_design.cli.defaults import agent_criterion, agent_graph
     from formsync_design.graphs.theorem import check_theorem_graph
     from formsync_design.sim.agents import simulate_agents
+    from formsync_design.verify.defaults import Defaults
 
     refuse_lagrangian_options(args, ("trigger", "q_tol", "omega_tol"), design)
     out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
@@ -177,10 +178,10 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
     too and reported with their own scope (multipliers searched over their declared ranges)."""
     from formsync_design.certify.agent import certify_agent
     from formsync_design.certify.formation import certify_formation, conditions_scope
-    from formsync_design.cli.defaults import Defaults
     from formsync_design.derive.agent import agent_conditions
     from formsync_design.gains import GainBox, parse_number
     from formsync_design.graphs.theorem import check_theorem_graph
+    from formsync_design.verify.defaults import Defaults
 
     refuse_lagrangian_options(args, ("ko", "kq", "beta", "ud", "kv", "case", "delay", "decay", "settle",
                    "torque_limit", "graphs_set"), design)
@@ -238,9 +239,10 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
 def run_agent_derive(args: argparse.Namespace, design: Any) -> int:
     """``formsync derive`` of an agent design: the derivation report (Markdown) of the design
     on ``--graph`` (default: its shipped case's graph, else ring:8), or its JSON summary."""
-    from formsync_design.cli.defaults import Defaults, agent_case
+    from formsync_design.cli.defaults import agent_case
     from formsync_design.derive.agent_report import agent_derivation, write_agent_derivation_report
     from formsync_design.graphs.theorem import check_theorem_graph, load_graph
+    from formsync_design.verify.defaults import Defaults
 
     refuse_lagrangian_options(args, ("ko", "kq", "beta"), design)
     if getattr(args, "gain", None):
@@ -284,9 +286,10 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
     ``--replay SEED`` re-simulates one run in full."""
     from dataclasses import replace
 
-    from formsync_design.cli.options import Progress, design_box
+    from formsync_design.cli.options import design_box
     from formsync_design.gains import GainBox, GainRange, parse_number
     from formsync_design.graphs.theorem import check_theorem_graph
+    from formsync_design.progress import Progress
     from formsync_design.sim.agent_montecarlo import (
         AgentMonteCarloSettings,
         agent_run_formation,
@@ -295,7 +298,8 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
     from formsync_design.sim.agents import simulate_agents
 
     refuse_lagrangian_options(args, ("ko", "kq", "beta", "kv", "q_tol", "omega_tol", "no_phases", "threads"), design)
-    from formsync_design.cli.defaults import Defaults, agent_criterion, agent_graph
+    from formsync_design.cli.defaults import agent_criterion, agent_graph
+    from formsync_design.verify.defaults import Defaults
 
     out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
     defaults = Defaults()
@@ -388,10 +392,12 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     from formsync_design.certify.formation import conditions_scope
     from formsync_design.certify.plots import plot_slices
     from formsync_design.certify.subdivision import map_to_dict
-    from formsync_design.cli.defaults import Defaults, default_out, refuse_uncertified
-    from formsync_design.cli.options import Progress, to_json_value
+    from formsync_design.cli.defaults import default_out, refuse_uncertified
+    from formsync_design.cli.options import to_json_value
     from formsync_design.derive.agent import agent_conditions
     from formsync_design.graphs.theorem import check_theorem_graph, load_graph
+    from formsync_design.progress import Progress
+    from formsync_design.verify.defaults import Defaults
 
     refused = refuse_uncertified("region", design)
     if refused is not None:
@@ -468,10 +474,11 @@ def run_agent_design(args: argparse.Namespace, design: Any) -> int:
     re-check), and the largest certified box around it."""
     from formsync_design.certify.agent import design_agent
     from formsync_design.certify.formation import certify_formation, conditions_scope
-    from formsync_design.cli.defaults import Defaults, refuse_uncertified
+    from formsync_design.cli.defaults import refuse_uncertified
     from formsync_design.derive.agent import agent_conditions
     from formsync_design.gains import GainBox, json_number
     from formsync_design.graphs.theorem import check_theorem_graph
+    from formsync_design.verify.defaults import Defaults
 
     refused = refuse_uncertified("design", design)
     if refused is not None:

@@ -371,8 +371,9 @@ def default_graph(graph: Any, spec: Any, defaults: Any) -> Any:
 def run(args: argparse.Namespace) -> int:
     from formsync_design.cli.agent_commands import run_agent_certify
     from formsync_design.cli.agent_inputs import agent_design_or_none
-    from formsync_design.cli.defaults import Defaults, lagrangian_point_box, refuse_tracking
+    from formsync_design.cli.defaults import lagrangian_point_box, refuse_tracking
     from formsync_design.spec.loader import load_spec
+    from formsync_design.verify.defaults import Defaults
 
     agent = agent_design_or_none(args.spec)
     if agent is not None:

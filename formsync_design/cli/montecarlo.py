@@ -11,7 +11,6 @@ from formsync_design.cli.choices import DISTURBANCES, GRAPH_SPEC_HELP, MAX_RUNS,
 from formsync_design.cli.options import (
     EXIT_NEGATIVE,
     EXIT_OK,
-    Progress,
     add_design_option,
     add_format_option,
     add_theorem_option,
@@ -21,6 +20,7 @@ from formsync_design.cli.options import (
 )
 from formsync_design.cli.simulate import options_from_args
 from formsync_design.errors import InputError
+from formsync_design.progress import Progress
 
 if TYPE_CHECKING:
     from formsync_design.gains import GainBox

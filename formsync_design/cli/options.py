@@ -13,15 +13,9 @@ import json
 import sys
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from formsync_design.errors import InputError
-from formsync_design.progress import Progress  # the one progress mechanism (re-exported)
-
-if TYPE_CHECKING:
-    # the one gain-range type and parser live in formsync_design.gains (re-exported here,
-    # imported on first use so that building the parser does not import numpy)
-    from formsync_design.gains import GainRange, parse_gain_range, parse_number
 
 __all__ = [
     "closing_lines",
@@ -30,14 +24,10 @@ __all__ = [
     "EXIT_USAGE",
     "EXIT_FAILURE",
     "EXIT_INTERRUPTED",
-    "GainRange",
-    "parse_gain_range",
-    "parse_number",
     "parse_positive",
     "add_format_option",
     "emit_json",
     "to_json_value",
-    "Progress",
     "add_design_option",
     "design_box",
     "parse_gain_assignments",
@@ -59,20 +49,6 @@ EXIT_NEGATIVE = 1
 EXIT_USAGE = 2
 EXIT_FAILURE = 3  # a failure that is not the user's input (solver, compiler, cluster)
 EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT), as shells report it
-
-_FROM_GAINS = ("GainRange", "json_number", "parse_gain_range", "parse_number")
-
-
-def __getattr__(name: str) -> Any:
-    """The re-exports of :mod:`formsync_design.gains`, imported on first use (PEP 562)."""
-    if name in _FROM_GAINS:
-        from formsync_design import gains
-
-        value = getattr(gains, name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
 
 def add_design_option(p: argparse.ArgumentParser) -> None:
     """``--design NAME|FILE`` (alias ``--spec``), stored as ``args.spec``."""

@@ -7,14 +7,10 @@ import sys
 from typing import Any
 
 from formsync_design.cli.certify import CERTIFICATE_HELP
-from formsync_design.cli.options import (
-    EXIT_OK,
-    Progress,
-    add_format_option,
-    emit_json,
-)
+from formsync_design.cli.options import EXIT_OK, add_format_option, emit_json
 from formsync_design.errors import InputError
 from formsync_design.outdir import save_figure as save_atomic_figure, write_text
+from formsync_design.progress import Progress
 
 __all__ = ["add_parser", "run"]
 
@@ -134,14 +130,10 @@ def run(args: argparse.Namespace) -> int:
         parse_margin,
         requirements_from_args,
     )
-    from formsync_design.cli.defaults import (
-        Defaults,
-        default_out,
-        lagrangian_range_gains,
-        refuse_tracking,
-    )
+    from formsync_design.cli.defaults import default_out, lagrangian_range_gains, refuse_tracking
     from formsync_design.cli.options import check_out_dir, design_graph
     from formsync_design.spec.loader import load_spec
+    from formsync_design.verify.defaults import Defaults
 
     check_out_dir(args.out, overwrite=args.overwrite, results=("region.json",))
     agent = agent_design_or_none(args.spec)

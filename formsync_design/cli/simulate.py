@@ -172,7 +172,8 @@ def lagrangian_setup(args: argparse.Namespace, command: str, what: str) -> Any:
     ``--out`` folder (claimed), the defaults, the case and design, the graph and its theorem
     check; an ``int`` exit status instead when the command does not apply (a tracking design,
     :func:`~formsync_design.cli.defaults.refuse_tracking`)."""
-    from formsync_design.cli.defaults import Defaults, lagrangian_graph, refuse_tracking
+    from formsync_design.cli.defaults import lagrangian_graph, refuse_tracking
+    from formsync_design.verify.defaults import Defaults
 
     out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
     defaults = Defaults()

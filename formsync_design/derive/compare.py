@@ -42,7 +42,6 @@ from formsync_design.derive.closed_loop import (
 )
 from formsync_design.derive.conditions import derive_conditions, paper_conditions
 from formsync_design.derive.findings import (
-    VERDICTS,
     Computation,
     ComputationKind,
     Finding,
@@ -55,7 +54,7 @@ from formsync_design.graphs.build import Graph, make_graph
 from formsync_design.models.attitude import AttitudeModel, derive_attitude_model, reduce_unit, skew
 from formsync_design.spec.loader import gain_symbols
 
-__all__ = ["Finding", "Verdict", "VERDICTS", "Computation", "ComputationKind", "MEANINGS",
+__all__ = [ "MEANINGS",
            "example_state", "model_findings", "lyapunov_findings", "all_findings",
            "disagreement_witness"]
 

@@ -53,7 +53,8 @@ from formsync_design.derive.lyapunov import LyapunovConditions, zeta_labels
 from formsync_design.derive.templates import LocalTemplate, template_cached
 from formsync_design.errors import DerivationError
 from formsync_design.graphs.build import Graph, make_graph
-from formsync_design.spec.loader import LyapunovView, gain_symbols
+from formsync_design.spec.lagrangian_view import LyapunovView
+from formsync_design.spec.loader import gain_symbols
 
 __all__ = [
     "derive_conditions",

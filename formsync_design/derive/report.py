@@ -15,14 +15,16 @@ import sympy as sp
 
 from formsync_design.derive.closed_form import closed_form_conditions, pi_pencils
 from formsync_design.derive.closed_loop import SpecLike, derive_closed_loop, resolve_spec
-from formsync_design.derive.compare import Finding, all_findings
+from formsync_design.derive.compare import all_findings
 from formsync_design.derive.conditions import brute_force_vdot, derive_conditions
+from formsync_design.derive.findings import Finding
 from formsync_design.derive.templates import derive_local_template
 from formsync_design.graphs.build import Graph, make_graph
 from formsync_design.models.attitude import derive_attitude_model
 from formsync_design.outdir import write_text
 from formsync_design.spec.declarations import CLASSIC
-from formsync_design.spec.loader import ControllerView, LyapunovView, Spec, gain_symbols
+from formsync_design.spec.lagrangian_view import ControllerView, LyapunovView
+from formsync_design.spec.loader import Spec, gain_symbols
 
 __all__ = ["DerivationReport", "write_derivation_report", "report_basename", "DEFAULT_GRAPH",
            "derivation_command"]

@@ -3,7 +3,7 @@
 Modules: :mod:`~.bridge` (SymPy -> CasADi), :mod:`~.formation` (inputs, options,
 statuses), :mod:`~.kernels` (building, compiling and caching the closed loop, keyed
 by the specification's content), :mod:`~.metrics`, :mod:`~.result`,
-:mod:`~.simulator` (the driver; re-exports the public names), :mod:`~.montecarlo`,
+:mod:`~.simulator` (the driver), :mod:`~.montecarlo`,
 :mod:`~.figures`; :mod:`~.hybrid` (exact hybrid simulation with per-agent periodic,
 event-, self- and dynamic-event triggering, representation-agnostic); :mod:`~.sampled`
 (a design's controller with per-spacecraft sample-and-hold on the formation, through

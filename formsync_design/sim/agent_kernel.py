@@ -497,7 +497,8 @@ def get_agent_kernel(design: AgentDesign, neighbours: tuple[tuple[int, ...], ...
     Cached in memory by the design's key, the structure and the options, and on disk by the
     generated C source (:func:`formsync_design.sim.kernels.compile_function`).
     """
-    from formsync_design.sim.kernels import compile_enabled, compile_function
+    from formsync_design.sim.ccompile import compile_enabled
+    from formsync_design.sim.kernels import compile_function
 
     compile = bool(compile) and compile_enabled()
     rate = reference_rate_expressions(ref_rate)

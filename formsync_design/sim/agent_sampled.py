@@ -301,7 +301,8 @@ def _law_design(design: AgentDesign) -> AgentDesign:
 def _compiled_plant(design: AgentDesign, kern: Any, neighbours: Any, ref_rate: Any) -> Any:
     """The kernel's plant ``(x, u, t, p) -> xdot``, compiled to C (cached on disk by the
     generated source) unless compilation is disabled."""
-    from formsync_design.sim.kernels import compile_enabled, compile_function
+    from formsync_design.sim.ccompile import compile_enabled
+    from formsync_design.sim.kernels import compile_function
 
     if not compile_enabled():
         return kern.plant

@@ -180,7 +180,8 @@ def _laws(spec: Spec) -> dict[str, Any]:
 
 
 def _kernel(spec: Spec, opt: FlyaroundOptions) -> _Kernel:
-    from formsync_design.sim.kernels import compile_enabled, compile_function
+    from formsync_design.sim.ccompile import compile_enabled
+    from formsync_design.sim.kernels import compile_function
 
     compile = opt.compile and compile_enabled()
     key = (spec.key, opt.substeps, opt.sample_period, compile)

@@ -95,6 +95,7 @@ import numpy as np
 
 from formsync_design.errors import InputError, SimulationError
 from formsync_design.sim.adaptive import run_vm
+from formsync_design.sim.ccompile import cache_dir
 from formsync_design.sim.formation import (
     INTEGRATORS,
     MAX_GRID_POINTS,
@@ -107,7 +108,7 @@ from formsync_design.sim.formation import (
     state_names,
     unpack_state,
 )
-from formsync_design.sim.kernels import CHUNK, Kernel, cache_dir, get_kernel, pack_params
+from formsync_design.sim.kernels import CHUNK, Kernel, get_kernel, pack_params
 from formsync_design.sim.metrics import convergence_time, formation_metrics, linear_metrics
 from formsync_design.sim.native import METHODS, SWITCH_EVENTS, get_native
 from formsync_design.sim.native_c import CFG

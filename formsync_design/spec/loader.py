@@ -58,8 +58,6 @@ from formsync_design.spec.lagrangian_view import ControllerView, LyapunovView
 
 __all__ = [
     "agent_design_of",
-    "ControllerView",
-    "LyapunovView",
     "Spec",
     "load_spec",
     "load_design",
