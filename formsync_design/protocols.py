@@ -219,7 +219,7 @@ if TYPE_CHECKING:  # the type checker verifies that the toolbox's classes confor
     from formsync_design.derive.lyapunov import LyapunovConditions
     from formsync_design.gains import GainBox
     from formsync_design.graphs import Graph
-    from formsync_design.sim.simulator import Formation
+    from formsync_design.sim.formation import Formation
     from formsync_design.spec.loader import Spec
 
     def _graph(x: Graph) -> GraphLike:

@@ -17,6 +17,7 @@ from formsync_design.cli.main import main
 from formsync_design.cli.montecarlo import montecarlo_box
 from formsync_design.errors import InputError
 from formsync_design.sim import Gains
+from formsync_design.sim.formation import SimOptions
 from formsync_design.sim.montecarlo import (
     mc_box,
     mc_gain_names,
@@ -26,7 +27,7 @@ from formsync_design.sim.montecarlo import (
     sample_formation,
 )
 from formsync_design.sim.montecarlo_data import MonteCarloSettings, RunStatus
-from formsync_design.sim.simulator import SimOptions, simulate
+from formsync_design.sim.simulator import simulate
 from formsync_design.spec.loader import load_spec
 from formsync_design.verify.case import load_case
 

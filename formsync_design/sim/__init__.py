@@ -30,7 +30,12 @@ if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
         Reference as Reference,
         simulate_agents as simulate_agents,
     )
-    from formsync_design.sim.formation import SimStatus as SimStatus
+    from formsync_design.sim.formation import (
+        Formation as Formation,
+        Gains as Gains,
+        SimOptions as SimOptions,
+        SimStatus as SimStatus,
+    )
     from formsync_design.sim.hybrid import (
         HybridOptions as HybridOptions,
         HybridResult as HybridResult,
@@ -43,19 +48,14 @@ if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
         MonteCarloSettings as MonteCarloSettings,
         RunStatus as RunStatus,
     )
+    from formsync_design.sim.result import SimResult as SimResult
     from formsync_design.sim.sampled import (
         SampledResult as SampledResult,
         TriggerSpec as TriggerSpec,
         parse_trigger as parse_trigger,
         simulate_sampled as simulate_sampled,
     )
-    from formsync_design.sim.simulator import (
-        Formation as Formation,
-        Gains as Gains,
-        SimOptions as SimOptions,
-        SimResult as SimResult,
-        simulate as simulate,
-    )
+    from formsync_design.sim.simulator import simulate as simulate
 
 #: public name -> the submodule that defines it
 _LAZY: dict[str, str] = {
@@ -78,10 +78,10 @@ _LAZY: dict[str, str] = {
     "TriggerSpec": "formsync_design.sim.sampled",
     "parse_trigger": "formsync_design.sim.sampled",
     "simulate_sampled": "formsync_design.sim.sampled",
-    "Formation": "formsync_design.sim.simulator",
-    "Gains": "formsync_design.sim.simulator",
-    "SimOptions": "formsync_design.sim.simulator",
-    "SimResult": "formsync_design.sim.simulator",
+    "Formation": "formsync_design.sim.formation",
+    "Gains": "formsync_design.sim.formation",
+    "SimOptions": "formsync_design.sim.formation",
+    "SimResult": "formsync_design.sim.result",
     "simulate": "formsync_design.sim.simulator",
 }
 

@@ -52,12 +52,9 @@ import numpy as np
 
 from formsync_design.errors import InputError
 from formsync_design.verify.claims import (
-    QUANTITIES,
     ClaimResult,
-    ClaimSpec,
     Measurement,
     Outcome,
-    Verdict,
     chatter_end_time,
     combine,
     judge,
@@ -67,23 +64,10 @@ from formsync_design.verify.claims import (
     torque_reversals,
 )
 from formsync_design.verify.output import display_path
-from formsync_design.verify.report import write_verification_report
 from formsync_design.verify.results import SensitivityRow, TopologyRun, VerificationResult
 
 __all__ = [
-    "QUANTITIES",
-    "ClaimSpec",
-    "ClaimResult",
-    "Measurement",
-    "Verdict",
-    "TopologyRun",
-    "SensitivityRow",
-    "VerificationResult",
-    "parse_claims",
-    "judge",
-    "chatter_end_time",
     "verify_case",
-    "write_verification_report",
     "verification_json",
 ]
 
