@@ -58,15 +58,15 @@ sys.path.insert(0, str(ROOT))
 from formsync_design.graphs.build import make_graph  # noqa: E402
 from formsync_design.models.disturbances import paper_disturbance  # noqa: E402
 from formsync_design.sim import native  # noqa: E402
-from formsync_design.sim.formation import Formation  # noqa: E402
+from formsync_design.sim.formation import Formation, SimOptions  # noqa: E402
 from formsync_design.sim.montecarlo import (  # noqa: E402
     DEFAULT_OPTIONS,
-    MonteCarloSettings,
     point_box,
     replay,
     run_montecarlo,
 )
-from formsync_design.sim.simulator import SimOptions, simulate  # noqa: E402
+from formsync_design.sim.montecarlo_data import MonteCarloSettings  # noqa: E402
+from formsync_design.sim.simulator import simulate  # noqa: E402
 from formsync_design.spec.loader import load_spec  # noqa: E402
 from formsync_design.verify.case import load_case  # noqa: E402
 from tests import numpy_reference as R, numpy_vectorized as V  # noqa: E402

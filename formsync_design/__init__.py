@@ -185,9 +185,9 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "sampling_variant": "formsync_design.spec.agent",
     # tracking designs: the fly-around case
     "load_flyaround_case": "formsync_design.verify.flyaround_case",
-    "FlyaroundScenario": "formsync_design.sim.flyaround",
-    "FlyaroundOptions": "formsync_design.sim.flyaround",
-    "FlyaroundRun": "formsync_design.sim.flyaround",
+    "FlyaroundScenario": "formsync_design.sim.flyaround_scenario",
+    "FlyaroundOptions": "formsync_design.sim.flyaround_scenario",
+    "FlyaroundRun": "formsync_design.sim.flyaround_scenario",
     "simulate_flyaround": "formsync_design.sim.flyaround",
     "flyaround_figures": "formsync_design.sim.flyaround_figures",
     "derive_tracking_attitude": "formsync_design.derive.tracking",

@@ -2,7 +2,7 @@
 
 Every result a notebook cell shows (:class:`~formsync_design.sim.result.SimResult`,
 :class:`~formsync_design.sim.agents.AgentResult`, the Monte-Carlo results, a
-:class:`~formsync_design.certify.region.RegionMap`, a
+:class:`~formsync_design.certify.subdivision.RegionMap`, a
 :class:`~formsync_design.certify.results.CertificationResult`, a
 :class:`~formsync_design.verify.results.VerificationResult`) has
 

@@ -215,11 +215,11 @@ class FormationLike(Protocol):
 
 
 if TYPE_CHECKING:  # the type checker verifies that the toolbox's classes conform
-    from formsync_design.derive.conditions import LyapunovConditions
     from formsync_design.derive.families import MatrixFamily
+    from formsync_design.derive.lyapunov import LyapunovConditions
     from formsync_design.gains import GainBox
     from formsync_design.graphs import Graph
-    from formsync_design.sim.simulator import Formation
+    from formsync_design.sim.formation import Formation
     from formsync_design.spec.loader import Spec
 
     def _graph(x: Graph) -> GraphLike:

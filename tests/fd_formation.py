@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from formsync_design.sim.agent_kernel import get_agent_kernel
-from formsync_design.sim.agents import AgentFormation, AgentOptions, Gains, agent_parameters
+from formsync_design.sim.agent_kernel import agent_parameters, get_agent_kernel
+from formsync_design.sim.agents import AgentFormation, AgentOptions
+from formsync_design.sim.formation import Gains
 
 
 def fd_jacobian(design, graph, inertias, gains, *, switch="sat", phi=0.01, h=1e-6):

@@ -6,7 +6,7 @@ CasADi model: the reference and the desired frame come from
 :mod:`formsync_design.models.flyaround` (Taylor-mode derivatives, not CasADi's AD), the
 attitude law is written out here in numpy (not translated from the design's SymPy), the
 allocation and the PWM are :func:`~formsync_design.models.thrusters.pinv_allocation` and
-:func:`~formsync_design.models.thrusters.pwm`, the truth dynamics are
+:func:`~formsync_design.models.pwm.pwm`, the truth dynamics are
 :func:`~formsync_design.models.orbit.relative_nonlinear_rhs` + the MRP kinematics + Euler's
 equation as one numpy right-hand side, and every sample is integrated by
 ``scipy.integrate.solve_ivp`` over the exact segments between the pulse edges (constant
@@ -23,7 +23,8 @@ from scipy.integrate import solve_ivp
 from formsync_design.models.flyaround import desired_attitude, desired_position_T
 from formsync_design.models.mrp import mrp_from_matrix, mrp_rhs_terms, mrp_to_matrix
 from formsync_design.models.orbit import cw_matrices, relative_nonlinear_rhs
-from formsync_design.models.thrusters import pinv_allocation, positive_null_vector, pwm
+from formsync_design.models.pwm import pwm
+from formsync_design.models.thrusters import pinv_allocation, positive_null_vector
 from formsync_design.sim.flyaround import initial_state, lqr_for
 
 

@@ -14,7 +14,8 @@ from formsync_design.analysis.spectrum import laplacian_spectrum
 from formsync_design.derive.closed_loop import derive_closed_loop, resolve_spec
 from formsync_design.errors import GraphError, InputError
 from formsync_design.graphs import make_graph
-from formsync_design.spec.loader import LyapunovView, gain_symbols
+from formsync_design.spec.lagrangian_view import LyapunovView
+from formsync_design.spec.loader import gain_symbols
 
 ORDER = ("paper", "exact", "searched", "spectral")
 

@@ -76,7 +76,8 @@ def test_nonlinear_simulation_settles_within_certified_time():
     of (q, q') reaches eps before the certified settling time, and its simulated decay rate
     is not slower than the certified alpha."""
     from formsync_design.models.disturbances import no_disturbance
-    from formsync_design.sim.simulator import Formation, Gains, SimOptions, simulate, unpack_state
+    from formsync_design.sim.formation import Formation, Gains, SimOptions, unpack_state
+    from formsync_design.sim.simulator import simulate
 
     graph = make_graph("ring:4")
     pt = (1.6, 0.4, 0.3)

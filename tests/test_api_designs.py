@@ -45,7 +45,7 @@ def _design(key: str, tmp_path: Path) -> tuple[object, object]:
 
 def _case(d: object) -> object:
     """The design's case (agent: its own or where it is compared; Lagrangian: its own)."""
-    from formsync_design.cli.agent_commands import agent_case_for
+    from formsync_design.cli.agent_inputs import agent_case_for
 
     if getattr(d, "form", None) == "agent":
         return agent_case_for(d, None, None)

@@ -11,16 +11,11 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from formsync_design.certify.engine import (
-    as_box,
-    box_vertices,
-    certify_box,
-    check_kv,
-    exact_ldl,
-    rigorous_lower_bound,
-)
+from formsync_design.certify.engine import as_box, box_vertices, certify_box, check_kv
+from formsync_design.certify.exact import exact_ldl, rigorous_lower_bound
 from formsync_design.cli.main import main
-from formsync_design.derive.conditions import derive_conditions, paper_conditions, required_kv
+from formsync_design.derive.closed_form import required_kv
+from formsync_design.derive.conditions import derive_conditions, paper_conditions
 from formsync_design.derive.families import family_from_sympy
 from formsync_design.errors import InputError
 from formsync_design.graphs.build import make_graph
@@ -466,7 +461,7 @@ def test_exact_boundary_decided_by_rationals() -> None:
     """On the Theta boundary (from derive.closed_form_conditions, solved for K_q) the
     matrix is singular: refuted with an exact witness of value 0; 1e-15 above it the
     float test is inconclusive and exact LDL^T certifies."""
-    from formsync_design.derive.conditions import closed_form_conditions
+    from formsync_design.derive.closed_form import closed_form_conditions
     from formsync_design.spec.loader import gain_symbols
 
     conds = derive_conditions("star:3")
@@ -495,7 +490,8 @@ def test_inertia_per_spacecraft_and_case_override(capsys, tmp_path) -> None:
 def test_uniform_refutation_matches_rational_evaluation() -> None:
     """The integer-arithmetic sign test agrees with MatrixFamily.evaluate_exact,
     including vectors whose quadratic form is (nearly) zero."""
-    from formsync_design.certify.engine import analyze, uniform_refutation
+    from formsync_design.certify.structure import analyze
+    from formsync_design.certify.vertices import uniform_refutation
 
     rng = np.random.default_rng(9)
     for spec in ("ring:5", "star:4"):

@@ -299,7 +299,7 @@ def test_undecided_has_no_certified_margin(monkeypatch) -> None:
 
 
 def test_undecided_text_report_has_no_certified_margin(monkeypatch) -> None:
-    from formsync_design.cli.certify import format_result
+    from formsync_design.cli.certify_text import format_result
 
     _, r = _undecided_tie(monkeypatch)
     text = format_result(r)
@@ -389,7 +389,7 @@ def test_margin_only_beside_a_certificate() -> None:
     unknown solver status with an inconclusive re-check): no certified margin then."""
     from dataclasses import replace
 
-    from formsync_design.cli.certify import format_result
+    from formsync_design.cli.certify_text import format_result
 
     ok = engine.certify_box(derive_conditions("ring:8"), {"K_o": 1.6, "K_q": 0.4, "beta": 0.3})
     assert ok.margin_lower_bound is not None and all(f.lower is not None for f in ok.families)

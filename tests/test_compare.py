@@ -15,17 +15,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from formsync_design.derive.closed_form import required_kv
 from formsync_design.derive.compare import (
-    VERDICTS,
-    Verdict,
     all_findings,
     disagreement_witness,
     lyapunov_findings,
     model_findings,
 )
-from formsync_design.derive.conditions import derive_conditions, paper_conditions, required_kv
+from formsync_design.derive.conditions import derive_conditions, paper_conditions
 from formsync_design.derive.families import FamilyTerm, MatrixFamily
-from formsync_design.derive.findings import compare_families
+from formsync_design.derive.findings import VERDICTS, Verdict, compare_families
 from formsync_design.derive.printed import load_printed
 from formsync_design.graphs.build import make_graph
 

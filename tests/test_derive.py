@@ -19,19 +19,18 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 from scipy.optimize import minimize
 
-from formsync_design.derive.conditions import (
-    brute_force_vdot,
+from formsync_design.derive.closed_form import (
     closed_form_conditions,
-    derive_closed_loop,
-    derive_conditions,
-    derive_local_template,
     kv_condition_holds,
-    paper_conditions,
     required_kv,
 )
+from formsync_design.derive.closed_loop import derive_closed_loop
+from formsync_design.derive.conditions import brute_force_vdot, derive_conditions, paper_conditions
+from formsync_design.derive.templates import derive_local_template
 from formsync_design.errors import DerivationError
 from formsync_design.graphs.build import make_graph
-from formsync_design.spec.loader import ControllerView, LyapunovView, load_spec
+from formsync_design.spec.lagrangian_view import ControllerView, LyapunovView
+from formsync_design.spec.loader import load_spec
 
 from .helpers import cross, model_numeric, random_inertia, random_quaternion
 

@@ -348,7 +348,7 @@ def test_pd_region_equals_the_hand_conditions_cell_by_cell(graph):
     k_d > eps lambda_max(L) (and eps k_p > 0); the families are multi-affine, so a cell is
     certified for a given eps iff the conditions hold at its four corners."""
     from formsync_design.certify.multiregion import region_with_multipliers
-    from formsync_design.certify.region import rasterize
+    from formsync_design.certify.subdivision import rasterize
 
     g = make_graph(graph)
     eps_range = GainRange("eps", Fraction(1, 20), Fraction(2))

@@ -125,7 +125,7 @@ def test_parser_vocabularies_are_the_stages_own() -> None:
     from formsync_design.models.disturbances import DISTURBANCES
     from formsync_design.sim.bridge import SWITCHES
     from formsync_design.sim.formation import INTEGRATORS
-    from formsync_design.sim.montecarlo import MAX_RUNS
+    from formsync_design.sim.montecarlo_data import MAX_RUNS
 
     assert choices.GRAPH_SPEC_HELP == GRAPH_SPEC_HELP
     assert choices.DISTURBANCES == DISTURBANCES

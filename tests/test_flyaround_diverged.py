@@ -16,8 +16,14 @@ import pytest
 from formsync_design.cli.main import main
 from formsync_design.resources import case_file
 from formsync_design.sim import flyaround as F
-from formsync_design.verify.flyaround import METRICS, Verdict, diverged_time, judge, run_metrics
 from formsync_design.verify.flyaround_case import load_flyaround_case
+from formsync_design.verify.flyaround_claims import (
+    METRICS,
+    Verdict,
+    diverged_time,
+    judge,
+    run_metrics,
+)
 
 CASE = load_flyaround_case()
 TINY = replace(CASE.scenario, inertia=1e-3 * np.eye(3), law_inertia=CASE.scenario.inertia)

@@ -27,12 +27,12 @@ from formsync_design.models.allocation import BoundedLP, MinFuelAllocator
 from formsync_design.models.flyaround import attitude_frame, desired_attitude
 from formsync_design.models.mrp import mrp_from_matrix, mrp_to_matrix
 from formsync_design.models.orbit import cw_matrices
+from formsync_design.models.pwm import pwm
 from formsync_design.models.thrusters import (
     AllocationStatus,
     lp_allocation,
     pinv_allocation,
     positive_null_vector,
-    pwm,
     zhang2014_layout,
 )
 from formsync_design.sim import flyaround as F

@@ -14,13 +14,8 @@ import numpy as np
 import pytest
 
 from formsync_design.analysis.l2design import budget_bound, design_l2_gains
-from formsync_design.analysis.l2gain import (
-    certify_gamma,
-    certify_l2_box,
-    frequency_witness,
-    harmonic_steady_bound,
-    hinf_norm,
-)
+from formsync_design.analysis.l2freq import frequency_witness, hinf_norm
+from formsync_design.analysis.l2gain import certify_gamma, certify_l2_box, harmonic_steady_bound
 from formsync_design.derive.linearize import linearize_agents
 from formsync_design.errors import InputError
 from formsync_design.graphs.digraph_io import make_digraph
@@ -74,7 +69,7 @@ def test_linearisation_against_finite_differences_of_the_compiled_loop(design, s
     n = g.n
     kern = get_agent_kernel(design, tuple(g.receives_from(i) for i in range(n)), "sgn", 1, 1,
                             compile=False)
-    from formsync_design.sim.agents import agent_parameters
+    from formsync_design.sim.agent_kernel import agent_parameters
 
     f = AgentFormation(g, J, np.tile([0, 0, 0, 1.0], (n, 1)), np.zeros((n, 3)), Gains(GAINS),
                        None, Reference())
@@ -107,7 +102,7 @@ def test_storage_derivative_along_the_compiled_loop(design, small):
     n = g.n
     kern = get_agent_kernel(design, tuple(g.receives_from(i) for i in range(n)), "sgn", 1, 1,
                             compile=False)
-    from formsync_design.sim.agents import agent_parameters
+    from formsync_design.sim.agent_kernel import agent_parameters
 
     f = AgentFormation(g, J, np.tile([0, 0, 0, 1.0], (n, 1)), np.zeros((n, 3)), Gains(GAINS),
                        None, Reference())

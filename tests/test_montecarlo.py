@@ -11,16 +11,10 @@ from formsync_design.cli.main import main
 from formsync_design.errors import InputError
 from formsync_design.gains import GainBox
 from formsync_design.models.disturbances import constant_disturbance
-from formsync_design.sim.montecarlo import (
-    MAX_RUNS,
-    MonteCarloSettings,
-    RunStatus,
-    mc_box,
-    point_box,
-    replay,
-    run_montecarlo,
-)
-from formsync_design.sim.simulator import Formation, Gains, SimOptions, simulate
+from formsync_design.sim.formation import Formation, Gains, SimOptions
+from formsync_design.sim.montecarlo import mc_box, point_box, replay, run_montecarlo
+from formsync_design.sim.montecarlo_data import MAX_RUNS, MonteCarloSettings, RunStatus
+from formsync_design.sim.simulator import simulate
 from formsync_design.verify.case import load_case
 
 OPT = SimOptions(tf=20.0, step=0.1, output_step=0.5, norm_tol=1e-5, compile=False)

@@ -17,9 +17,8 @@ from formsync_design.cli.main import main
 from formsync_design.cli.montecarlo import montecarlo_box
 from formsync_design.errors import InputError
 from formsync_design.sim import Gains
+from formsync_design.sim.formation import SimOptions
 from formsync_design.sim.montecarlo import (
-    MonteCarloSettings,
-    RunStatus,
     mc_box,
     mc_gain_names,
     point_box,
@@ -27,7 +26,8 @@ from formsync_design.sim.montecarlo import (
     run_montecarlo,
     sample_formation,
 )
-from formsync_design.sim.simulator import SimOptions, simulate
+from formsync_design.sim.montecarlo_data import MonteCarloSettings, RunStatus
+from formsync_design.sim.simulator import simulate
 from formsync_design.spec.loader import load_spec
 from formsync_design.verify.case import load_case
 

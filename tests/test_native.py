@@ -14,10 +14,12 @@ from formsync_design.graphs.build import make_graph
 from formsync_design.graphs.digraph_io import make_digraph
 from formsync_design.models.disturbances import constant_disturbance, no_disturbance
 from formsync_design.sim import native
+from formsync_design.sim.formation import Formation, Gains, SimOptions
 from formsync_design.sim.kernels import get_kernel, pack_params
 from formsync_design.sim.metrics import formation_metrics, linear_metrics
-from formsync_design.sim.montecarlo import MonteCarloSettings, mc_box, replay, run_montecarlo
-from formsync_design.sim.simulator import Formation, Gains, SimOptions, simulate
+from formsync_design.sim.montecarlo import mc_box, replay, run_montecarlo
+from formsync_design.sim.montecarlo_data import MonteCarloSettings
+from formsync_design.sim.simulator import simulate
 from formsync_design.spec.loader import load_spec
 from formsync_design.verify.case import load_case
 

@@ -18,7 +18,6 @@ from pathlib import Path
 import pytest
 
 from formsync_design import progress as pg
-from formsync_design.cli import options
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -38,7 +37,15 @@ def _terminal(monkeypatch: pytest.MonkeyPatch) -> FakeTerminal:
 
 
 def test_one_progress_mechanism() -> None:
-    assert options.Progress is pg.Progress
+    import importlib
+    import pkgutil
+
+    import formsync_design.cli as cli
+
+    mods = [importlib.import_module(f"formsync_design.cli.{m.name}")
+            for m in pkgutil.iter_modules(cli.__path__)]
+    users = [m for m in mods if hasattr(m, "Progress")]
+    assert users and all(m.Progress is pg.Progress for m in users)
 
 
 def test_silent_when_stderr_is_not_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:

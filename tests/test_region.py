@@ -9,18 +9,11 @@ import numpy as np
 import pytest
 
 from formsync_design.certify.plots import write_region
-from formsync_design.certify.region import (
-    closed_form_agreement,
-    map_to_dict,
-    rasterize,
-    region_map,
-)
+from formsync_design.certify.region import closed_form_agreement, region_map
+from formsync_design.certify.subdivision import map_to_dict, rasterize
 from formsync_design.cli.main import main
-from formsync_design.derive.conditions import (
-    closed_form_conditions,
-    derive_conditions,
-    paper_conditions,
-)
+from formsync_design.derive.closed_form import closed_form_conditions
+from formsync_design.derive.conditions import derive_conditions, paper_conditions
 from formsync_design.errors import InputError
 
 RANGES = {"K_o": ("0.05", "5"), "K_q": ("0.05", "5"), "beta": ("0.01", "1")}

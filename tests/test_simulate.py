@@ -18,17 +18,16 @@ from formsync_design.models.disturbances import (
     harmonic_disturbance,
     no_disturbance,
 )
-from formsync_design.sim.simulator import (
+from formsync_design.sim.formation import (
     Formation,
     Gains,
     SimOptions,
-    convergence_time,
-    formation_metrics,
     pack_state,
-    simulate,
     state_names,
     unpack_state,
 )
+from formsync_design.sim.metrics import convergence_time, formation_metrics
+from formsync_design.sim.simulator import simulate
 from formsync_design.verify.case import load_case
 
 from . import numpy_reference as R, numpy_vectorized as V

@@ -11,13 +11,8 @@ import sympy as sp
 
 from formsync_design.cli.main import main
 from formsync_design.errors import DerivationError, InputError
-from formsync_design.spec.loader import (
-    ControllerView,
-    LyapunovView,
-    Spec,
-    default_spec_path,
-    load_spec,
-)
+from formsync_design.spec.lagrangian_view import ControllerView, LyapunovView
+from formsync_design.spec.loader import Spec, default_spec_path, load_spec
 
 DATA = Path(__file__).parent / "data"
 

@@ -20,6 +20,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from formsync_design.errors import InputError
+from formsync_design.models.pwm import fuel_mass, pwm, rocket_fuel
 from formsync_design.models.thrusters import (
     MIN_PULSE_S,
     SAMPLE_PERIOD_S,
@@ -28,12 +29,9 @@ from formsync_design.models.thrusters import (
     SpanStatus,
     ThrusterLayout,
     check_positive_spanning,
-    fuel_mass,
     lp_allocation,
     pinv_allocation,
     positive_null_vector,
-    pwm,
-    rocket_fuel,
     zhang2014_layout,
 )
 

@@ -29,7 +29,8 @@ from formsync_design.verify.claims import (
     parse_claims,
 )
 from formsync_design.verify.output import check_output, display_path, report_marker
-from formsync_design.verify.verification import verify_case, write_verification_report
+from formsync_design.verify.report import write_verification_report
+from formsync_design.verify.verification import verify_case
 
 DATA = Path(__file__).parent / "data"
 SMALL = DATA / "small_case.toml"
@@ -361,7 +362,7 @@ def test_case_spec_reaches_derivation_and_simulation(tmp_path):
     fast = res.topologies[0].sim
     slow = paper.topologies[0].sim
     # independent truth: the variant doubles K_q, i.e. the paper's law at gains (K_o, 2 K_q)
-    from formsync_design.sim.simulator import Formation, Gains
+    from formsync_design.sim.formation import Formation, Gains
 
     f = case.formation("ring:3")
     g = case.gains

@@ -58,12 +58,9 @@ import time
 from typing import Any
 
 from formsync_design.analysis.modecheck import (
-    GAINS,
     box_poly_range,
-    check_pd_2x2,
     check_pd_coeffs,
     entry_coeffs,
-    gain_subs,
     hurwitz_conditions,
     lam_dict,
     multi_affine,
@@ -74,21 +71,14 @@ from formsync_design.analysis.modecheck import (
 from formsync_design.analysis.modes import ModeModel, mode_model
 from formsync_design.analysis.results import Certificate, CertificateResult, Verdict
 from formsync_design.analysis.searched import (
-    SearchedLMI,
     certify_searched,
-    lp_coeffs,
-    monomial_value,
-    monomials,
-    with_p,
 )
 from formsync_design.analysis.spectrum import LaplacianSpectrum, laplacian_spectrum
 from formsync_design.errors import InputError
 from formsync_design.gains import GainBox
 from formsync_design.graphs import make_graph
 
-__all__ = ["GAINS", "certify", "check_pd_2x2", "hurwitz_conditions", "box_poly_range", "SearchedLMI",
-           "check_pd_coeffs", "entry_coeffs", "lp_coeffs", "with_p", "monomials", "monomial_value",
-           "gain_subs", "exact_candidates", "certify_exact_with"]
+__all__ = [ "certify", "exact_candidates", "certify_exact_with"]
 
 
 # ---------------------------------------------------------------------------

@@ -21,7 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from formsync_design.analysis.l2gain import L2Certificate, certify_gamma, hinf_norm
+from formsync_design.analysis.l2freq import hinf_norm
+from formsync_design.analysis.l2gain import L2Certificate, certify_gamma
 from formsync_design.derive.linearize import LinearLoop
 from formsync_design.errors import InputError
 from formsync_design.gains import json_number, parse_number

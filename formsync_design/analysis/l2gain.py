@@ -60,9 +60,6 @@ from formsync_design.errors import InputError, SolverError
 from formsync_design.gains import GainBox, json_number, parse_number
 
 __all__ = [
-    "hinf_norm",
-    "FrequencyWitness",
-    "frequency_witness",
     "dissipation_families",
     "L2Certificate",
     "certify_gamma",

@@ -186,7 +186,7 @@ class SearchedLMI:
         """
         import cvxpy as cp
 
-        from formsync_design.certify.engine import CLARABEL_OPTIONS
+        from formsync_design.certify.sdp import CLARABEL_OPTIONS
 
         k = self.nfree
         tm = np.diag([1.0 / lam, 1.0])

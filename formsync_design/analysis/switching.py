@@ -127,7 +127,7 @@ def certify_switching(graphs: Any, box: Any, *, spec: Any = None) -> SwitchingRe
     """
     import cvxpy as cp
 
-    from formsync_design.certify.engine import CLARABEL_OPTIONS
+    from formsync_design.certify.sdp import CLARABEL_OPTIONS
 
     gs = [make_graph(g) for g in graphs]
     if not gs:

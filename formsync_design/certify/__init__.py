@@ -7,15 +7,11 @@ from formsync_design.certify.agent import (
     region_agent,
 )
 from formsync_design.certify.design import DesignResult, design_gains
-from formsync_design.certify.engine import (
-    CertificationResult,
-    Status,
-    as_box,
-    certify_box,
-    check_kv,
-)
+from formsync_design.certify.engine import as_box, certify_box, check_kv
 from formsync_design.certify.multipliers import certify_with_multipliers
-from formsync_design.certify.region import RegionMap, region_map
+from formsync_design.certify.region import region_map
+from formsync_design.certify.results import CertificationResult, Status
+from formsync_design.certify.subdivision import RegionMap
 
 __all__ = [
     "Status",

@@ -114,7 +114,7 @@ class AgentGainDesign:
 def design_agent(design: Any, conditions: Any, box: Any, *, grid: int = 4) -> AgentGainDesign:
     """The point of a ``grid``-per-axis grid over ``box`` with the largest certified margin
     (multipliers searched, exact re-check, no SDP) and the largest certified box around it
-    (:func:`~formsync_design.certify.design.largest_certified_box`, the multipliers held at
+    (:func:`~formsync_design.certify.growbox.largest_certified_box`, the multipliers held at
     their certifying values).
 
     >>> from formsync_design.derive.agent import agent_conditions
@@ -126,7 +126,7 @@ def design_agent(design: Any, conditions: Any, box: Any, *, grid: int = 4) -> Ag
     >>> r.status, isinstance(r, AgentGainDesign)
     ('recommended', True)
     """
-    from formsync_design.certify.design import largest_certified_box
+    from formsync_design.certify.growbox import largest_certified_box
     from formsync_design.certify.multipliers import certify_with_multipliers
     from formsync_design.certify.reduce import fix_gains
 

@@ -26,19 +26,15 @@ from typing import Any, cast
 
 import numpy as np
 
-from formsync_design.certify.engine import (
-    CLARABEL_OPTIONS,
-    STATUS_MAP,
-    Bounds,
-    CertificationResult,
-    analyze,
-    as_box,
-    certify_box,
-)
-from formsync_design.certify.structure import pencil_spectrum
+from formsync_design.certify.engine import Bounds, as_box, certify_box
+from formsync_design.certify.growbox import largest_certified_box
+from formsync_design.certify.multipliers import agent_multiplier_ranges
+from formsync_design.certify.results import STATUS_MAP, CertificationResult
+from formsync_design.certify.sdp import CLARABEL_OPTIONS
+from formsync_design.certify.structure import analyze, pencil_spectrum
 from formsync_design.errors import DerivationError, InputError
 
-__all__ = ["BetaStep", "DesignResult", "design_gains", "largest_certified_box"]
+__all__ = ["BetaStep", "DesignResult", "design_gains"]
 
 
 @dataclass(frozen=True)
@@ -198,55 +194,25 @@ def _nice(x: float, lo: Fraction, hi: Fraction) -> Fraction:
     return min(max(Fraction(x), lo), hi)
 
 
-def largest_certified_box(
-    conditions: Any,
-    point: dict[str, Fraction],
-    ranges: Bounds,
-    *,
-    margin: Any = 0,
-    iterations: int = 12,
-) -> tuple[Bounds | None, float, CertificationResult | None]:
-    """Largest ``s`` (bisection, ``iterations`` steps) such that the box
-    ``g_i [1 - s, 1 + s]`` (clipped to ``ranges``) is certified.
+def _design_agent_conditions(conditions: Any, ranges: Any, *, design: Any = None, grid: int = 4) -> Any:
+    """The agent gain design (:func:`~formsync_design.certify.agent.design_agent`: the grid
+    point of ``ranges`` with the largest certified margin, multipliers searched, and the
+    largest certified box around it) of agent ``conditions``; ``design`` default: the shipped
+    design the conditions name."""
+    from formsync_design.certify.agent import design_agent
+    from formsync_design.gains import GainBox
 
-    Returns ``(box, s, certificate)``; ``(None, 0, None)`` when even the point
-    is not certified.  The bisection uses the re-check only; the final box
-    is certified by :func:`~formsync_design.certify.engine.certify_box` with the SDP.
+    if design is None:
+        from formsync_design.resources import design_names
+        from formsync_design.spec.loader import load_design
 
-    >>> from fractions import Fraction as F
-    >>> from formsync_design.derive.conditions import derive_conditions
-    >>> pt = {"K_o": F(8, 5), "K_q": F(2, 5), "beta": F(3, 10)}
-    >>> rng = ((F(1, 10), F(5)), (F(1, 10), F(5)), (F(1, 100), F(1)))
-    >>> box, s, res = largest_certified_box(derive_conditions("ring:8"), pt, rng, iterations=6)
-    >>> str(res.status), 0 < s < 1
-    ('certified', True)
-    """
-    gains = tuple(conditions.gains)
-
-    def box_of(s: Fraction) -> Bounds:
-        out = []
-        for g, (lo, hi) in zip(gains, ranges):
-            v = point[g]
-            out.append((max(lo, v * (1 - s)), min(hi, v * (1 + s))))
-        return tuple(out)
-
-    if not certify_box(conditions, box_of(Fraction(0)), margin=margin, use_sdp=False).certified:
-        return None, 0.0, None
-    lo, hi = Fraction(0), Fraction(99, 100)
-    if certify_box(conditions, box_of(hi), margin=margin, use_sdp=False).certified:
-        lo = hi
-    else:
-        for _ in range(iterations):
-            mid = (lo + hi) / 2
-            if certify_box(conditions, box_of(mid), margin=margin, use_sdp=False).certified:
-                lo = mid
-            else:
-                hi = mid
-    bx = box_of(lo)
-    res = certify_box(conditions, bx, margin=margin)
-    if not res.certified:  # the SDP gate failed on the final box: shrink once more
-        return bx, float(lo), res
-    return bx, float(lo), res
+        name = getattr(conditions, "design", None)
+        if not isinstance(name, str) or name not in design_names():
+            raise InputError(f"expected design= for the conditions of the unshipped design "
+                             f"{name!r} (its multipliers' ranges), received none")
+        design = load_design(name)
+    box = ranges if isinstance(ranges, GainBox) else GainBox.parse(ranges)
+    return design_agent(design, conditions, box, grid=grid)
 
 
 def design_gains(
@@ -262,7 +228,7 @@ def design_gains(
     """Recommend ``(K_o, K_q, beta)`` maximizing the certified margin.
 
     An agent design's conditions (:func:`~formsync_design.derive.agent.agent_conditions`)
-    are designed by :func:`~formsync_design.designs_api.design_any` (the point of a
+    are designed by :func:`~formsync_design.certify.agent.design_agent` (the point of a
     ``betas``-per-axis grid with the largest certified margin, multipliers searched, and the
     largest certified box around it; ``design``: the agent design, default the shipped one
     the conditions name); it returns an
@@ -294,14 +260,10 @@ def design_gains(
     ('designed', 'certified')
     """
     if str(getattr(conditions, "source", "")).startswith("agent"):
-        from formsync_design.designs_api import design_any
-
         grid = int(betas) if isinstance(betas, (int, np.integer)) and betas > 1 else 4
-        return design_any(conditions, ranges, design=design, grid=grid)
+        return _design_agent_conditions(conditions, ranges, design=design, grid=grid)
     if isinstance(ranges, Mapping) and any(n not in ranges for n in conditions.gains):
         # a multiplier not given: swept over its declared range and held (as formsync design)
-        from formsync_design.designs_api import agent_multiplier_ranges
-
         mult = agent_multiplier_ranges(conditions, ranges, design)
         ranges = {**ranges, **{n: (r.lo, r.hi) for n, r in mult.items()}}
         hold = tuple(hold) + tuple(n for n in mult if n not in hold)

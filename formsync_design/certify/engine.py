@@ -93,7 +93,6 @@ inconclusive re-check).  Only a certified result has a certified margin.
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Mapping, Sequence
 from fractions import Fraction
@@ -104,60 +103,35 @@ import numpy as np
 import scipy.sparse as sp
 
 from formsync_design.certify.exact import (
-    check_witness,
-    exact_ldl,
-    rigorous_lower_bound,
     round_up,
     weight_exact,
 )
 from formsync_design.certify.results import (
-    STATUS_MAP,
     CertificationResult,
-    FamilyMargin,
     KvCheck,
     SolverOutcome,
     SolverStats,
     Status,
-    Witness,
 )
-from formsync_design.certify.sdp import CLARABEL_OPTIONS, SDP_MAX_BLOCK, sdp_levels
-from formsync_design.certify.structure import EXACT_MAX, Block, Group, Structure, analyze
+from formsync_design.certify.sdp import sdp_levels
+from formsync_design.certify.structure import Block, Structure, analyze
+from formsync_design.certify.summary import block_certified, summarize
 from formsync_design.certify.vertices import (
     VertexResults,
     evaluate_block,
     evaluate_vertices,
     float_gains,
-    uniform_refutation,
 )
 from formsync_design.errors import InputError
 from formsync_design.gains import GainBox, parse_number
 
 __all__ = [
-    "STATUS_MAP",
-    "CLARABEL_OPTIONS",
     "SUBDIVISION_LIMIT",
-    "EXACT_MAX",
-    "SDP_MAX_BLOCK",
-    "Status",
-    "SolverOutcome",
     "Bounds",
     "as_box",
     "box_vertices",
-    "Witness",
-    "FamilyMargin",
-    "SolverStats",
-    "KvCheck",
-    "CertificationResult",
     "certify_box",
     "check_kv",
-    "exact_ldl",
-    "rigorous_lower_bound",
-    "check_witness",
-    "analyze",
-    "Structure",
-    "VertexResults",
-    "evaluate_vertices",
-    "uniform_refutation",
 ]
 
 #: Exact ``(lo, hi)`` pairs of a box, in gain order (``GainBox.bounds``).
@@ -204,8 +178,8 @@ def check_kv(
     kv: Any, inertias: Sequence[Any], ubar: Any, *, switching_matches: bool | None = True
 ) -> KvCheck:
     """Check ``K_vi >= K_vi*`` for every spacecraft with the derivation's bound
-    (:func:`~formsync_design.derive.conditions.required_kv`, decided exactly by
-    :func:`~formsync_design.derive.conditions.kv_condition_holds`).
+    (:func:`~formsync_design.derive.closed_form.required_kv`, decided exactly by
+    :func:`~formsync_design.derive.closed_form.kv_condition_holds`).
 
     Parameters
     ----------
@@ -221,7 +195,7 @@ def check_kv(
     >>> check_kv(0.01, [50 * np.eye(3)] * 2, 0.5).holds
     True
     """
-    from formsync_design.derive.conditions import kv_condition_holds, required_kv
+    from formsync_design.derive.closed_form import kv_condition_holds, required_kv
 
     n = len(inertias)
 
@@ -341,8 +315,8 @@ def certify_box(
     for b in st.blocks:
         if not b.multiaffine and not vr.witness[b.index]:
             sub[b.index] = _subdivide_certify(b, bx.bounds, mg, vr.method)
-    fams, witness = _summarize(st, vr, verts, mg, gains, sub)
-    all_cert = all(_block_certified(st.blocks[i], vr, sub) for i in range(len(st.blocks)))
+    fams, witness = summarize(st, vr, verts, mg, gains, sub)
+    all_cert = all(block_certified(st.blocks[i], vr, sub) for i in range(len(st.blocks)))
     reason = ""
     hint_note = ""
     if stats.outcome not in (SolverOutcome.OK, SolverOutcome.SKIPPED):
@@ -441,20 +415,6 @@ _ARGUMENT_SUB = (
 SUBDIVISION_LIMIT = 4096
 
 
-def _block_certified(b: Block, vr: VertexResults, sub: Mapping[int, tuple]) -> bool:
-    if b.multiaffine:
-        return bool(np.all(vr.status[b.index] == 1))
-    return bool(sub.get(b.index, (False,))[0])
-
-
-def _block_lower(b: Block, vr: VertexResults, sub: Mapping[int, tuple]) -> Fraction:
-    if b.multiaffine:
-        return Fraction(float(vr.lower[b.index].min()))
-    low = sub[b.index][1]
-    assert low is not None
-    return low
-
-
 def _monomial_range(e: Sequence[int], c: Fraction, box: Bounds) -> tuple[Fraction, Fraction]:
     lo = weight_exact(e, c, [a for a, _ in box])
     hi = weight_exact(e, c, [b for _, b in box])
@@ -507,125 +467,3 @@ def _subdivide_certify(
     return True, lowest, used
 
 
-def _summarize(
-    st: Structure,
-    vr: VertexResults,
-    verts: list[tuple[Fraction, ...]],
-    mg: Fraction,
-    gains: tuple[str, ...],
-    sub: Mapping[int, tuple] | None = None,
-) -> tuple[tuple[FamilyMargin, ...], Witness | None]:
-    sub = sub or {}
-    fams = []
-    witness: Witness | None = None
-    for g in st.groups:
-        bids = sorted(set(g.blocks))
-        hints = [vr.hint[b] for b in bids]
-        hmin = min(float(np.nanmin(h)) for h in hints)
-        # worst vertex by hint
-        worst_b = min(bids, key=lambda b: float(np.nanmin(vr.hint[b])))
-        worst_v = int(np.nanargmin(vr.hint[worst_b]))
-        cert = all(_block_certified(st.blocks[b], vr, sub) for b in bids)
-        lower = None
-        if cert:
-            lower = min(_block_lower(st.blocks[b], vr, sub) for b in bids)
-        upper = None
-        fam_status = Status.CERTIFIED if cert else Status.UNDECIDED
-        for b in bids:
-            if vr.witness[b]:
-                fam_status = Status.REFUTED
-                blk = st.blocks[b]
-                # the witness with the smallest Rayleigh quotient
-                best = None
-                for vi, x in vr.witness[b].items():
-                    xx = sum(v * v for v in x)
-                    rq = check_witness(blk.terms, verts[vi], x, Fraction(0)) / xx
-                    if best is None or rq < best[0]:
-                        best = (rq, vi, x)
-                assert best is not None
-                rq, vi, x = best
-                upper = rq if upper is None else min(upper, rq)
-                if witness is None:
-                    rows = next(r for gi, r in blk.places if gi == g.index)
-                    fam = g.family
-                    covers = uniform_refutation(blk, x, verts, mg)
-                    x = _simplify_witness(blk, x, verts[vi], mg, verts if covers else None)
-                    xx = sum(v * v for v in x)
-                    rq = check_witness(blk.terms, verts[vi], x, Fraction(0)) / xx
-                    upper = min(upper, rq)
-                    full = [0] * fam.size
-                    for loc, r in enumerate(rows.tolist()):
-                        full[r] = x[loc]
-                    labels = fam.row_labels or tuple(str(i + 1) for i in range(fam.size))
-                    witness = Witness(
-                        point=dict(zip(gains, verts[vi])),
-                        family=g.names[0],
-                        spacecraft=g.spacecraft[0] if g.spacecraft else None,
-                        also=tuple(g.spacecraft),
-                        x=tuple(full),
-                        rows=tuple(labels[r] for r in range(fam.size) if full[r] != 0),
-                        value=check_witness(
-                            [(t.exponents, t.coefficient, t.matrix) for t in fam.terms],
-                            verts[vi], full, mg,
-                        ),
-                        rayleigh=rq,
-                        covers_box=covers,
-                    )
-        fams.append(
-            FamilyMargin(
-                name=_group_name(g),
-                spacecraft=tuple(g.spacecraft),
-                size=g.family.size,
-                status=fam_status,
-                lower=lower,
-                hint=hmin,
-                upper=upper,
-                worst_vertex=verts[worst_v],
-            )
-        )
-    return tuple(fams), witness
-
-
-def _simplify_witness(
-    blk: Block, x: list[int], pt: tuple[Fraction, ...], mg: Fraction,
-    cover: list[tuple[Fraction, ...]] | None,
-) -> list[int]:
-    """A witness with smaller integers (fewer bits of the same direction) when it
-    still checks exactly (and still covers the box when the original did)."""
-    big = max(abs(v) for v in x)
-    for bits in (4, 8, 12, 16, 24, 32, 48, 64, 96, 128):
-        scale = Fraction(2**bits, big)
-        y = [int(round(v * scale)) for v in x]
-        gcd = 0
-        for v in y:
-            gcd = math.gcd(gcd, v)
-        if gcd == 0:
-            continue
-        y = [v // gcd for v in y]
-        if check_witness(blk.terms, pt, y, mg) > 0:
-            continue
-        if cover is not None and not uniform_refutation(blk, y, cover, mg):
-            continue
-        return y
-    return x
-
-
-def _group_name(g: Group) -> str:
-    if len(g.names) == 1:
-        return g.names[0]
-    base = g.names[0].split("_")[0]
-    return f"{base}_i (i = {_ranges(g.spacecraft)})" if g.spacecraft else g.names[0]
-
-
-def _ranges(ids: Sequence[int]) -> str:
-    ids = sorted(ids)
-    out = []
-    start = prev = ids[0]
-    for v in [*ids[1:], None]:
-        if v is not None and v == prev + 1:
-            prev = v
-            continue
-        out.append(f"{start}" if start == prev else f"{start}-{prev}")
-        if v is not None:
-            start = prev = v
-    return ",".join(out)

@@ -23,12 +23,12 @@ from dataclasses import replace
 from fractions import Fraction
 from typing import Any
 
-from formsync_design.certify.engine import KvCheck, as_box, certify_box
-from formsync_design.certify.results import CertificationResult, Status
+from formsync_design.certify.engine import as_box, certify_box
+from formsync_design.certify.results import CertificationResult, KvCheck, Status
 from formsync_design.errors import InputError
 from formsync_design.gains import GainBox, GainRange
 
-__all__ = ["multiplier_grid", "certify_with_multipliers", "GRID_POINTS"]
+__all__ = ["multiplier_grid", "certify_with_multipliers", "agent_multiplier_ranges", "GRID_POINTS"]
 
 #: Values tried per multiplier.
 GRID_POINTS = 13
@@ -146,3 +146,30 @@ def certify_with_multipliers(
         reason=(f"no multiplier value tried certifies the box ({ranges}); a failing value "
                 "refutes that Lyapunov candidate only, not the design"),
     )
+
+
+def agent_multiplier_ranges(conditions: Any, given: Any, design: Any = None) -> dict[str, Any]:
+    """The multipliers of ``conditions`` not in ``given`` (``name -> GainRange``): the
+    declared ranges of ``design`` (default: the shipped design the conditions name)."""
+    gains = tuple(conditions.gains)
+    missing = [n for n in gains if n not in given]
+    if not missing:
+        return {}
+    if design is None:
+        from formsync_design.resources import design_names
+        from formsync_design.spec.loader import load_design
+
+        name = getattr(conditions, "design", getattr(conditions, "spec_name", None))
+        if not isinstance(name, str) or name not in design_names():
+            raise InputError(f"expected a range for every gain of the conditions "
+                             f"({', '.join(gains)}) or design= (whose multipliers are searched), "
+                             f"received none for {missing}")
+        design = load_design(name)
+    out = {}
+    for n in missing:
+        g = design.decl.gain(n)
+        if str(g.role) != "multiplier" or g.range is None:
+            raise InputError(f"expected a value or range for the gain {n} of design "
+                             f"{design.name}, received none")
+        out[n] = g.range
+    return out

@@ -5,7 +5,7 @@ finest cell of the controller-gain grid is **certified** when one value of the
 multipliers certifies the whole cell (that candidate is a Lyapunov function for
 every gain in it), and **undecided** otherwise: a cell every tried value refutes is
 refuted for those candidates only, never for the design.  The map is the union of
-:func:`~formsync_design.certify.region.region_map` over the multiplier grid of
+:func:`~formsync_design.certify.subdivision.subdivide` over the multiplier grid of
 :func:`~formsync_design.certify.multipliers.multiplier_grid`; each certified box
 records the multiplier value that certifies it (``RegionBox.reason``, the evidence).
 """
@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from formsync_design.certify.multipliers import GRID_POINTS, multiplier_grid
-from formsync_design.certify.region import CLASSES, RegionBox, RegionMap, rasterize, region_map
+from formsync_design.certify.subdivision import CLASSES, RegionBox, RegionMap, rasterize, subdivide
 from formsync_design.errors import InputError
 from formsync_design.gains import GainBox, GainRange
 
@@ -74,8 +74,8 @@ def region_with_multipliers(
                              else dict(ranges))
     search = [n for n in names if n in multipliers and n not in given]
     if not search:
-        return region_map(conditions, given, resolution=resolution, margin=margin,
-                          progress=progress)
+        return subdivide(conditions, given, resolution=resolution, margin=margin,
+                         progress=progress)
     grids = [multiplier_grid(multipliers[n], points) for n in search]
     combos = list(itertools.product(*grids))
     maps: list[tuple[tuple[Fraction, ...], RegionMap]] = []
@@ -83,7 +83,7 @@ def region_with_multipliers(
     for k, values in enumerate(combos):
         full = dict(given)
         full.update(zip(search, values))
-        m = region_map(conditions, full, resolution=resolution, margin=margin)
+        m = subdivide(conditions, full, resolution=resolution, margin=margin)
         maps.append((values, m))
         if k == 0:
             ncell = int(np.prod([max(r, 1) for r in m.resolution]))

@@ -16,13 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from formsync_design.certify.region import (
-    RegionMap,
-    closed_form_agreement,
-    map_to_dict,
-    rasterize,
-    region_map,
-)
+from formsync_design.certify.region import closed_form_agreement, region_map
+from formsync_design.certify.subdivision import RegionMap, map_to_dict, rasterize
 from formsync_design.errors import InputError
 from formsync_design.outdir import save_figure as save_atomic_figure, write_text
 
@@ -73,7 +68,7 @@ def plot_slices(
     ``overlay`` (same length as ``maps``): a second map (e.g. the paper's
     printed conditions) whose certified region is outlined in black.
     ``conditions``: the maps' conditions, to draw the closed-form boundaries
-    (dashed) from :func:`~formsync_design.derive.conditions.closed_form_conditions`.
+    (dashed) from :func:`~formsync_design.derive.closed_form.closed_form_conditions`.
     Returns the figure (never shown).
     """
     import matplotlib.pyplot as plt
@@ -124,7 +119,7 @@ def _draw_closed_forms(ax: Any, conds: Any, g: tuple[str, ...], ax_i: tuple[int,
                        v: float, ex: list[float]) -> None:
     import sympy as sp
 
-    from formsync_design.derive.conditions import closed_form_conditions
+    from formsync_design.derive.closed_form import closed_form_conditions
     from formsync_design.spec.loader import gain_symbols
 
     syms = gain_symbols()
@@ -251,11 +246,8 @@ def region_report(
 
     from formsync_design.certify.design import design_gains
     from formsync_design.certify.engine import certify_box
-    from formsync_design.derive.conditions import (
-        closed_form_conditions,
-        derive_conditions,
-        paper_conditions,
-    )
+    from formsync_design.derive.closed_form import closed_form_conditions
+    from formsync_design.derive.conditions import derive_conditions, paper_conditions
 
     root = Path(root)
     rep = root / "reports"

@@ -1,6 +1,7 @@
 """Admissible-region maps: adaptive subdivision of a gain box.
 
-(Figures and the report: :mod:`formsync_design.certify.plots`.)
+(Figures and the report: :mod:`formsync_design.certify.plots`; the subdivision of a three-gain
+box and the map's value: :mod:`formsync_design.certify.subdivision`.)
 
 A 3-D gain box is split on a grid of ``R`` cells per (non-degenerate) axis.
 Starting from the whole box, each box is classified from its vertices with
@@ -26,85 +27,18 @@ which has an interval argument for them.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
-from dataclasses import dataclass
-from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
-from formsync_design.certify.engine import (
-    Bounds,
-    analyze,
-    as_box,
-    evaluate_vertices,
-    uniform_refutation,
-)
+from formsync_design.certify.multipliers import agent_multiplier_ranges
+from formsync_design.certify.multiregion import region_with_multipliers
+from formsync_design.certify.reduce import three_axes
+from formsync_design.certify.subdivision import RegionMap, subdivide
 from formsync_design.errors import InputError
-from formsync_design.notebook import NotebookViews
 
-__all__ = [
-    "CLASSES",
-    "RegionBox",
-    "RegionMap",
-    "region_map",
-    "map_to_dict",
-    "rasterize",
-    "closed_form_agreement",
-]
-
-CLASSES = ("certified", "refuted", "undecided")
-_CODE = {"certified": 1, "refuted": -1, "undecided": 0}
-
-
-@dataclass(frozen=True)
-class RegionBox:
-    """One leaf of the subdivision.
-
-    ``index`` = ``(i0, i1, j0, j1, k0, k1)`` grid indices (gain ``a`` of the
-    box spans ``grid[a][i0] .. grid[a][i1]``); ``family`` names the refuting
-    matrix for a refuted box; ``reason`` is ``boundary``/``inconclusive`` for
-    an undecided one.
-    """
-
-    index: tuple[int, int, int, int, int, int]
-    lo: tuple[Fraction, ...]
-    hi: tuple[Fraction, ...]
-    cls: str
-    family: str = ""
-    reason: str = ""
-
-
-@dataclass(frozen=True)
-class RegionMap(NotebookViews):
-    """A classified subdivision of a gain box (see module doc)."""
-
-    graph: str
-    n: int
-    source: str
-    gains: tuple[str, ...]
-    ranges: Bounds
-    resolution: tuple[int, ...]
-    margin: Fraction
-    boxes: tuple[RegionBox, ...]
-    fractions: dict[str, float]
-    vertices_evaluated: int
-    recheck: dict[str, int]
-    elapsed: float
-
-
-    def grid(self, axis: int) -> list[Fraction]:
-        lo, hi = self.ranges[axis]
-        r = self.resolution[axis]
-        return [lo] if r == 0 else [lo + (hi - lo) * i / r for i in range(r + 1)]
-
-
-def _split(a0: int, a1: int) -> list[tuple[int, int]]:
-    if a1 - a0 <= 1:
-        return [(a0, a1)]
-    mid = (a0 + a1) // 2
-    return [(a0, mid), (mid, a1)]
+__all__ = ["region_map", "closed_form_agreement"]
 
 
 def _missing_gains(conditions: Any, ranges: Any) -> bool:
@@ -113,6 +47,30 @@ def _missing_gains(conditions: Any, ranges: Any) -> bool:
     from collections.abc import Mapping
 
     return isinstance(ranges, Mapping) and any(n not in ranges for n in conditions.gains)
+
+
+def _bounds(ranges: Any) -> dict[str, Any]:
+    from formsync_design.gains import GainBox
+
+    box = ranges if isinstance(ranges, GainBox) else GainBox.parse(ranges)
+    return {r.name: (r.lo, r.hi) for r in box.ranges}
+
+
+def _region_any(conditions: Any, ranges: Any, *, multipliers: Any = None, design: Any = None,
+                resolution: int = 32, margin: Any = 0, progress: Any = None) -> Any:
+    """A :class:`~formsync_design.certify.subdivision.RegionMap` of ``conditions`` over any gains:
+    the free axes of ``ranges`` and the searched ``multipliers`` (default: the design's, for
+    the gains ``ranges`` does not give) make at most three axes; point gains are fixed
+    (:func:`~formsync_design.certify.reduce.three_axes`), the multipliers searched per cell
+    (:func:`~formsync_design.certify.multiregion.region_with_multipliers`)."""
+    given = _bounds(ranges)
+    mult = dict(multipliers) if multipliers is not None else \
+        agent_multiplier_ranges(conditions, given, design)
+    full = {**given, **{n: (r.lo, r.hi) for n, r in mult.items()}}
+    red, rbox = three_axes(conditions, full)
+    fixed = {n: v for n, v in rbox.items() if n not in mult}
+    return region_with_multipliers(red, fixed, {n: r for n, r in mult.items() if n in rbox},
+                                   resolution=resolution, margin=margin, progress=progress)
 
 
 def region_map(
@@ -131,7 +89,7 @@ def region_map(
     a design with multipliers) are mapped over at most three free axes, the point gains
     fixed and the ``multipliers`` (``name -> GainRange``; default: the declared ranges of
     ``design``, or of the shipped design the conditions name, for the gains ``ranges``
-    does not give) searched per cell (:func:`~formsync_design.designs_api.region_any`).
+    does not give) searched per cell (:func:`~formsync_design.certify.multiregion.region_with_multipliers`).
 
     Parameters
     ----------
@@ -155,194 +113,19 @@ def region_map(
     >>> round(sum(m.fractions.values()), 12)
     1.0
     """
-    t0 = time.perf_counter()
     if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)) or resolution < 1:
         raise InputError(f"expected a resolution R >= 1 (an integer), received {resolution!r}")
     if (len(tuple(conditions.gains)) != 3 or multipliers is not None or design is not None
             or _missing_gains(conditions, ranges)):
-        from formsync_design.designs_api import region_any
-
-        return region_any(conditions, ranges, multipliers=multipliers, design=design,
-                          resolution=int(resolution), margin=margin, progress=progress)
-    gains = tuple(conditions.gains)
-    rng = as_box(ranges, gains).bounds
-    mg = Fraction(margin) if not isinstance(margin, float) else Fraction(repr(margin))
-    if mg < 0:
-        raise InputError(f"expected a non-negative margin, received {float(mg):g}")
-    st = analyze(conditions.families)
-    maff = all(b.multiaffine for b in st.blocks)
-    res = tuple(0 if lo == hi else int(resolution) for lo, hi in rng)
-    grids = [
-        [lo] if r == 0 else [lo + (hi - lo) * Fraction(i, r) for i in range(r + 1)]
-        for (lo, hi), r in zip(rng, res)
-    ]
-    nb = len(st.blocks)
-    vid: dict[tuple[int, int, int], int] = {}
-    pts: list[tuple[Fraction, ...]] = []
-    vstat: list[np.ndarray] = [np.zeros(0, dtype=np.int8) for _ in range(nb)]
-    vwit: list[dict[int, list[int]]] = [{} for _ in range(nb)]
-    recheck: dict[str, int] = {}
-    names = [st.groups[b.places[0][0]].names[0] for b in st.blocks]
-
-    def corners(bx: tuple[int, ...]) -> list[tuple[int, int, int]]:
-        i0, i1, j0, j1, k0, k1 = bx
-        return [
-            (i, j, k)
-            for i in sorted({i0, i1})
-            for j in sorted({j0, j1})
-            for k in sorted({k0, k1})
-        ]
-
-    leaves: list[RegionBox] = []
-    frontier = [(0, res[0], 0, res[1], 0, res[2])]
-    while frontier:
-        need: list[tuple[int, int, int]] = []
-        for bx in frontier:
-            for c in corners(bx):
-                if c not in vid:
-                    vid[c] = len(pts) + len(need)
-                    need.append(c)
-        if need:
-            newpts = [tuple(grids[a][c[a]] for a in range(3)) for c in need]
-            vr = evaluate_vertices(st, newpts, mg)
-            base = len(pts)
-            pts.extend(newpts)
-            for b in range(nb):
-                vstat[b] = np.concatenate([vstat[b], vr.status[b]])
-                for i, x in vr.witness[b].items():
-                    vwit[b][base + i] = x
-            for k, v in vr.method.items():
-                recheck[k] = recheck.get(k, 0) + v
-        nxt = []
-        for bx in frontier:
-            cs = [vid[c] for c in corners(bx)]
-            cert = maff and all(bool(np.all(vstat[b][cs] == 1)) for b in range(nb))
-            lo = tuple(grids[a][bx[2 * a]] for a in range(3))
-            hi = tuple(grids[a][bx[2 * a + 1]] for a in range(3))
-            cells = max(bx[1] - bx[0], 1) * max(bx[3] - bx[2], 1) * max(bx[5] - bx[4], 1)
-            if cert:
-                leaves.append(RegionBox(bx, lo, hi, "certified"))
-                if progress:
-                    progress(cells)
-                continue
-            refuted_by = ""
-            any_ref = False
-            vpts = [pts[i] for i in cs]
-            for b in range(nb):
-                cand = [vwit[b][i] for i in cs if i in vwit[b]]
-                if cand:
-                    any_ref = True
-                for x in cand[:3]:
-                    if uniform_refutation(st.blocks[b], x, vpts, mg):
-                        refuted_by = names[b]
-                        break
-                if refuted_by:
-                    break
-            if refuted_by:
-                leaves.append(RegionBox(bx, lo, hi, "refuted", family=refuted_by))
-                if progress:
-                    progress(cells)
-                continue
-            parts = [_split(bx[0], bx[1]), _split(bx[2], bx[3]), _split(bx[4], bx[5])]
-            if all(len(p) == 1 for p in parts):
-                leaves.append(
-                    RegionBox(bx, lo, hi, "undecided", reason="boundary" if any_ref else "inconclusive")
-                )
-                if progress:
-                    progress(cells)
-                continue
-            for a in parts[0]:
-                for b_ in parts[1]:
-                    for c3 in parts[2]:
-                        nxt.append((a[0], a[1], b_[0], b_[1], c3[0], c3[1]))
-        frontier = nxt
-    total = 1
-    for r in res:
-        total *= max(r, 1)
-    fr = {c: 0.0 for c in CLASSES}
-    for lf in leaves:
-        i0, i1, j0, j1, k0, k1 = lf.index
-        fr[lf.cls] += max(i1 - i0, 1) * max(j1 - j0, 1) * max(k1 - k0, 1) / total
-    g = conditions.graph
-    return RegionMap(
-        graph=str(getattr(g, "name", "graph")),
-        n=int(getattr(g, "n", 0)),
-        source=str(getattr(conditions, "source", "?")),
-        gains=gains,
-        ranges=rng,
-        resolution=res,
-        margin=mg,
-        boxes=tuple(leaves),
-        fractions=fr,
-        vertices_evaluated=len(pts),
-        recheck=recheck,
-        elapsed=time.perf_counter() - t0,
-    )
-
-
-def map_to_dict(m: RegionMap, *, timing: bool = True, boxes: bool = True) -> dict[str, Any]:
-    """JSON-ready dict: ranges, resolution, boxes (float and index bounds), fractions
-    (``timing=False`` omits the run time, for byte-reproducible reports;
-    ``boxes=False`` keeps only the summary).
-
-    >>> from formsync_design.derive.conditions import derive_conditions
-    >>> m = region_map(derive_conditions("ring:4"), {"K_o": (0.1, 4), "K_q": 1, "beta": 0.3},
-    ...                resolution=4)
-    >>> d = map_to_dict(m)
-    >>> d["resolution"], sum(d["counts"].values()) == len(d["boxes"])
-    ([4, 0, 0], True)
-    """
-    out = {
-        "graph": m.graph,
-        "n": m.n,
-        "conditions": m.source,
-        "gains": list(m.gains),
-        "ranges": {g: [float(lo), float(hi)] for g, (lo, hi) in zip(m.gains, m.ranges)},
-        "ranges_exact": {g: [str(lo), str(hi)] for g, (lo, hi) in zip(m.gains, m.ranges)},
-        "resolution": list(m.resolution),
-        "margin": float(m.margin),
-        "fractions": dict(m.fractions),
-        "counts": {c: sum(1 for b in m.boxes if b.cls == c) for c in CLASSES},
-        "vertices_evaluated": m.vertices_evaluated,
-        "recheck": dict(m.recheck),
-        **({"elapsed_s": m.elapsed} if timing else {}),
-        "boxes": [] if not boxes else [
-            {
-                "class": b.cls,
-                "index": list(b.index),
-                "lo": [float(v) for v in b.lo],
-                "hi": [float(v) for v in b.hi],
-                **({"family": b.family} if b.family else {}),
-                **({"reason": b.reason} if b.reason else {}),
-            }
-            for b in m.boxes
-        ],
-    }
-    return out
-
-
-def rasterize(m: RegionMap) -> np.ndarray:
-    """Class code (1 certified, -1 refuted, 0 undecided) of every finest cell,
-    shape ``(max(R_0,1), max(R_1,1), max(R_2,1))``.
-
-    >>> from formsync_design.derive.conditions import derive_conditions
-    >>> m = region_map(derive_conditions("ring:4"), {"K_o": (0.1, 4), "K_q": 1, "beta": 0.3},
-    ...                resolution=4)
-    >>> rasterize(m)[:, 0, 0].tolist()   # K_o > 4 beta = 1.2 is admissible
-    [-1, 0, 1, 1]
-    """
-    shape = tuple(max(r, 1) for r in m.resolution)
-    out = np.zeros(shape, dtype=np.int8)
-    for b in m.boxes:
-        i0, i1, j0, j1, k0, k1 = b.index
-        out[i0 : max(i1, i0 + 1), j0 : max(j1, j0 + 1), k0 : max(k1, k0 + 1)] = _CODE[b.cls]
-    return out
+        return _region_any(conditions, ranges, multipliers=multipliers, design=design,
+                           resolution=int(resolution), margin=margin, progress=progress)
+    return subdivide(conditions, ranges, resolution=int(resolution), margin=margin, progress=progress)
 
 
 def closed_form_agreement(
     m: RegionMap, conditions: Any, *, samples: int = 4, seed: int = 0
 ) -> dict[str, int]:
-    """Compare the map with :func:`~formsync_design.derive.conditions.closed_form_conditions`.
+    """Compare the map with :func:`~formsync_design.derive.closed_form.closed_form_conditions`.
 
     Every certified box must satisfy every closed-form condition at its
     vertices and at ``samples`` random interior points; every refuted box must
@@ -358,7 +141,7 @@ def closed_form_agreement(
     """
     import sympy as sp
 
-    from formsync_design.derive.conditions import closed_form_conditions
+    from formsync_design.derive.closed_form import closed_form_conditions
     from formsync_design.spec.loader import gain_symbols
 
     cfs = closed_form_conditions(conditions)

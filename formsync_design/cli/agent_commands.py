@@ -24,9 +24,18 @@ from typing import Any
 
 import numpy as np
 
+from formsync_design.cli.agent_inputs import (
+    agent_case_for,
+    agent_options,
+    formation_inputs,
+    graph_and_box,
+    refuse_lagrangian_options,
+)
+from formsync_design.cli.certify_text import format_result
 from formsync_design.cli.options import (
     EXIT_NEGATIVE,
     EXIT_OK,
+    check_out_dir,
     closing_lines,
     emit_json,
     parse_gain_assignments,
@@ -41,11 +50,8 @@ from formsync_design.outdir import (
 )
 
 __all__ = [
-    "agent_design_or_none",
-    "agent_case_for",
     "run_agent_simulate",
     "run_agent_certify",
-    "formation_inputs",
     "run_agent_derive",
     "run_agent_montecarlo_cli",
     "run_agent_region",
@@ -53,146 +59,14 @@ __all__ = [
 ]
 
 
-def agent_design_or_none(design_arg: Any, case_arg: Any = None) -> Any:
-    """The agent design a command is asked for (``--design``, else the ``--case`` file's
-    ``[case] design``), or ``None`` for a Lagrangian design (the command's own path)."""
-    from formsync_design.spec.loader import load_design
-
-    if design_arg is not None:
-        d = load_design(design_arg)
-        return d if getattr(d, "form", None) == "agent" else None
-    if case_arg is None:
-        return None
-    from formsync_design.verify.agentcase import case_design_ref  # the verify stage only here
-
-    ref = case_design_ref(_case_path(case_arg))
-    if ref is None:
-        return None
-    path = _case_path(case_arg)
-    from formsync_design.resources import design_names
-
-    target = ref if ref.isidentifier() and ref in design_names() else (
-        ref if Path(ref).is_absolute() else str(path.parent / ref))
-    try:
-        d = load_design(target)
-    except InputError:
-        return None  # the command's own case loader reports a bad reference
-    return d if getattr(d, "form", None) == "agent" else None
-
-
-def _case_path(case_arg: Any) -> Path:
-    p = Path(str(case_arg))
-    if p.suffix != ".toml" and not p.exists():
-        from formsync_design.resources import case_file, case_names
-
-        if str(case_arg) in case_names():
-            return case_file(str(case_arg))
-    return p
-
-
-def agent_case_for(design: Any, case_arg: Any, gains: Any, defaults: Any = None) -> Any:
-    """The :class:`~formsync_design.verify.agentcase.AgentCase` of a run (module docstring),
-    with ``--gain`` values over the case's; the defaults taken are said in ``defaults``
-    (:class:`~formsync_design.verify.defaults.Defaults`)."""
-    from dataclasses import replace
-
-    from formsync_design.cli.defaults import agent_case
-    from formsync_design.verify.agentcase import load_agent_case, parse_agent_case
-
-    if case_arg is not None:
-        case = load_agent_case(_case_path(case_arg), design=design)
-    else:
-        case = agent_case(design, None, gains, defaults)
-        if case is None:
-            case = _paper_spacecraft_case(design, gains, parse_agent_case, defaults)
-    if gains:
-        from formsync_design.cli.simulate import design_gains
-
-        case = replace(case, gains=design_gains(design, case.gains, gains))
-    return case
-
-
-def _paper_spacecraft_case(design: Any, gains: Any, parse: Any, defaults: Any = None) -> Any:
-    from formsync_design.cli.defaults import gains_text
-    from formsync_design.gains import parse_number
-    from formsync_design.verify.case import load_case
-
-    if design.decl.leader:
-        raise InputError(f"expected --case FILE with a [reference] for design {design.name} (it "
-                         "declares a leader; no shipped case names it), received none")
-    named = parse_gain_assignments(gains)
-    vals: dict[str, float] = {}
-    mid: dict[str, float] = {}
-    for n in design.decl.controller_gains:
-        if n in named:
-            vals[n] = float(parse_number(str(named[n]), n))
-            continue
-        r = design.decl.gain(n).range
-        if r is None:
-            raise InputError(f"expected --gain {n}=X for design {design.name} (no shipped case "
-                             "names it and it declares no range for the gain), or --case FILE")
-        vals[n] = mid[n] = float((r.lo + r.hi) / 2)
-    paper = load_case()
-    if defaults is not None:
-        defaults.add(f"case from verification/{Path(paper.path).name} (no shipped case names "
-                     f"design {design.name}: the paper's spacecraft, disturbance and graph)")
-        if mid:
-            defaults.add("gains at the middle of their declared ranges: " + gains_text(mid))
-    doc = {
-        "case": {"name": f"{design.name}-on-{paper.name}", "graph": paper.graph_spec,
-                 "assumptions": [f"spacecraft, disturbance and graph of the {paper.name} case"]},
-        "gains": vals,
-        "disturbance": dict(paper.disturbance),
-        "orbit": {"altitude_km": paper.orbit.altitude / 1e3},
-        "spacecraft": [{"inertia": paper.inertias[i].tolist(), "rate": paper.rates[i].tolist(),
-                        "quaternion": paper.attitudes[i].tolist()} for i in range(paper.n)],
-    }
-    return parse(doc, paper.path, design=design)
-
-
-def _refuse(args: argparse.Namespace, names: tuple[str, ...], design: Any) -> None:
-    for name in names:
-        v = getattr(args, name, None)
-        if v not in (None, False, [], "paper", "derived", "npz", "png"):
-            flag = "--" + name.replace("_", "-")
-            raise InputError(f"expected no {flag} for the agent design {design.name} (it applies "
-                             f"to the Lagrangian designs), received {flag} {v}")
-
-
-def _options(args: argparse.Namespace, base: Any) -> Any:
-    from dataclasses import replace
-
-    from formsync_design.gains import parse_number
-
-    kw: dict[str, Any] = {}
-    for attr, name in (("tf", "tf"), ("boundary_layer", "phi"), ("step", "step"),
-                       ("output_step", "output_step"), ("rtol", "rtol"), ("atol", "atol"),
-                       ("angle_tol", "angle_tol"), ("rate_tol", "rate_tol")):
-        v = getattr(args, attr, None)
-        if v is not None:
-            x = float(parse_number(v, "--" + attr.replace("_", "-")))
-            kw[name] = x
-    tl = getattr(args, "torque_limit", None)
-    if tl is not None:
-        kw["torque_limit"] = None if str(tl).lower() == "none" else float(parse_number(tl, "--torque-limit"))
-    sp_ = getattr(args, "sample_period", None)
-    if sp_ is not None:
-        kw["period"] = None if str(sp_).lower() == "none" else float(parse_number(sp_, "--sample-period"))
-    if getattr(args, "switch", None) is not None:
-        kw["switch"] = args.switch
-    if getattr(args, "integrator", None) is not None:
-        kw["integrator"] = args.integrator
-    return replace(base, **kw)
-
-
 def run_agent_simulate(args: argparse.Namespace, design: Any) -> int:
     """``formsync simulate`` of an agent design (module docstring)."""
-    from formsync_design.cli.defaults import Defaults, agent_criterion, agent_graph
-    from formsync_design.cli.simulate import check_out_dir
+    from formsync_design.cli.defaults import agent_criterion, agent_graph
     from formsync_design.graphs.theorem import check_theorem_graph
     from formsync_design.sim.agents import simulate_agents
+    from formsync_design.verify.defaults import Defaults
 
-    _refuse(args, ("trigger", "q_tol", "omega_tol"), design)
+    refuse_lagrangian_options(args, ("trigger", "q_tol", "omega_tol"), design)
     out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
     defaults = Defaults()
     case = agent_case_for(design, args.case, args.gain, defaults)
@@ -200,7 +74,7 @@ def run_agent_simulate(args: argparse.Namespace, design: Any) -> int:
     theorem = check_theorem_graph(graph, design.decl.graphs,
                                   allow_outside=getattr(args, "allow_outside_theorem", False),
                                   design=design.name)
-    opt = _options(args, case.options)
+    opt = agent_options(args, case.options)
     if design.decl.sampling == "periodic" and opt.period is None:
         raise InputError(f"expected --sample-period T for the periodic design {design.name} (or "
                          "simulation.period in the case), received none")
@@ -296,52 +170,6 @@ def _text(case: Any, graph: Any, f: Any, opt: Any, r: Any, design: Any, written:
     return "\n".join(lines)
 
 
-def formation_inputs(args: argparse.Namespace, design: Any, graph: Any) -> tuple[Any, Any, str]:
-    """The digraph, the inertias and a note saying where they came from, for the formation
-    certificate of ``design`` on ``graph`` (``--inertia FILE``, else the shipped case that
-    simulates the design, its spacecraft cycled ``i mod n`` to the graph's size)."""
-    from formsync_design.graphs.digraph_io import make_digraph
-    from formsync_design.verify.agentcase import (
-        formation_case_path,
-        formation_inertias,
-        load_agent_case,
-    )
-
-    g = make_digraph(graph)
-    if getattr(args, "inertia", None):
-        from formsync_design.cli.certify import read_inertias
-
-        return g, np.array(read_inertias(args.inertia, g.n)), f"inertias from {args.inertia}"
-    J, note = formation_inertias(design, g.n)
-    path = formation_case_path(design)
-    if design.decl.leader and not g.has_leader and path is not None:
-        case = load_agent_case(path)
-        if case.n == g.n:
-            g = make_digraph(g, pinning=case.graph().pinning)
-    return g, J, note
-
-
-def _graph_and_box(design: Any, graph_arg: Any, gains: Any, defaults: Any, *,
-                   free: int) -> tuple[Any, Any]:
-    """The graph (``graph_arg``, else the design's case's) and the gain box (``--gain``, the
-    case's values for the gains not given, ``free`` of them over their declared ranges) of
-    an agent certificate, the defaults said in ``defaults``."""
-    from formsync_design.cli.defaults import agent_box
-    from formsync_design.graphs.theorem import load_graph
-
-    named = parse_gain_assignments(gains)
-    needs_case = graph_arg is None or any(n not in named for n in design.decl.controller_gains)
-    case = agent_case_for(design, None, None, defaults if graph_arg is None else None) \
-        if needs_case else None
-    if graph_arg is None:
-        assert case is not None
-        graph = case.graph()
-        defaults.add(f"graph from the case {case.name}: {graph.name} ({graph.n} spacecraft)")
-    else:
-        graph = load_graph(graph_arg)
-    return graph, agent_box(design, gains, case, defaults, free=free)
-
-
 def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
     """``formsync certify`` of an agent design: the **formation-level** certificate on
     ``--graph`` (its exact linearisation at consensus, the disagreement decided over the
@@ -350,13 +178,12 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
     too and reported with their own scope (multipliers searched over their declared ranges)."""
     from formsync_design.certify.agent import certify_agent
     from formsync_design.certify.formation import certify_formation, conditions_scope
-    from formsync_design.cli.certify import format_result
-    from formsync_design.cli.defaults import Defaults
     from formsync_design.derive.agent import agent_conditions
     from formsync_design.gains import GainBox, parse_number
     from formsync_design.graphs.theorem import check_theorem_graph
+    from formsync_design.verify.defaults import Defaults
 
-    _refuse(args, ("ko", "kq", "beta", "ud", "kv", "case", "delay", "decay", "settle",
+    refuse_lagrangian_options(args, ("ko", "kq", "beta", "ud", "kv", "case", "delay", "decay", "settle",
                    "torque_limit", "graphs_set"), design)
     if getattr(args, "certificate", "paper") != "paper" or getattr(args, "conditions",
                                                                   "derived") != "derived":
@@ -364,7 +191,7 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
                          f"{design.name} (its certificates are the formation certificate and its "
                          "conditions(c) hook), received one")
     defaults = Defaults()
-    graph, box = _graph_and_box(design, args.graph, args.gain, defaults, free=0)
+    graph, box = graph_and_box(design, args.graph, args.gain, defaults, free=0)
     theorem = check_theorem_graph(graph, design.decl.graphs,
                                   allow_outside=getattr(args, "allow_outside_theorem", False),
                                   design=design.name)
@@ -412,11 +239,12 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
 def run_agent_derive(args: argparse.Namespace, design: Any) -> int:
     """``formsync derive`` of an agent design: the derivation report (Markdown) of the design
     on ``--graph`` (default: its shipped case's graph, else ring:8), or its JSON summary."""
-    from formsync_design.cli.defaults import Defaults, agent_case
+    from formsync_design.cli.defaults import agent_case
     from formsync_design.derive.agent_report import agent_derivation, write_agent_derivation_report
     from formsync_design.graphs.theorem import check_theorem_graph, load_graph
+    from formsync_design.verify.defaults import Defaults
 
-    _refuse(args, ("ko", "kq", "beta"), design)
+    refuse_lagrangian_options(args, ("ko", "kq", "beta"), design)
     if getattr(args, "gain", None):
         raise InputError(f"expected no --gain for the derivation of the agent design {design.name} "
                          "(its conditions are symbolic in the gains; certify a box with formsync "
@@ -458,10 +286,10 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
     ``--replay SEED`` re-simulates one run in full."""
     from dataclasses import replace
 
-    from formsync_design.cli.options import Progress, design_box
-    from formsync_design.cli.simulate import check_out_dir
+    from formsync_design.cli.options import design_box
     from formsync_design.gains import GainBox, GainRange, parse_number
     from formsync_design.graphs.theorem import check_theorem_graph
+    from formsync_design.progress import Progress
     from formsync_design.sim.agent_montecarlo import (
         AgentMonteCarloSettings,
         agent_run_formation,
@@ -469,8 +297,9 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
     )
     from formsync_design.sim.agents import simulate_agents
 
-    _refuse(args, ("ko", "kq", "beta", "kv", "q_tol", "omega_tol", "no_phases", "threads"), design)
-    from formsync_design.cli.defaults import Defaults, agent_criterion, agent_graph
+    refuse_lagrangian_options(args, ("ko", "kq", "beta", "kv", "q_tol", "omega_tol", "no_phases", "threads"), design)
+    from formsync_design.cli.defaults import agent_criterion, agent_graph
+    from formsync_design.verify.defaults import Defaults
 
     out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
     defaults = Defaults()
@@ -493,7 +322,7 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
         runs=int(args.runs), seed=int(args.seed),  # checked up front (cli.montecarlo.run)
         max_angle_deg=float(parse_number(args.max_angle, "--max-angle")),
         max_rate=float(parse_number(args.max_rate, "--max-rate")))
-    opt = _options(args, case.options)
+    opt = agent_options(args, case.options)
     criterion, dist = agent_criterion(case, opt, args.disturbance)
     defaults.add(f"criterion: {criterion}")
     base = case.formation(graph, disturbance=dist)
@@ -558,21 +387,22 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     """``formsync region`` of an agent design: its ``conditions(c)`` families mapped over at
     most three gain ranges (the other gains fixed at their single ``--gain`` value,
     multipliers searched per cell), region.json and a slice figure per graph."""
-    from pathlib import Path
 
     from formsync_design.certify.agent import agent_multipliers, region_agent
     from formsync_design.certify.formation import conditions_scope
     from formsync_design.certify.plots import plot_slices
-    from formsync_design.certify.region import map_to_dict
-    from formsync_design.cli.defaults import Defaults, default_out, refuse_uncertified
-    from formsync_design.cli.options import Progress, to_json_value
+    from formsync_design.certify.subdivision import map_to_dict
+    from formsync_design.cli.defaults import default_out, refuse_uncertified
+    from formsync_design.cli.options import to_json_value
     from formsync_design.derive.agent import agent_conditions
     from formsync_design.graphs.theorem import check_theorem_graph, load_graph
+    from formsync_design.progress import Progress
+    from formsync_design.verify.defaults import Defaults
 
     refused = refuse_uncertified("region", design)
     if refused is not None:
         return refused
-    _refuse(args, ("ko", "kq", "beta", "beta_slices", "kq_slices", "delay", "torque_limit",
+    refuse_lagrangian_options(args, ("ko", "kq", "beta", "beta_slices", "kq_slices", "delay", "torque_limit",
                    "decay", "settle", "graphs_set", "inertia", "case"), design)
     if getattr(args, "certificate", "paper") != "paper" or getattr(args, "conditions",
                                                                   "derived") != "derived":
@@ -582,15 +412,13 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     if not 1 <= res <= 512:
         raise InputError(f"expected --resolution in 1..512, received {res}")
     defaults = Defaults()
-    graph0, box = _graph_and_box(design, args.graph[0] if args.graph else None, args.gain,
+    graph0, box = graph_and_box(design, args.graph[0] if args.graph else None, args.gain,
                                  defaults, free=2)
     mult = agent_multipliers(design, box)
     graphs = list(args.graph) if args.graph else [graph0]
     out = Path(args.out) if args.out else default_out("region", design, graph0.name)
     if not args.out:
         defaults.add(f"output folder {out} (give --out DIR for another)")
-        from formsync_design.cli.simulate import check_out_dir
-
         check_out_dir(str(out), overwrite=args.overwrite, results=("region.json",))
     maps, notes = [], []
     prog = Progress(len(graphs), "region", enabled=not args.no_progress and args.format == "text")
@@ -646,20 +474,21 @@ def run_agent_design(args: argparse.Namespace, design: Any) -> int:
     re-check), and the largest certified box around it."""
     from formsync_design.certify.agent import design_agent
     from formsync_design.certify.formation import certify_formation, conditions_scope
-    from formsync_design.cli.defaults import Defaults, refuse_uncertified
+    from formsync_design.cli.defaults import refuse_uncertified
     from formsync_design.derive.agent import agent_conditions
     from formsync_design.gains import GainBox, json_number
     from formsync_design.graphs.theorem import check_theorem_graph
+    from formsync_design.verify.defaults import Defaults
 
     refused = refuse_uncertified("design", design)
     if refused is not None:
         return refused
-    _refuse(args, ("ko", "kq", "beta", "min_delay", "graphs_set", "torque_limit", "inertia",
+    refuse_lagrangian_options(args, ("ko", "kq", "beta", "min_delay", "graphs_set", "torque_limit", "inertia",
                    "case"), design)
     if getattr(args, "penalty", "0") not in ("0", 0, None):
         raise InputError(f"expected no --penalty for the agent design {design.name}, received one")
     defaults = Defaults()
-    graph, box = _graph_and_box(design, args.graph, args.gain, defaults, free=2)
+    graph, box = graph_and_box(design, args.graph, args.gain, defaults, free=2)
     theorem = check_theorem_graph(graph, design.decl.graphs,
                                   allow_outside=args.allow_outside_theorem, design=design.name)
     k = max(2, int(getattr(args, "grid", 4) or 4))

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from fractions import Fraction
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from formsync_design.cli.certify_inputs import read_case, read_inertias
+from formsync_design.cli.certify_text import format_requirement_result, format_result
 from formsync_design.cli.choices import GRAPH_SPEC_HELP
 from formsync_design.cli.options import (
     EXIT_NEGATIVE,
@@ -23,13 +23,12 @@ from formsync_design.cli.options import (
 from formsync_design.errors import InputError
 
 if TYPE_CHECKING:
-    import numpy as np
 
     from formsync_design.gains import GainBox
 
-__all__ = ["add_parser", "run", "load_conditions", "certify_design", "require_classic", "read_inertias", "add_gain_options",
+__all__ = ["add_parser", "run", "load_conditions", "certify_design", "require_classic", "add_gain_options",
            "gain_box_from_args", "add_certificate_options", "requirements_from_args",
-           "format_requirement_result", "CERTIFICATE_HELP"]
+           "CERTIFICATE_HELP"]
 
 #: One line per certificate (``--help``).
 CERTIFICATE_HELP = """\
@@ -263,87 +262,6 @@ def load_conditions(graph: Any, which: str, spec: str | None = None) -> Any:
     return derive_conditions(g, load_spec(spec) if spec else None)
 
 
-def _check_J(J: np.ndarray, k: int, src: str) -> np.ndarray:
-    import numpy as np
-
-    if not np.all(np.isfinite(J)):
-        raise InputError(f"expected finite inertia entries, received NaN/inf for spacecraft {k} in {src}")
-    if not np.allclose(J, J.T, rtol=0, atol=1e-12 * max(1.0, float(np.abs(J).max()))):
-        raise InputError(
-            f"expected a symmetric inertia for spacecraft {k} in {src}, received {J.tolist()}"
-        )
-    ev = np.linalg.eigvalsh(J)
-    if ev[0] <= 0:
-        raise InputError(
-            f"expected a positive definite inertia for spacecraft {k} in {src}, received "
-            f"eigenvalues {[float(f'{e:.6g}') for e in ev]}"
-        )
-    return J
-
-
-def read_inertias(path: str, n: int) -> list[np.ndarray]:
-    """Read 3x3 inertias (kg m^2) from a text/CSV file: 3 rows per spacecraft
-    (whitespace or comma separated, ``#`` comments).  3 rows = the same inertia
-    for every spacecraft; otherwise exactly ``3 n`` rows.
-
-    >>> import tempfile, os
-    >>> with tempfile.NamedTemporaryFile("w", suffix=".txt", delete=False) as fh:
-    ...     _ = fh.write("50, 0, 0\\n0, 55, 0\\n0, 0, 60\\n")
-    >>> [float(J[1, 1]) for J in read_inertias(fh.name, 2)]
-    [55.0, 55.0]
-    >>> os.unlink(fh.name)
-    """
-    import numpy as np
-
-    p = Path(path)
-    if not p.is_file():
-        raise InputError(f"expected an inertia file, received {path!r} (no such file)")
-    rows = []
-    for lineno, raw in enumerate(p.read_text().splitlines(), start=1):
-        line = raw.split("#", 1)[0].strip()
-        if not line:
-            continue
-        parts = line.replace(",", " ").split()
-        if len(parts) != 3:
-            raise InputError(f"expected 3 numbers per row, received {raw.strip()!r} at {path}:{lineno}")
-        try:
-            vals = [float(x) for x in parts]
-        except ValueError:
-            raise InputError(f"expected numbers, received {raw.strip()!r} at {path}:{lineno}") from None
-        if not all(math.isfinite(v) for v in vals):
-            raise InputError(f"expected finite numbers, received {raw.strip()!r} at {path}:{lineno}")
-        rows.append(vals)
-    if len(rows) == 3:
-        J = _check_J(np.array(rows), 1, path)
-        return [J] * n
-    if len(rows) != 3 * n:
-        raise InputError(
-            f"expected 3 rows (one inertia for all) or {3 * n} rows (3 per spacecraft, N={n}) "
-            f"in {path}, received {len(rows)}"
-        )
-    return [_check_J(np.array(rows[3 * k : 3 * k + 3]), k + 1, path) for k in range(n)]
-
-
-def read_case(path: str, n: int) -> dict[str, Any]:
-    """Inertias, per-spacecraft disturbance bounds and K_v from a TOML case file
-    (format: :mod:`formsync_design.verify.case`, e.g. ``verification/liang2016.toml``)."""
-    import numpy as np
-
-    from formsync_design.verify.case import load_case, make_disturbance
-
-    c = load_case(path)
-    if c.n != n:
-        raise InputError(
-            f"expected a case with {n} spacecraft (the graph's N), received {c.n} in {path}"
-        )
-    d = make_disturbance(c.disturbance, c.inertias, c.orbit)
-    return {
-        "inertias": [np.asarray(J, dtype=float) for J in c.inertias],
-        "ubar": [float(u) for u in d.bound(c.inertias)],
-        "kv": list(c.gains.K_v) if len(c.gains.K_v) == n else [c.gains.K_v[0]] * n,
-    }
-
-
 def add_parser(sub: Any) -> None:
     p = sub.add_parser(
         "certify",
@@ -451,9 +369,11 @@ def default_graph(graph: Any, spec: Any, defaults: Any) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_certify
-    from formsync_design.cli.defaults import Defaults, lagrangian_point_box, refuse_tracking
+    from formsync_design.cli.agent_commands import run_agent_certify
+    from formsync_design.cli.agent_inputs import agent_design_or_none
+    from formsync_design.cli.defaults import lagrangian_point_box, refuse_tracking
     from formsync_design.spec.loader import load_spec
+    from formsync_design.verify.defaults import Defaults
 
     agent = agent_design_or_none(args.spec)
     if agent is not None:
@@ -520,111 +440,3 @@ def _run_analysis(args: argparse.Namespace, spec: Any, box: GainBox, margin: Fra
     return EXIT_OK if res.certified else EXIT_NEGATIVE
 
 
-def _num(x: Any) -> str:
-    if x is None:
-        return "-"
-    if isinstance(x, (list, tuple)):
-        return "[" + ", ".join(_num(v) for v in x) + "]"
-    if isinstance(x, str):
-        return x
-    return f"{float(x):.6g}"
-
-
-def format_requirement_result(res: Any) -> str:
-    """Human-readable report of a :class:`~formsync_design.analysis.requirements.RequirementResult`.
-
-    >>> from formsync_design.analysis.requirements import Requirements, certify_requirements
-    >>> r = certify_requirements("star:8", {"K_o": 1.6, "K_q": 0.4, "beta": 0.3}, "spectral", Requirements())
-    >>> print(format_requirement_result(r).splitlines()[0])
-    CERTIFIED: star:8 (N=8), spectral certificate, K_o=1.6, K_q=0.4, beta=0.3
-    """
-    b = res.base
-    box = ", ".join(f"{r.name}={float(r.lo):g}" if r.is_point else
-                    f"{r.name} in [{float(r.lo):g}, {float(r.hi):g}]" for r in b.box)
-    lines = [f"{str(res.status).upper()}: {b.graph} (N={b.n}), {b.certificate} certificate, {box}",
-             f"  {b.certificate} certificate: {b.status}; {b.reason}"]
-    if b.witness:
-        w = b.witness
-        lines.append("  witness: " + "; ".join(f"{k} = {_num(v) if not isinstance(v, dict) else _wd(v)}"
-                                               for k, v in w.items()))
-    for c in res.checks:
-        lines.append(f"  {c.name}: {c.status} (required {_num(c.required)}, certified {_num(c.value)}); "
-                     f"{c.reason}")
-    if b.spectrum_method:
-        lines.append(f"  Laplacian spectrum: {b.spectrum_method}")
-    return "\n".join(lines)
-
-
-def _wd(d: dict) -> str:
-    return "{" + ", ".join(f"{k}={_num(v) if not isinstance(v, dict) else _wd(v)}" for k, v in d.items()) + "}"
-
-
-def _g(q: Fraction | None) -> str:
-    """``q`` to 6 significant digits, also beyond the float range (exact witnesses).
-
-    >>> _g(Fraction(10**400, 3)), _g(None), _g(Fraction(1, 3))
-    ('3.33333e+399', '-', '0.333333')
-    """
-    if q is None:
-        return "-"
-    try:
-        return f"{float(q):.6g}"
-    except OverflowError:
-        from decimal import Context, Decimal
-
-        ctx = Context(prec=12, Emax=10**9, Emin=-(10**9))
-        return f"{ctx.divide(Decimal(q.numerator), Decimal(q.denominator)):.6g}"
-
-
-def format_result(res: Any) -> str:
-    """Human-readable report of a :class:`~formsync_design.certify.engine.CertificationResult`."""
-    lines = []
-    box = ", ".join(
-        f"{r.name}={float(r.lo):g}" if r.is_point else f"{r.name} in [{float(r.lo):g}, {float(r.hi):g}]"
-        for r in res.box
-    )
-    lines.append(f"{str(res.status).upper()}: {res.graph} (N={res.n}), {res.source} conditions, {box}")
-    if res.margin:
-        lines.append(f"  required: lambda_min > {float(res.margin):g}")
-    if res.reason:
-        lines.append(f"  reason: {res.reason}")
-    mlb = res.margin_lower_bound  # None unless certified
-    if res.certified and mlb is not None:
-        lines.append(f"  certified margin: min over box of lambda_min >= {float(mlb):.6g}")
-    lines.append("  matrix                           size  status      lower bound   min-vertex hint")
-    for f in res.families:
-        lines.append(
-            f"  {f.name[:32]:<32} {f.size:>4}  {str(f.status):<10}  {_g(f.lower):>12}  {f.hint:>14.6g}"
-        )
-    w = res.witness
-    if w is not None:
-        pt = ", ".join(f"{k}={float(v):g}" for k, v in w.point.items())
-        sc = f", spacecraft {w.spacecraft}" if w.spacecraft is not None else ""
-        lines.append(f"  witness: {w.family}{sc} at {pt}")
-        nz = [(lab, v) for lab, v in zip(w.rows, [v for v in w.x if v != 0])]
-        long = any(len(str(abs(v))) > 16 for _, v in nz)
-        shown = ", ".join(f"{lab}: {_g(Fraction(v)) if long else v}" for lab, v in nz[:8]) + (
-            " ..." if len(nz) > 8 else "")
-        lines.append(f"    x (integer, nonzero entries{', rounded here; exact in --format json' if long else ''})"
-                     f" = {shown}")
-        lines.append(
-            f"    x^T (M - {float(res.margin):g} I) x = {_g(w.value)} <= 0 (exact rational); "
-            f"x^T M x / x^T x = {_g(w.rayleigh)}"
-        )
-        if w.covers_box:
-            lines.append("    the same x refutes every gain in the box")
-    if res.kv is not None:
-        kv = res.kv
-        lines.append(
-            f"  K_v check ({'holds' if kv.holds else 'FAILS'}): required K_vi >= "
-            f"{max(kv.required):.6g} (max over spacecraft), given {float(min(kv.kv)):g}"
-            + (f"; failing spacecraft {list(kv.failing)}" if kv.failing else "")
-            + (f"; {kv.note}" if kv.note else "")
-        )
-    s = res.solver
-    it = "" if s.iterations is None else f", {s.iterations} iterations"
-    lines.append(f"  solver: {s.solver} {s.raw_status} -> {s.outcome} ({s.solve_time * 1e3:.1f} ms{it})"
-                 + (f"; {s.note}" if s.note else ""))
-    lines.append("  re-check: " + ", ".join(f"{k} x{v}" for k, v in res.recheck.items()))
-    lines.append(f"  argument: {res.argument}")
-    return "\n".join(lines)

@@ -27,5 +27,5 @@ DISTURBANCES = ("paper", "gravity-gradient", "none")
 #: :data:`formsync_design.sim.formation.INTEGRATORS`
 INTEGRATORS = ("auto", "rk4", "dopri5", "cvodes")
 
-#: :data:`formsync_design.sim.montecarlo.MAX_RUNS` (runs per ``montecarlo`` call)
+#: :data:`formsync_design.sim.montecarlo_data.MAX_RUNS` (runs per ``montecarlo`` call)
 MAX_RUNS = 100_000

@@ -21,7 +21,6 @@ from formsync_design.verify.defaults import (
 )
 
 __all__ = [
-    "Defaults",
     "not_applicable",
     "refuse_tracking",
     "refuse_uncertified",

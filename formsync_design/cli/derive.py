@@ -94,14 +94,14 @@ def numeric_conditions(conds: Any, point: tuple[float, ...]) -> dict:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_derive
+    from formsync_design.cli.agent_commands import run_agent_derive
+    from formsync_design.cli.agent_inputs import agent_design_or_none
     from formsync_design.cli.certify import default_graph
-    from formsync_design.cli.defaults import Defaults
     from formsync_design.cli.options import design_graph
     from formsync_design.derive.conditions import derive_conditions
     from formsync_design.derive.report import DEFAULT_GRAPH, write_derivation_report
     from formsync_design.spec.loader import load_spec
-    from formsync_design.verify.defaults import is_tracking
+    from formsync_design.verify.defaults import Defaults, is_tracking
 
     agent = agent_design_or_none(args.spec)
     if agent is not None:

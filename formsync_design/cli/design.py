@@ -75,18 +75,20 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from formsync_design.certify.design import design_gains
-    from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_design
+    from formsync_design.cli.agent_commands import run_agent_design
+    from formsync_design.cli.agent_inputs import agent_design_or_none
     from formsync_design.cli.certify import (
         default_graph,
         gain_box_from_args,
         load_conditions,
         parse_margin,
     )
-    from formsync_design.cli.defaults import Defaults, lagrangian_range_gains, refuse_tracking
+    from formsync_design.cli.defaults import lagrangian_range_gains, refuse_tracking
     from formsync_design.cli.options import design_graph
     from formsync_design.errors import InputError
     from formsync_design.gains import GainBox, parse_number
     from formsync_design.spec.loader import load_spec
+    from formsync_design.verify.defaults import Defaults
 
     agent = agent_design_or_none(args.spec)
     if agent is not None:
@@ -150,8 +152,8 @@ def run(args: argparse.Namespace) -> int:
 def _run_constrained(args: argparse.Namespace, spec: Any, box: Any) -> int:
     from formsync_design.analysis.design import design_with_constraints
     from formsync_design.analysis.requirements import parse_graph_set
-    from formsync_design.cli.options import parse_number
     from formsync_design.errors import InputError
+    from formsync_design.gains import parse_number
 
     if args.conditions != "derived":
         raise InputError("expected --conditions derived with --min-delay/--graphs-set, received "

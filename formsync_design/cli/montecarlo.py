@@ -11,7 +11,6 @@ from formsync_design.cli.choices import DISTURBANCES, GRAPH_SPEC_HELP, MAX_RUNS,
 from formsync_design.cli.options import (
     EXIT_NEGATIVE,
     EXIT_OK,
-    Progress,
     add_design_option,
     add_format_option,
     add_theorem_option,
@@ -21,6 +20,7 @@ from formsync_design.cli.options import (
 )
 from formsync_design.cli.simulate import options_from_args
 from formsync_design.errors import InputError
+from formsync_design.progress import Progress
 
 if TYPE_CHECKING:
     from formsync_design.gains import GainBox
@@ -245,9 +245,11 @@ def _resolve_spec(args: argparse.Namespace, case: Any) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_montecarlo_cli
+    from formsync_design.cli.agent_commands import run_agent_montecarlo_cli
+    from formsync_design.cli.agent_inputs import agent_design_or_none
     from formsync_design.graphs.build import Graph
-    from formsync_design.sim.montecarlo import MonteCarloSettings, replay, run_montecarlo
+    from formsync_design.sim.montecarlo import replay, run_montecarlo
+    from formsync_design.sim.montecarlo_data import MonteCarloSettings
     from formsync_design.sim.simulator import simulate
 
     check_run_options(args)

@@ -12,15 +12,10 @@ import argparse
 import json
 import sys
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from pathlib import Path
+from typing import Any
 
 from formsync_design.errors import InputError
-from formsync_design.progress import Progress  # the one progress mechanism (re-exported)
-
-if TYPE_CHECKING:
-    # the one gain-range type and parser live in formsync_design.gains (re-exported here,
-    # imported on first use so that building the parser does not import numpy)
-    from formsync_design.gains import GainRange, parse_gain_range, parse_number
 
 __all__ = [
     "closing_lines",
@@ -29,14 +24,10 @@ __all__ = [
     "EXIT_USAGE",
     "EXIT_FAILURE",
     "EXIT_INTERRUPTED",
-    "GainRange",
-    "parse_gain_range",
-    "parse_number",
     "parse_positive",
     "add_format_option",
     "emit_json",
     "to_json_value",
-    "Progress",
     "add_design_option",
     "design_box",
     "parse_gain_assignments",
@@ -44,6 +35,8 @@ __all__ = [
     "add_theorem_option",
     "design_graph",
     "write_summary_and_runs",
+    "design_gains",
+    "check_out_dir",
 ]
 
 DESIGN_HELP = (
@@ -56,20 +49,6 @@ EXIT_NEGATIVE = 1
 EXIT_USAGE = 2
 EXIT_FAILURE = 3  # a failure that is not the user's input (solver, compiler, cluster)
 EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT), as shells report it
-
-_FROM_GAINS = ("GainRange", "json_number", "parse_gain_range", "parse_number")
-
-
-def __getattr__(name: str) -> Any:
-    """The re-exports of :mod:`formsync_design.gains`, imported on first use (PEP 562)."""
-    if name in _FROM_GAINS:
-        from formsync_design import gains
-
-        value = getattr(gains, name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
 
 def add_design_option(p: argparse.ArgumentParser) -> None:
     """``--design NAME|FILE`` (alias ``--spec``), stored as ``args.spec``."""
@@ -287,3 +266,80 @@ def closing_lines(assumptions: list[str] | tuple[str, ...], written: list[str]) 
     if written:
         lines.append("written: " + ", ".join(written))
     return lines
+
+
+def design_gains(spec: Any, case_gains: Any, given: Any) -> Any:
+    """The controller gains of a run of ``spec``: ``--gain NAME=X`` values over the case's.
+
+    Every controller gain of the design needs a value: from ``--gain`` or, when the
+    case has a gain of that name, the case's; the switching gains ``K_v`` are the
+    case's when the design has a switching term, else none.  Nothing is guessed:
+    a gain with neither is an :class:`~formsync_design.errors.InputError`.
+
+    >>> from formsync_design.spec.loader import load_spec
+    >>> from formsync_design.sim import Gains
+    >>> g = design_gains(load_spec("pd_consensus"), Gains(1.6, 0.4, 0.3, (0.01,) * 4),
+    ...                  ["k_p=0.5", "k_d=1.5"])
+    >>> g.as_dict(), g.K_v
+    ({'k_p': 0.5, 'k_d': 1.5}, ())
+    """
+    from formsync_design.gains import parse_gain_range
+    from formsync_design.sim import Gains
+
+    named = parse_gain_assignments(given)
+    ctrl = spec.decl.controller_gains
+    unknown = [n for n in named if n not in ctrl]
+    if unknown:
+        raise InputError(f"expected --gain for the controller gains of design {spec.name} "
+                         f"({', '.join(ctrl)}), received {unknown}")
+    have = case_gains.as_dict()
+    vals: dict[str, Any] = {}
+    for n in ctrl:
+        if n in named:
+            r = parse_gain_range(named[n], n)
+            if not r.is_point:
+                raise InputError(f"expected a single value for --gain {n}= in a simulation, "
+                                 f"received the range {named[n]!r}")
+            vals[n] = float(r.lo)
+        elif n in have:
+            vals[n] = have[n]
+        else:
+            raise InputError(f"expected --gain {n}=X for design {spec.name} (the case has no gain "
+                             f"{n}), received none")
+    kv = case_gains.K_v if spec.decl.switching is not None else ()
+    return Gains(vals, kv)
+
+
+def check_out_dir(out: str | None, *, overwrite: bool = False,
+                  results: tuple[str, ...] = ("summary.json",)) -> Path | None:
+    """Validate ``--out`` before any computation and lock it for this command.
+
+    The folder is created and locked (:func:`formsync_design.outdir.claim`: a second
+    writer is refused, exit 2); a folder already holding a run's ``results`` (its
+    ``summary.json``) is refused unless ``overwrite``, so two runs never silently
+    replace each other's files.  A folder the lock created stays only if results are
+    written into it.
+    """
+    if out is None:
+        return None
+    d = Path(out)
+    if d.exists() and not d.is_dir():
+        raise InputError(f"expected --out to be a directory, received the file {str(d)!r}")
+    parent = next((a for a in (d, *d.parents) if a.exists()), Path("."))
+    if not parent.is_dir():
+        raise InputError(f"expected --out under a directory, received {str(d)!r}")
+    import os
+
+    if not os.access(parent, os.W_OK):
+        raise InputError(f"expected a writable --out, received {str(d)!r} ({str(parent)!r} is read-only)")
+    from formsync_design.outdir import claim
+
+    claim(d)
+    if not overwrite:
+        found = [n for n in results if (d / n).exists()]
+        if found:
+            raise InputError(
+                f"expected --out {str(d)!r} without the results of another run, received a folder "
+                f"holding {found[0]}; pass --overwrite to replace them or choose another --out "
+                "(nothing overwritten)")
+    return d

@@ -7,14 +7,10 @@ import sys
 from typing import Any
 
 from formsync_design.cli.certify import CERTIFICATE_HELP
-from formsync_design.cli.options import (
-    EXIT_OK,
-    Progress,
-    add_format_option,
-    emit_json,
-)
+from formsync_design.cli.options import EXIT_OK, add_format_option, emit_json
 from formsync_design.errors import InputError
 from formsync_design.outdir import save_figure as save_atomic_figure, write_text
+from formsync_design.progress import Progress
 
 __all__ = ["add_parser", "run"]
 
@@ -125,7 +121,8 @@ def add_parser(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from formsync_design.certify.plots import write_region
     from formsync_design.certify.region import region_map
-    from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_region
+    from formsync_design.cli.agent_commands import run_agent_region
+    from formsync_design.cli.agent_inputs import agent_design_or_none
     from formsync_design.cli.certify import (
         default_graph,
         gain_box_from_args,
@@ -133,15 +130,10 @@ def run(args: argparse.Namespace) -> int:
         parse_margin,
         requirements_from_args,
     )
-    from formsync_design.cli.defaults import (
-        Defaults,
-        default_out,
-        lagrangian_range_gains,
-        refuse_tracking,
-    )
-    from formsync_design.cli.options import design_graph
-    from formsync_design.cli.simulate import check_out_dir
+    from formsync_design.cli.defaults import default_out, lagrangian_range_gains, refuse_tracking
+    from formsync_design.cli.options import check_out_dir, design_graph
     from formsync_design.spec.loader import load_spec
+    from formsync_design.verify.defaults import Defaults
 
     check_out_dir(args.out, overwrite=args.overwrite, results=("region.json",))
     agent = agent_design_or_none(args.spec)
@@ -235,7 +227,7 @@ def _run_design(args: argparse.Namespace, spec: Any, box: Any, margin: Any, req:
 
     from formsync_design.certify.multiregion import region_with_multipliers
     from formsync_design.certify.plots import plot_slices
-    from formsync_design.certify.region import map_to_dict
+    from formsync_design.certify.subdivision import map_to_dict
     from formsync_design.cli.options import to_json_value
     from formsync_design.derive.conditions import derive_conditions
     from formsync_design.graphs import make_graph

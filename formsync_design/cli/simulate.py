@@ -14,13 +14,15 @@ from formsync_design.cli.options import (
     EXIT_OK,
     add_format_option,
     add_theorem_option,
+    check_out_dir,
     closing_lines,
+    design_gains,
     emit_json,
 )
 from formsync_design.errors import InputError
 from formsync_design.outdir import write_text
 
-__all__ = ["add_parser", "run", "options_from_args", "add_spec_option", "resolve_cli_spec", "check_out_dir",
+__all__ = ["add_parser", "run", "options_from_args", "add_spec_option", "resolve_cli_spec",
            "lagrangian_case_and_spec", "lagrangian_criterion"]
 
 _EPILOG = """\
@@ -138,49 +140,6 @@ def resolve_cli_spec(args: argparse.Namespace, case: Any) -> Any:
     return spec
 
 
-def design_gains(spec: Any, case_gains: Any, given: Any) -> Any:
-    """The controller gains of a run of ``spec``: ``--gain NAME=X`` values over the case's.
-
-    Every controller gain of the design needs a value: from ``--gain`` or, when the
-    case has a gain of that name, the case's; the switching gains ``K_v`` are the
-    case's when the design has a switching term, else none.  Nothing is guessed:
-    a gain with neither is an :class:`~formsync_design.errors.InputError`.
-
-    >>> from formsync_design.spec.loader import load_spec
-    >>> from formsync_design.sim import Gains
-    >>> g = design_gains(load_spec("pd_consensus"), Gains(1.6, 0.4, 0.3, (0.01,) * 4),
-    ...                  ["k_p=0.5", "k_d=1.5"])
-    >>> g.as_dict(), g.K_v
-    ({'k_p': 0.5, 'k_d': 1.5}, ())
-    """
-    from formsync_design.cli.options import parse_gain_assignments
-    from formsync_design.gains import parse_gain_range
-    from formsync_design.sim import Gains
-
-    named = parse_gain_assignments(given)
-    ctrl = spec.decl.controller_gains
-    unknown = [n for n in named if n not in ctrl]
-    if unknown:
-        raise InputError(f"expected --gain for the controller gains of design {spec.name} "
-                         f"({', '.join(ctrl)}), received {unknown}")
-    have = case_gains.as_dict()
-    vals: dict[str, Any] = {}
-    for n in ctrl:
-        if n in named:
-            r = parse_gain_range(named[n], n)
-            if not r.is_point:
-                raise InputError(f"expected a single value for --gain {n}= in a simulation, "
-                                 f"received the range {named[n]!r}")
-            vals[n] = float(r.lo)
-        elif n in have:
-            vals[n] = have[n]
-        else:
-            raise InputError(f"expected --gain {n}=X for design {spec.name} (the case has no gain "
-                             f"{n}), received none")
-    kv = case_gains.K_v if spec.decl.switching is not None else ()
-    return Gains(vals, kv)
-
-
 def simulation_graph(args: argparse.Namespace, case: Any, spec: Any) -> tuple[Any, Any]:
     """``--graph`` (any graph the design's theorem covers, or with
     ``--allow-outside-theorem`` any graph, directed and weighted included) or the case's,
@@ -213,7 +172,8 @@ def lagrangian_setup(args: argparse.Namespace, command: str, what: str) -> Any:
     ``--out`` folder (claimed), the defaults, the case and design, the graph and its theorem
     check; an ``int`` exit status instead when the command does not apply (a tracking design,
     :func:`~formsync_design.cli.defaults.refuse_tracking`)."""
-    from formsync_design.cli.defaults import Defaults, lagrangian_graph, refuse_tracking
+    from formsync_design.cli.defaults import lagrangian_graph, refuse_tracking
+    from formsync_design.verify.defaults import Defaults
 
     out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
     defaults = Defaults()
@@ -232,41 +192,6 @@ def lagrangian_criterion(case: Any, opt: Any) -> str:
     src = case_label(case)
     return (f"Q_m <= {opt.q_tol:g} and Omega_m <= {opt.omega_tol:g} rad/s from some time to "
             f"tf = {opt.tf:g} s (the tolerances of {src} [simulation] and the options given)")
-
-
-def check_out_dir(out: str | None, *, overwrite: bool = False,
-                  results: tuple[str, ...] = ("summary.json",)) -> Path | None:
-    """Validate ``--out`` before any computation and lock it for this command.
-
-    The folder is created and locked (:func:`formsync_design.outdir.claim`: a second
-    writer is refused, exit 2); a folder already holding a run's ``results`` (its
-    ``summary.json``) is refused unless ``overwrite``, so two runs never silently
-    replace each other's files.  A folder the lock created stays only if results are
-    written into it.
-    """
-    if out is None:
-        return None
-    d = Path(out)
-    if d.exists() and not d.is_dir():
-        raise InputError(f"expected --out to be a directory, received the file {str(d)!r}")
-    parent = next((a for a in (d, *d.parents) if a.exists()), Path("."))
-    if not parent.is_dir():
-        raise InputError(f"expected --out under a directory, received {str(d)!r}")
-    import os
-
-    if not os.access(parent, os.W_OK):
-        raise InputError(f"expected a writable --out, received {str(d)!r} ({str(parent)!r} is read-only)")
-    from formsync_design.outdir import claim
-
-    claim(d)
-    if not overwrite:
-        found = [n for n in results if (d / n).exists()]
-        if found:
-            raise InputError(
-                f"expected --out {str(d)!r} without the results of another run, received a folder "
-                f"holding {found[0]}; pass --overwrite to replace them or choose another --out "
-                "(nothing overwritten)")
-    return d
 
 
 def _positive(text: str, name: str) -> float:
@@ -429,7 +354,8 @@ def _run_sampled(args: argparse.Namespace, case: Any, graph: Any, f: Any, opt: A
 
 
 def run(args: argparse.Namespace) -> int:
-    from formsync_design.cli.agent_commands import agent_design_or_none, run_agent_simulate
+    from formsync_design.cli.agent_commands import run_agent_simulate
+    from formsync_design.cli.agent_inputs import agent_design_or_none
     from formsync_design.sim.simulator import simulate
 
     agent = agent_design_or_none(args.spec, args.case)

@@ -8,14 +8,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from formsync_design.cli.options import (
-    EXIT_INTERRUPTED,
-    EXIT_OK,
-    Progress,
-    add_format_option,
-    emit_json,
-)
+from formsync_design.cli.options import EXIT_INTERRUPTED, EXIT_OK, add_format_option, emit_json
 from formsync_design.errors import InputError
+from formsync_design.progress import Progress
 
 __all__ = ["add_parser", "run"]
 
@@ -304,13 +299,13 @@ def _flag_defaults(args: argparse.Namespace) -> int | None:
     ``out/sweep-<design>``; each said on stderr.  Exit status 1 (returned) when the sweep does
     not apply to the design."""
     from formsync_design.cli.defaults import (
-        Defaults,
         agent_box,
         default_out,
         refuse_tracking,
         refuse_uncertified,
     )
     from formsync_design.spec.loader import load_design
+    from formsync_design.verify.defaults import Defaults
 
     design = load_design(args.spec)
     refused = refuse_tracking("sweep", design, "a sweep over communication graphs") or \
@@ -319,7 +314,7 @@ def _flag_defaults(args: argparse.Namespace) -> int | None:
         return refused
     defaults = Defaults()
     if getattr(design, "form", None) == "agent":
-        from formsync_design.cli.agent_commands import agent_case_for
+        from formsync_design.cli.agent_inputs import agent_case_for
 
         case = agent_case_for(design, None, None, defaults)
         n = case.n

@@ -93,9 +93,8 @@ def _default_case(design_arg: Any) -> tuple[str, Any]:
     else liang2016 with the design; said on stderr."""
     if design_arg is None:
         return "liang2016", None
-    from formsync_design.cli.defaults import Defaults
     from formsync_design.spec.loader import load_design
-    from formsync_design.verify.defaults import case_source
+    from formsync_design.verify.defaults import Defaults, case_source
 
     design = load_design(design_arg)
     src = case_source(design)

@@ -3,7 +3,7 @@ comparison with the printed paper and the derivation report.
 
 Modules: ``closed_loop`` (closed loop, specification resolution and cache keys),
 ``templates`` (per-degree local templates), ``conditions`` (assembly of
-``Theta_i`` and ``Pi`` by graph; re-exports the public names), ``closed_form``
+``Theta_i`` and ``Pi`` by graph), ``lyapunov`` (the result, :class:`LyapunovConditions`), ``closed_form``
 (closed-form and ``K_vi`` conditions), ``families`` (gain-polynomial matrix
 families), ``findings`` / ``compare`` (computed paper-versus-derivation verdicts),
 ``printed`` (printed-expressions loader), ``report`` (the derivation report);
@@ -18,18 +18,16 @@ from formsync_design.derive.agent import (
     agent_conditions,
     time_derivative,
 )
-from formsync_design.derive.conditions import (
+from formsync_design.derive.closed_form import (
     ClosedFormCondition,
-    ClosedLoop,
-    LyapunovConditions,
     closed_form_conditions,
-    derive_closed_loop,
-    derive_conditions,
     kv_condition_holds,
-    paper_conditions,
     required_kv,
 )
+from formsync_design.derive.closed_loop import ClosedLoop, derive_closed_loop
+from formsync_design.derive.conditions import derive_conditions, paper_conditions
 from formsync_design.derive.families import MatrixFamily
+from formsync_design.derive.lyapunov import LyapunovConditions
 
 __all__ = [
     "ClosedLoop",

@@ -15,7 +15,7 @@ from formsync_design.errors import InputError
 from formsync_design.models.inertia import check_inertia
 
 if TYPE_CHECKING:
-    from formsync_design.derive.conditions import LyapunovConditions
+    from formsync_design.derive.lyapunov import LyapunovConditions
 
 __all__ = ["ClosedFormCondition", "closed_form_conditions", "pi_pencils", "required_kv",
            "kv_condition_holds"]

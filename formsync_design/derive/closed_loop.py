@@ -17,7 +17,8 @@ import sympy as sp
 
 from formsync_design.errors import DerivationError
 from formsync_design.spec.declarations import CLASSIC, DERIVABLE, Declarations, GainKind, GainRole
-from formsync_design.spec.loader import ControllerView, Spec, controller_expression, load_spec
+from formsync_design.spec.lagrangian_view import ControllerView
+from formsync_design.spec.loader import Spec, controller_expression, load_spec
 
 __all__ = ["ClosedLoop", "SpecLike", "derive_closed_loop", "resolve_spec", "spec_cache_key", "registered_spec",
            "require_derivable"]

@@ -33,16 +33,15 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from formsync_design.derive.closed_loop import SpecLike, resolve_spec, spec_cache_key
-from formsync_design.derive.conditions import (
+from formsync_design.derive.closed_form import required_kv
+from formsync_design.derive.closed_loop import (
+    SpecLike,
     derive_closed_loop,
-    derive_conditions,
-    derive_local_template,
-    paper_conditions,
-    required_kv,
+    resolve_spec,
+    spec_cache_key,
 )
+from formsync_design.derive.conditions import derive_conditions, paper_conditions
 from formsync_design.derive.findings import (
-    VERDICTS,
     Computation,
     ComputationKind,
     Finding,
@@ -50,11 +49,12 @@ from formsync_design.derive.findings import (
     compare_families,
 )
 from formsync_design.derive.printed import PrintedLike, load_printed
+from formsync_design.derive.templates import derive_local_template
 from formsync_design.graphs.build import Graph, make_graph
 from formsync_design.models.attitude import AttitudeModel, derive_attitude_model, reduce_unit, skew
 from formsync_design.spec.loader import gain_symbols
 
-__all__ = ["Finding", "Verdict", "VERDICTS", "Computation", "ComputationKind", "MEANINGS",
+__all__ = [ "MEANINGS",
            "example_state", "model_findings", "lyapunov_findings", "all_findings",
            "disagreement_witness"]
 

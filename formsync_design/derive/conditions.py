@@ -27,7 +27,7 @@ is keyed by the specification's content (:func:`~.closed_loop.spec_cache_key`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from fractions import Fraction
 from functools import lru_cache
 from typing import Any
@@ -36,15 +36,7 @@ import numpy as np
 import scipy.sparse as sps
 import sympy as sp
 
-from formsync_design.derive.closed_form import (
-    ClosedFormCondition,
-    closed_form_conditions,
-    kv_condition_holds,
-    pi_pencils,
-    required_kv,
-)
 from formsync_design.derive.closed_loop import (
-    ClosedLoop,
     SpecLike,
     derive_closed_loop,
     registered_spec,
@@ -57,26 +49,17 @@ from formsync_design.derive.families import (
     MatrixFamily,
     family_from_entries,
 )
-from formsync_design.derive.templates import LocalTemplate, derive_local_template, template_cached
+from formsync_design.derive.lyapunov import LyapunovConditions, zeta_labels
+from formsync_design.derive.templates import LocalTemplate, template_cached
 from formsync_design.errors import DerivationError
 from formsync_design.graphs.build import Graph, make_graph
-from formsync_design.spec.loader import LyapunovView, gain_symbols
+from formsync_design.spec.lagrangian_view import LyapunovView
+from formsync_design.spec.loader import gain_symbols
 
 __all__ = [
-    "ClosedLoop",
-    "LocalTemplate",
-    "LyapunovConditions",
-    "ClosedFormCondition",
-    "derive_closed_loop",
-    "derive_local_template",
     "derive_conditions",
     "paper_conditions",
-    "closed_form_conditions",
-    "pi_pencils",
     "brute_force_vdot",
-    "zeta_labels",
-    "required_kv",
-    "kv_condition_holds",
 ]
 
 
@@ -108,56 +91,6 @@ def _acc(entries: dict, i: int, j: int, pd: dict, scale: Fraction = Fraction(1))
     cell = entries.setdefault((i, j), {})
     for mono, c in pd.items():
         cell[mono] = cell.get(mono, Fraction(0)) + c * scale
-
-
-def zeta_labels(n: int) -> tuple[str, ...]:
-    """Row labels of ``Pi`` in the paper's eq. (9) order (1-based spacecraft)."""
-    return tuple(f"qdot_{i}" for i in range(1, n + 1)) + tuple(f"s_{i}" for i in range(1, n + 1))
-
-
-@dataclass(frozen=True)
-class LyapunovConditions:
-    """``Theta_i`` and ``Pi`` of a graph, ready for certification.
-
-    Attributes
-    ----------
-    graph : Graph
-    source : str
-        ``"derived"`` (from the derivation) or ``"paper"`` (as printed).
-    spec_name : str
-    gains : tuple of str
-        ``("K_o", "K_q", "beta")``.
-    theta : tuple of MatrixFamily
-        ``theta[i]`` is ``Theta`` of spacecraft ``i+1`` (per axis, size ``m_i + 1``,
-        rows ``(qdot_i, e_i,j ...)``).
-    pi : MatrixFamily
-        Per-axis ``Pi`` (size ``2n``), rows ``zeta_labels(n)``.
-    switching_matches : bool or None
-        Whether the switching term's argument equals ``rho_i`` (the
-        coefficient of the disturbance in ``V'``); needed for the ``K_vi``
-        argument.  ``None`` for printed conditions.
-    rho : tuple of (sympy.Expr, sympy.Expr)
-        ``rho_i = rho_qd * q_i' + rho_s * s_i`` (coefficients), derived only.
-    """
-
-    graph: Graph
-    source: str
-    spec_name: str
-    gains: tuple[str, ...]
-    theta: tuple[MatrixFamily, ...]
-    pi: MatrixFamily
-    switching_matches: bool | None = None
-    rho: tuple[Any, Any] | None = None
-
-    @property
-    def families(self) -> tuple[MatrixFamily, ...]:
-        """``theta + (pi,)``."""
-        return (*self.theta, self.pi)
-
-    @property
-    def zeta_order(self) -> tuple[str, ...]:
-        return zeta_labels(self.graph.n)
-
 
 
 def _theta_entries(theta: sp.Matrix, gens: tuple) -> dict:
@@ -467,8 +400,6 @@ def _merge(a: dict, b: dict) -> dict:
     return {k: v for k, v in out.items() if v != 0}
 
 
-
-
 def derive_conditions(graph: Any, spec: SpecLike = None, *, structured: bool = True) -> LyapunovConditions:
     """Derive ``Theta_i`` (every spacecraft) and ``Pi`` for a graph.
 
@@ -494,7 +425,7 @@ def derive_conditions(graph: Any, spec: SpecLike = None, *, structured: bool = T
     >>> [t.size for t in c.theta]
     [3, 3, 3, 3]
     """
-    from formsync_design.designs_api import agent_design_of
+    from formsync_design.spec.loader import agent_design_of
 
     agent = agent_design_of(spec)
     if agent is not None:  # an agent design: its conditions(c) families on the graph

@@ -13,23 +13,21 @@ from typing import Any
 
 import sympy as sp
 
-from formsync_design.derive.closed_loop import SpecLike, resolve_spec
-from formsync_design.derive.compare import Finding, all_findings
-from formsync_design.derive.conditions import (
-    brute_force_vdot,
-    closed_form_conditions,
-    derive_closed_loop,
-    derive_conditions,
-    derive_local_template,
-    pi_pencils,
-)
+from formsync_design.derive.closed_form import closed_form_conditions, pi_pencils
+from formsync_design.derive.closed_loop import SpecLike, derive_closed_loop, resolve_spec
+from formsync_design.derive.compare import all_findings
+from formsync_design.derive.conditions import brute_force_vdot, derive_conditions
+from formsync_design.derive.findings import Finding
+from formsync_design.derive.templates import derive_local_template
 from formsync_design.graphs.build import Graph, make_graph
 from formsync_design.models.attitude import derive_attitude_model
 from formsync_design.outdir import write_text
 from formsync_design.spec.declarations import CLASSIC
-from formsync_design.spec.loader import ControllerView, LyapunovView, Spec, gain_symbols
+from formsync_design.spec.lagrangian_view import ControllerView, LyapunovView
+from formsync_design.spec.loader import Spec, gain_symbols
 
-__all__ = ["DerivationReport", "write_derivation_report", "report_basename", "DEFAULT_GRAPH"]
+__all__ = ["DerivationReport", "write_derivation_report", "report_basename", "DEFAULT_GRAPH",
+           "derivation_command"]
 
 #: The paper's Fig. 2 topology was lost in extraction; the report's default.
 DEFAULT_GRAPH = "ring:8"
@@ -146,7 +144,7 @@ def write_derivation_report(
     >>> r.markdown.name
     'liang2016-derivation-path3.md'
     """
-    from formsync_design.designs_api import agent_design_of, derivation_command
+    from formsync_design.spec.loader import agent_design_of
 
     agent = agent_design_of(spec)
     if agent is not None:  # an agent design: its own derivation report (the report's path)
@@ -432,3 +430,27 @@ def write_derivation_report(
     tex = out / f"{base}.tex"
     write_text(tex, "\n".join(T) + "\n")
     return DerivationReport(markdown=md, latex=tex, findings=findings, brute_force_checked=brute_ok)
+
+
+def derivation_command(spec_arg: Any, name: str, graph: Any) -> str:
+    """The command that regenerates a derivation report: ``--design NAME`` for a shipped
+    design, ``--design PATH`` (as given) for a design file.
+
+    >>> derivation_command("pd_consensus", "pd_consensus", "ring:4")
+    'formsync derive --design pd_consensus --graph ring:4'
+    >>> derivation_command(Path("my/ma.py"), "ma", "ring:5")
+    'formsync derive --design my/ma.py --graph ring:5'
+    """
+    import shlex
+
+    from formsync_design.resources import design_file, design_names
+
+    if isinstance(spec_arg, (str, Path)) and str(spec_arg) not in design_names():
+        ref = str(spec_arg)
+    else:
+        path = getattr(spec_arg, "path", None)
+        shipped = name in design_names() and (
+            not path or Path(str(path)).resolve() == design_file(name).resolve())
+        ref = name if shipped or not path else str(path)
+    gname = getattr(graph, "name", graph)
+    return shlex.join(["formsync", "derive", "--design", ref, "--graph", str(gname)])

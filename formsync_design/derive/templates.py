@@ -17,7 +17,7 @@ from formsync_design.derive.closed_loop import (
     spec_cache_key,
 )
 from formsync_design.errors import DerivationError, InputError
-from formsync_design.spec.loader import LyapunovView
+from formsync_design.spec.lagrangian_view import LyapunovView
 
 __all__ = ["LocalTemplate", "derive_local_template", "template_cached", "SLOT_QD", "SLOT_S",
            "SLOT_SIGMA", "SLOT_D"]

@@ -3,7 +3,7 @@
 Modules: :mod:`~.bridge` (SymPy -> CasADi), :mod:`~.formation` (inputs, options,
 statuses), :mod:`~.kernels` (building, compiling and caching the closed loop, keyed
 by the specification's content), :mod:`~.metrics`, :mod:`~.result`,
-:mod:`~.simulator` (the driver; re-exports the public names), :mod:`~.montecarlo`,
+:mod:`~.simulator` (the driver), :mod:`~.montecarlo`,
 :mod:`~.figures`; :mod:`~.hybrid` (exact hybrid simulation with per-agent periodic,
 event-, self- and dynamic-event triggering, representation-agnostic); :mod:`~.sampled`
 (a design's controller with per-spacecraft sample-and-hold on the formation, through
@@ -30,32 +30,32 @@ if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
         Reference as Reference,
         simulate_agents as simulate_agents,
     )
-    from formsync_design.sim.formation import SimStatus as SimStatus
+    from formsync_design.sim.formation import (
+        Formation as Formation,
+        Gains as Gains,
+        SimOptions as SimOptions,
+        SimStatus as SimStatus,
+    )
     from formsync_design.sim.hybrid import (
         HybridOptions as HybridOptions,
         HybridResult as HybridResult,
         HybridStatus as HybridStatus,
         simulate_hybrid as simulate_hybrid,
     )
-    from formsync_design.sim.montecarlo import (
+    from formsync_design.sim.montecarlo import run_montecarlo as run_montecarlo
+    from formsync_design.sim.montecarlo_data import (
         MonteCarloResult as MonteCarloResult,
         MonteCarloSettings as MonteCarloSettings,
         RunStatus as RunStatus,
-        run_montecarlo as run_montecarlo,
     )
+    from formsync_design.sim.result import SimResult as SimResult
     from formsync_design.sim.sampled import (
         SampledResult as SampledResult,
         TriggerSpec as TriggerSpec,
         parse_trigger as parse_trigger,
         simulate_sampled as simulate_sampled,
     )
-    from formsync_design.sim.simulator import (
-        Formation as Formation,
-        Gains as Gains,
-        SimOptions as SimOptions,
-        SimResult as SimResult,
-        simulate as simulate,
-    )
+    from formsync_design.sim.simulator import simulate as simulate
 
 #: public name -> the submodule that defines it
 _LAZY: dict[str, str] = {
@@ -70,18 +70,18 @@ _LAZY: dict[str, str] = {
     "HybridResult": "formsync_design.sim.hybrid",
     "HybridStatus": "formsync_design.sim.hybrid",
     "simulate_hybrid": "formsync_design.sim.hybrid",
-    "MonteCarloResult": "formsync_design.sim.montecarlo",
-    "MonteCarloSettings": "formsync_design.sim.montecarlo",
-    "RunStatus": "formsync_design.sim.montecarlo",
+    "MonteCarloResult": "formsync_design.sim.montecarlo_data",
+    "MonteCarloSettings": "formsync_design.sim.montecarlo_data",
+    "RunStatus": "formsync_design.sim.montecarlo_data",
     "run_montecarlo": "formsync_design.sim.montecarlo",
     "SampledResult": "formsync_design.sim.sampled",
     "TriggerSpec": "formsync_design.sim.sampled",
     "parse_trigger": "formsync_design.sim.sampled",
     "simulate_sampled": "formsync_design.sim.sampled",
-    "Formation": "formsync_design.sim.simulator",
-    "Gains": "formsync_design.sim.simulator",
-    "SimOptions": "formsync_design.sim.simulator",
-    "SimResult": "formsync_design.sim.simulator",
+    "Formation": "formsync_design.sim.formation",
+    "Gains": "formsync_design.sim.formation",
+    "SimOptions": "formsync_design.sim.formation",
+    "SimResult": "formsync_design.sim.result",
     "simulate": "formsync_design.sim.simulator",
 }
 

@@ -35,7 +35,11 @@ import numpy as np
 import sympy as sp
 
 from formsync_design.errors import InputError
-from formsync_design.models.disturbances import disturbance_torque, disturbance_trig
+from formsync_design.models.disturbances import (
+    disturbance_torque,
+    disturbance_trig,
+    kernel_parameters,
+)
 from formsync_design.sim.bridge import sympy_to_casadi
 from formsync_design.sim.layout import param_slices
 from formsync_design.spec.agent import AgentDesign, AgentView, agent_expressions, sgn
@@ -43,6 +47,7 @@ from formsync_design.spec.dag import replace_function
 from formsync_design.spec.declarations import GainKind, GainRole
 
 __all__ = [
+    "agent_parameters",
     "ATTITUDE_SIZE",
     "AgentLaw",
     "agent_law",
@@ -492,7 +497,8 @@ def get_agent_kernel(design: AgentDesign, neighbours: tuple[tuple[int, ...], ...
     Cached in memory by the design's key, the structure and the options, and on disk by the
     generated C source (:func:`formsync_design.sim.kernels.compile_function`).
     """
-    from formsync_design.sim.kernels import compile_enabled, compile_function
+    from formsync_design.sim.ccompile import compile_enabled
+    from formsync_design.sim.kernels import compile_function
 
     compile = bool(compile) and compile_enabled()
     rate = reference_rate_expressions(ref_rate)
@@ -531,3 +537,28 @@ def gain_vector(design: AgentDesign, gains: Any) -> np.ndarray:
         else:
             out.append(val)
     return np.asarray(out, dtype=float)
+
+
+def agent_parameters(design: AgentDesign, f: Any, opt: Any, layout: dict) -> np.ndarray:
+    """The flat kernel parameter vector of the formation ``f`` under the options ``opt``
+    (an :class:`~formsync_design.sim.agents.AgentFormation` and
+    :class:`~formsync_design.sim.agents.AgentOptions`; layout :func:`agent_param_layout`)."""
+    p = np.zeros(layout["_size"].stop)
+    g = gain_vector(design, f.gains)
+    p[layout["gains"]][: g.size] = g
+    p[layout["phi"]] = opt.phi
+    p[layout["umax"]] = np.inf if opt.torque_limit is None else opt.torque_limit
+    J = np.asarray(f.inertias, dtype=float)
+    p[layout["J"]] = J.transpose(0, 2, 1).ravel()
+    p[layout["Jinv"]] = np.linalg.inv(J).transpose(0, 2, 1).ravel()
+    w = f.weights()
+    p[layout["a"]][: w.size] = w
+    p[layout["b"]] = f.graph.pinning_matrix.diagonal() if f.graph.has_leader else 0.0
+    assert f.disturbance is not None
+    freq, harm = kernel_parameters(f.disturbance)
+    p[layout["freq"]] = freq
+    p[layout["harm"]] = harm.ravel()
+    p[layout["gg"]] = 1.0 if f.disturbance.gravity_gradient else 0.0
+    o = f.disturbance.orbit
+    p[layout["orbit"]] = (o.mu, o.radius, o.mean_motion, o.phase)
+    return p

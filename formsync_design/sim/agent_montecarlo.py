@@ -30,7 +30,7 @@ from formsync_design.sim.agents import AgentFormation, AgentOptions, simulate_ag
 from formsync_design.sim.formation import Gains
 
 __all__ = ["AgentMonteCarloSettings", "AgentRun", "AgentMonteCarloResult", "agent_run_formation",
-           "run_agent_montecarlo", "MAX_AGENT_RUNS"]
+           "run_agent_montecarlo", "monte_carlo_agents", "MAX_AGENT_RUNS"]
 
 #: Most runs per campaign.
 MAX_AGENT_RUNS = 100_000
@@ -212,3 +212,34 @@ def run_agent_montecarlo(design: Any, base: AgentFormation, box: GainBox,
     return AgentMonteCarloResult(design=design.name, graph=base.graph.name, box=box,
                                  settings=settings, runs=tuple(runs), certificate=cert,
                                  certificate_reason=reason)
+
+
+def monte_carlo_agents(design: Any, base: Any, box: Any = None, settings: Any = None,
+                       options: Any = None, *, certify: bool = True,
+                       progress: Any = None) -> Any:
+    """:func:`run_agent_montecarlo` from the generic
+    arguments of ``fs.monte_carlo``: ``box`` default the point of ``base.gains``; ``settings``
+    an :class:`AgentMonteCarloSettings` or a
+    :class:`~formsync_design.sim.montecarlo_data.MonteCarloSettings` (runs, seed, angles, rates
+    taken from it); ``options`` an :class:`~formsync_design.sim.agents.AgentOptions`."""
+    if box is None:
+        vals = {}
+        for n, v in base.gains.as_dict().items():
+            lo, hi = (min(v), max(v)) if isinstance(v, tuple) else (v, v)
+            vals[n] = f"{lo!r}:{hi!r}" if lo != hi else repr(lo)
+        box = GainBox.parse(vals)
+    elif not isinstance(box, GainBox):
+        box = GainBox.parse(box)
+    if settings is None:
+        settings = AgentMonteCarloSettings()
+    elif not isinstance(settings, AgentMonteCarloSettings):
+        settings = AgentMonteCarloSettings(runs=int(settings.runs), seed=int(settings.seed),
+                                           max_angle_deg=float(settings.max_angle_deg),
+                                           max_rate=float(settings.max_rate))
+    if options is None:
+        options = AgentOptions()
+    elif not isinstance(options, AgentOptions):
+        raise InputError(f"expected AgentOptions for the agent design {design.name}, received "
+                         f"{type(options).__name__}")
+    return run_agent_montecarlo(design, base, box, settings, options, certify=certify,
+                                progress=progress)

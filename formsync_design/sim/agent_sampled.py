@@ -23,6 +23,7 @@ bodies' right-hand side is compiled (C, cached on disk) unless ``FORMSYNC_NO_COM
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -32,6 +33,7 @@ from formsync_design.models.quaternion import cross_matrix
 from formsync_design.sim.agent_kernel import (
     ATTITUDE_SIZE,
     agent_law,
+    agent_parameters,
     gain_vector,
     get_agent_kernel,
     reference_rate_expressions,
@@ -45,7 +47,7 @@ from formsync_design.sim.hybrid import (
 )
 from formsync_design.spec.agent import AgentDesign
 
-__all__ = ["simulate_agents_sampled", "attitude_entries_np", "reference_trajectory"]
+__all__ = ["SampledRun", "run_sampled_agents", "attitude_entries_np", "reference_trajectory"]
 
 _PLANTS: dict[tuple[Any, ...], Any] = {}
 
@@ -122,12 +124,28 @@ def reference_trajectory(reference: Any, tf: float) -> Any:
     return at_t
 
 
-def simulate_agents_sampled(design: AgentDesign, formation: Any, opt: Any,
-                            record: dict | None = None) -> Any:
-    """The sampled path of :func:`~formsync_design.sim.agents.simulate_agents` (module
-    docstring; ``record``: the hybrid run, trigger evaluations and kept values)."""
-    from formsync_design.sim.agents import agent_parameters, assemble_result
+@dataclass(frozen=True)
+class SampledRun:
+    """One sampled run in kernel state order: the kernel and parameter vector it was observed
+    with, the update grid ``t``, the states (``(T, nx)``), the held torques and the hybrid
+    run (:class:`~formsync_design.sim.hybrid.HybridResult`)."""
 
+    kernel: Any
+    parameters: np.ndarray
+    t: np.ndarray
+    states: np.ndarray
+    torques: np.ndarray
+    hybrid: Any
+
+
+def run_sampled_agents(design: AgentDesign, formation: Any, opt: Any,
+                       record: dict | None = None) -> SampledRun:
+    """The sampled run of :func:`~formsync_design.sim.agents.simulate_agents` (module
+    docstring; ``formation``, ``opt``: an :class:`~formsync_design.sim.agents.AgentFormation`
+    and :class:`~formsync_design.sim.agents.AgentOptions`; ``record``: the hybrid run, trigger
+    evaluations and kept values), assembled into an
+    :class:`~formsync_design.sim.agents.AgentResult` by
+    :func:`~formsync_design.sim.agents.simulate_agents_sampled`."""
     f = formation
     n = f.n
     rep = design.representation
@@ -261,8 +279,8 @@ def simulate_agents_sampled(design: AgentDesign, formation: Any, opt: Any,
         record["hybrid"] = res
         record["trigger_evaluations"] = evaluations.copy()
         record["kept"] = tuple(np.array(k) for k in kept_log)
-    return assemble_result(design, f, opt, kern, p, np.asarray(res.t), X, "hybrid-dop853",
-                   torques=np.asarray(res.u), sampled=res)
+    return SampledRun(kernel=kern, parameters=p, t=np.asarray(res.t), states=X,
+                      torques=np.asarray(res.u), hybrid=res)
 
 
 def _law_design(design: AgentDesign) -> AgentDesign:
@@ -283,7 +301,8 @@ def _law_design(design: AgentDesign) -> AgentDesign:
 def _compiled_plant(design: AgentDesign, kern: Any, neighbours: Any, ref_rate: Any) -> Any:
     """The kernel's plant ``(x, u, t, p) -> xdot``, compiled to C (cached on disk by the
     generated source) unless compilation is disabled."""
-    from formsync_design.sim.kernels import compile_enabled, compile_function
+    from formsync_design.sim.ccompile import compile_enabled
+    from formsync_design.sim.kernels import compile_function
 
     if not compile_enabled():
         return kern.plant

@@ -32,12 +32,12 @@ import numpy as np
 from formsync_design.errors import InputError, SimulationError
 from formsync_design.gains import json_number
 from formsync_design.graphs.digraph import Digraph
-from formsync_design.models.disturbances import DisturbanceModel, kernel_parameters, no_disturbance
+from formsync_design.models.disturbances import DisturbanceModel, no_disturbance
 from formsync_design.models.inertia import check_inertias
 from formsync_design.notebook import NotebookViews
 from formsync_design.sim.agent_kernel import (
+    agent_parameters,
     agent_state_names,
-    gain_vector,
     get_agent_kernel,
     reference_rate_expressions,
     reference_rate_function,
@@ -56,7 +56,7 @@ __all__ = [
     "simulate_agents",
     "attitude_disagreement",
     "principal_angles",
-    "agent_parameters",
+    "simulate_agents_sampled",
     "assemble_result",
 ]
 
@@ -350,30 +350,6 @@ def _settle(t: np.ndarray, ok: np.ndarray) -> float | None:
     return float(t[0]) if bad.size == 0 else float(t[bad[-1] + 1])
 
 
-def agent_parameters(design: AgentDesign, f: AgentFormation, opt: AgentOptions,
-                     layout: dict) -> np.ndarray:
-    """The flat kernel parameter vector of ``f`` (layout :func:`agent_param_layout`)."""
-    p = np.zeros(layout["_size"].stop)
-    g = gain_vector(design, f.gains)
-    p[layout["gains"]][: g.size] = g
-    p[layout["phi"]] = opt.phi
-    p[layout["umax"]] = np.inf if opt.torque_limit is None else opt.torque_limit
-    J = np.asarray(f.inertias, dtype=float)
-    p[layout["J"]] = J.transpose(0, 2, 1).ravel()
-    p[layout["Jinv"]] = np.linalg.inv(J).transpose(0, 2, 1).ravel()
-    w = f.weights()
-    p[layout["a"]][: w.size] = w
-    p[layout["b"]] = f.graph.pinning_matrix.diagonal() if f.graph.has_leader else 0.0
-    assert f.disturbance is not None
-    freq, harm = kernel_parameters(f.disturbance)
-    p[layout["freq"]] = freq
-    p[layout["harm"]] = harm.ravel()
-    p[layout["gg"]] = 1.0 if f.disturbance.gravity_gradient else 0.0
-    o = f.disturbance.orbit
-    p[layout["orbit"]] = (o.mu, o.radius, o.mean_motion, o.phase)
-    return p
-
-
 def _check(design: AgentDesign, f: AgentFormation) -> None:
     if getattr(design, "form", None) != "agent":
         raise InputError(f"expected an agent design (FORM = 'agent'), received "
@@ -442,8 +418,6 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
                          f"or a torque input, received {opt.integrator} and "
                          f"{design.decl.sampling}")
     if design.decl.sampling != "continuous":
-        from formsync_design.sim.agent_sampled import simulate_agents_sampled
-
         return simulate_agents_sampled(design, formation, opt)
     f = formation
     M = int(round(opt.output_step / opt.step))
@@ -514,6 +488,18 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
         cols = np.minimum(np.arange(T + 1) * M, ext.shape[1] - 1)
         obs_ext = ext[:, cols].T
     return assemble_result(design, f, opt, kern, p, t, X, opt.integrator, ext=obs_ext)
+
+
+def simulate_agents_sampled(design: AgentDesign, formation: AgentFormation, opt: AgentOptions,
+                            record: dict | None = None) -> AgentResult:
+    """The sampled path of :func:`simulate_agents`
+    (:func:`~formsync_design.sim.agent_sampled.run_sampled_agents`; ``record``: the hybrid
+    run, trigger evaluations and kept values)."""
+    from formsync_design.sim.agent_sampled import run_sampled_agents
+
+    run = run_sampled_agents(design, formation, opt, record)
+    return assemble_result(design, formation, opt, run.kernel, run.parameters, run.t, run.states,
+                           "hybrid-dop853", torques=run.torques, sampled=run.hybrid)
 
 
 def assemble_result(design: AgentDesign, f: AgentFormation, opt: AgentOptions, kern: Any, p: np.ndarray,

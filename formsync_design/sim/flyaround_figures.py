@@ -9,7 +9,8 @@ the 3-D relative trajectory with the 500 m sphere's 70 deg circle.  Further:
 objects without pyplot (no backend is selected); save them with
 :func:`formsync_design.sim.figures.save_figure`.
 
->>> from formsync_design.sim.flyaround import FlyaroundOptions, simulate_flyaround
+>>> from formsync_design.sim.flyaround import simulate_flyaround
+>>> from formsync_design.sim.flyaround_scenario import FlyaroundOptions
 >>> from formsync_design.verify.flyaround_case import load_flyaround_case
 >>> run = simulate_flyaround(load_flyaround_case().scenario, FlyaroundOptions(tf=4.0))
 >>> sorted(flyaround_figures(run))[:2]

@@ -44,7 +44,6 @@ from formsync_design.sim.bridge import build_controller, controller_gain_names, 
 from formsync_design.sim.ccompile import (
     build_shared,
     c_compiler,
-    cache_dir,
     compile_enabled,
     warn_no_compiler,
 )
@@ -58,8 +57,6 @@ __all__ = [
     "UNROLL_MAX",
     "Kernel",
     "get_kernel",
-    "cache_dir",
-    "compile_enabled",
     "cached_kernels",
     "clear_kernel_cache",
     "pack_params",

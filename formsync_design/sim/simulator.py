@@ -96,43 +96,21 @@ import numpy as np
 from formsync_design.errors import InputError, SimulationError
 from formsync_design.sim.adaptive import run_vm
 from formsync_design.sim.formation import (
-    INTEGRATORS,
-    MAX_GRID_POINTS,
-    STATUSES,
     Formation,
-    Gains,
     SimOptions,
     SimStatus,
-    pack_state,
     state_names,
     unpack_state,
 )
-from formsync_design.sim.kernels import CHUNK, Kernel, cache_dir, get_kernel, pack_params
-from formsync_design.sim.metrics import convergence_time, formation_metrics, linear_metrics
+from formsync_design.sim.kernels import get_kernel, pack_params
+from formsync_design.sim.metrics import convergence_time, linear_metrics
 from formsync_design.sim.native import METHODS, SWITCH_EVENTS, get_native
 from formsync_design.sim.native_c import CFG
 from formsync_design.sim.result import SimResult
 from formsync_design.spec.loader import Spec, load_spec
 
 __all__ = [
-    "Gains",
-    "Formation",
-    "SimOptions",
-    "SimResult",
-    "SimStatus",
-    "INTEGRATORS",
-    "STATUSES",
-    "MAX_GRID_POINTS",
     "simulate",
-    "state_names",
-    "pack_state",
-    "unpack_state",
-    "formation_metrics",
-    "convergence_time",
-    "cache_dir",
-    "Kernel",
-    "get_kernel",
-    "CHUNK",
     "driver_config",
     "SINGULAR_BLOWUP_Q0",
 ]
@@ -173,6 +151,7 @@ def simulate(
     --------
     >>> from formsync_design.graphs.build import make_graph
     >>> from formsync_design.models.disturbances import no_disturbance
+    >>> from formsync_design.sim.formation import Formation, Gains
     >>> q = np.array([[0.1, 0.0, 0.0], [-0.1, 0.0, 0.0]])
     >>> att = np.column_stack([q, np.sqrt(1 - (q**2).sum(1))])
     >>> f = Formation(make_graph("path:2"), np.array([np.eye(3)] * 2), att, np.zeros((2, 3)),
@@ -181,7 +160,7 @@ def simulate(
     >>> str(r.status), r.final_q_m < 1e-4
     ('converged', True)
     """
-    from formsync_design.designs_api import agent_design_of
+    from formsync_design.spec.loader import agent_design_of
 
     agent = agent_design_of(spec)
     if agent is not None:  # an agent design: simulate_agents (an AgentResult)

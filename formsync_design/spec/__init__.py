@@ -10,9 +10,8 @@ from formsync_design.spec.declarations import (
     GainRole,
     parse_declarations,
 )
+from formsync_design.spec.lagrangian_view import ControllerView, LyapunovView
 from formsync_design.spec.loader import (
-    ControllerView,
-    LyapunovView,
     Spec,
     default_spec_path,
     gain_symbols,

@@ -1,7 +1,7 @@
 """The views a Lagrangian design's functions are called on: :class:`ControllerView` (what
 ``controller(view)`` may use: the model matrices, the neighbours' sums, the gains) and
 :class:`LyapunovView` (what ``lyapunov(view)`` may use).  The loader
-(:mod:`formsync_design.spec.loader`, which re-exports both) calls them at load to validate a
+(:mod:`formsync_design.spec.loader`) calls them at load to validate a
 design; the derivation calls them to build the closed loop and the conditions.
 
 >>> v = ControllerView()

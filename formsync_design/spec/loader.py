@@ -57,8 +57,7 @@ from formsync_design.spec.declarations import (
 from formsync_design.spec.lagrangian_view import ControllerView, LyapunovView
 
 __all__ = [
-    "ControllerView",
-    "LyapunovView",
+    "agent_design_of",
     "Spec",
     "load_spec",
     "load_design",
@@ -561,3 +560,20 @@ def load_design(spec: Any = None) -> Any:
         "expected a specification (a Spec, a .py file path, or None), received a "
         f"{type(spec).__name__}"
     )
+
+
+def agent_design_of(spec: Any) -> Any:
+    """The agent design ``spec`` resolves to (a loaded design, a shipped name, a file), else
+    ``None`` (a Lagrangian design or the default).
+
+    >>> agent_design_of("ma_so3").name, agent_design_of("pd_consensus"), agent_design_of(None)
+    ('ma_so3', None, None)
+    """
+    if spec is None:
+        return None
+    if getattr(spec, "form", None) == "agent":
+        return spec
+    if getattr(spec, "form", None) is not None or not isinstance(spec, (str, Path)):
+        return None
+    d = load_design(spec)
+    return d if getattr(d, "form", None) == "agent" else None

@@ -89,8 +89,6 @@ from formsync_design.gains import GainBox, parse_number
 from formsync_design.ranges import check_range, quantity_of
 from formsync_design.sweep.campaign_fields import campaign_base, campaign_field, shown
 from formsync_design.sweep.designs import (
-    DEFAULT_BOX,
-    DEFAULT_REFERENCE,
     check_agent_box,
     check_sweepable,
     default_box,
@@ -105,16 +103,11 @@ from formsync_design.sweep.schema import CLASSIC_SCHEMA, FORMAT, SweepSchema, ra
 
 __all__ = [
     "GainBoxSpec",
-    "MonteCarloSpec",
     "Campaign",
-    "DEFAULT_BOX",
-    "DEFAULT_REFERENCE",
     "campaign_from_dict",
     "load_campaign",
     "campaign_hash",
-    "campaign_base",
     "graph_records",
-    "case_text",
     "resolve_spec",
     "spec_key",
 ]

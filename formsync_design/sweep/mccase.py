@@ -39,7 +39,7 @@ class MonteCarloSpec:
     ``phases`` and ``K_v`` do not apply.
 
     ``base``: the folder a relative ``case`` path resolves against (the campaign file's,
-    :func:`~formsync_design.sweep.campaign.campaign_base`; not part of the definition).
+    :func:`~formsync_design.sweep.campaign_fields.campaign_base`; not part of the definition).
     """
 
     runs: int = 20

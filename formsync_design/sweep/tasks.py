@@ -86,7 +86,7 @@ def _mc_formation(graph: Graph, mc: dict, schema: SweepSchema,
                   gains: Sequence[Fraction]) -> tuple[Any, float | None]:
     import numpy as np
 
-    from formsync_design.sim.simulator import Formation, Gains
+    from formsync_design.sim.formation import Formation, Gains
     from formsync_design.tomlio import parse_toml
     from formsync_design.verify.case import make_disturbance, parse_case
 
@@ -118,8 +118,9 @@ def _task_spec(task: dict[str, Any]) -> Any:
 def _run_mc(graph: Graph, mc: dict, schema: SweepSchema, gains: Sequence[Fraction] | None,
             spec: Any = None) -> dict[str, Any]:
     from formsync_design.gains import GainBox
-    from formsync_design.sim.montecarlo import MonteCarloSettings, run_montecarlo
-    from formsync_design.sim.simulator import SimOptions
+    from formsync_design.sim.formation import SimOptions
+    from formsync_design.sim.montecarlo import run_montecarlo
+    from formsync_design.sim.montecarlo_data import MonteCarloSettings
 
     out: dict[str, Any] = {"mc_gains": mc["gains"]}
     if gains is None:

@@ -28,7 +28,7 @@ if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
         judge as judge,
     )
     from formsync_design.verify.dispatch import verify_case as verify_case
-    from formsync_design.verify.verification import VerificationResult as VerificationResult
+    from formsync_design.verify.results import VerificationResult as VerificationResult
 
 #: public name -> the submodule that defines it
 _LAZY: dict[str, str] = {
@@ -40,7 +40,7 @@ _LAZY: dict[str, str] = {
     "Outcome": "formsync_design.verify.claims",
     "Verdict": "formsync_design.verify.claims",
     "judge": "formsync_design.verify.claims",
-    "VerificationResult": "formsync_design.verify.verification",
+    "VerificationResult": "formsync_design.verify.results",
     "verify_case": "formsync_design.verify.dispatch",
 }
 

@@ -51,7 +51,7 @@ from formsync_design.models.disturbances import (
     paper_disturbance,
 )
 from formsync_design.ranges import check_range, quantity_of
-from formsync_design.sim.simulator import Formation, Gains, SimOptions
+from formsync_design.sim.formation import Formation, Gains, SimOptions
 from formsync_design.spec.loader import load_spec
 from formsync_design.tomlio import load_toml
 

@@ -430,7 +430,7 @@ def _event(value: float | None, t: np.ndarray) -> Measurement:
 
 
 def measure_run(r: Any, frac: float, *, event: str = "chatter") -> dict[str, Measurement]:
-    """The simulation quantities of one run (a :class:`~formsync_design.sim.simulator.SimResult`
+    """The simulation quantities of one run (a :class:`~formsync_design.sim.result.SimResult`
     or anything with its attributes ``status, t, u, omega_m, q_m, convergence_time,
     final_rates, saturation_end_time`` and ``message()``).
 

@@ -36,6 +36,7 @@ from formsync_design.models.euler import jumps, pitch_yaw_roll, qa_error, quats_
 from formsync_design.sim.agents import AgentFormation, simulate_agents
 from formsync_design.sim.formation import Gains
 from formsync_design.verify.agentcase import AgentCase, euler321_to_quat, load_agent_case
+from formsync_design.verify.equal_torque import in_order
 from formsync_design.verify.kinds import VerifyRequest
 
 __all__ = [
@@ -46,7 +47,6 @@ __all__ = [
     "method_list",
     "run_method",
     "run_comparison",
-    "in_order",
     "classic_run",
     "verify_comparison_case",
 ]
@@ -344,17 +344,6 @@ def _graph_spec(spec: Any, n: int, label: str) -> Any:
 
 
 # ---------------------------------------------------------------------------------- claims
-
-
-def in_order(times: list[float | None]) -> bool:
-    """Strictly increasing, a time not reached (``None``) counting as later than any reached
-    one; two unreached times are not ordered.
-
-    >>> in_order([1.0, 2.0, None]), in_order([1.0, None, None]), in_order([2.0, 1.0, 3.0])
-    (True, False, False)
-    """
-    v = [math.inf if t is None else t for t in times]
-    return all(a < b for a, b in zip(v, v[1:]))
 
 
 def _fmt(t: float | None) -> str:

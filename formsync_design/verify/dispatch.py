@@ -10,7 +10,7 @@ result object, writing nothing:
 ============================  ==============================================================
 ``formation`` (the default)   :class:`~formsync_design.verify.results.VerificationResult`
 ``selftrigger``               :class:`~formsync_design.verify.selftrigger.SelftriggerVerification`
-``flyaround``                 :class:`~formsync_design.verify.flyaround.FlyaroundVerification`
+``flyaround``                 :class:`~formsync_design.verify.flyaround_claims.FlyaroundVerification`
 ``lv2012``                    :class:`~formsync_design.verify.lv2012.CaseOutcome`
 ``agent-comparison``          :class:`~formsync_design.verify.comparison.ComparisonResult`
 ``engine``                    :class:`~formsync_design.verify.engine.EngineVerification`

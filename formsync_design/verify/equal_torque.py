@@ -6,7 +6,8 @@ design's gains (all but the ones the case holds, e.g. a threshold ``eps``) are m
 one factor ``c``, and ``c`` is found by a 1-D search so that the design's peak torque on the
 reference run equals the main design's (:func:`equal_peak_scale`: bracketing by doubling or
 halving, then bisection in ``log c``, until the peak is within ``rtol`` of the target).  The
-comparisons are then rerun with the scaled gains.
+comparisons are then rerun with the scaled gains; :func:`ordering` and :func:`in_order` say in
+which order the designs reached a threshold.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from typing import Any
 
 from formsync_design.errors import InputError, SimulationError
 
-__all__ = ["EqualPeak", "equal_peak_scale", "scaled_gains", "ordering"]
+__all__ = ["EqualPeak", "equal_peak_scale", "scaled_gains", "ordering", "in_order"]
 
 
 @dataclass(frozen=True)
@@ -130,3 +131,14 @@ def ordering(labels: Sequence[str], times: Sequence[float | None]) -> str:
             parts.append(" = " if t == key[j - 1][0] and math.isfinite(t) else " < ")
         parts.append(name)
     return "".join(parts)
+
+
+def in_order(times: list[float | None]) -> bool:
+    """Strictly increasing, a time not reached (``None``) counting as later than any reached
+    one; two unreached times are not ordered.
+
+    >>> in_order([1.0, 2.0, None]), in_order([1.0, None, None]), in_order([2.0, 1.0, 3.0])
+    (True, False, False)
+    """
+    v = [math.inf if t is None else t for t in times]
+    return all(a < b for a, b in zip(v, v[1:]))

@@ -17,7 +17,7 @@ Layout (``verification/zhang2014_flyaround.toml`` is the paper's case)::
     [claims]        [[claims.published]] (id, text, quantity, value, match = "rel:R" |
                     "factor:F", why) and [[claims.qualitative]] (id, text, quantity,
                     op = "<=" | ">=", bound, why); quantities of
-                    :data:`formsync_design.verify.flyaround.QUANTITIES`
+                    :data:`formsync_design.verify.flyaround_claims.QUANTITIES`
     [sensitivity]   cases = [{label, gains = {...}, thrusters = {...}, simulation = {...},
                     spacecraft = {inertia_scale = s}}, ...]
     [certificate]   K_d_scale, k_p_scale, inertia_scale = [lo, hi], rate_margin
@@ -46,10 +46,11 @@ from formsync_design.models.flyaround import FlyaroundParams
 from formsync_design.models.orbit import KeplerElements
 from formsync_design.models.thrusters import zhang2014_layout
 from formsync_design.ranges import check_range, quantity_of
-from formsync_design.sim.flyaround import ALLOCATIONS, FlyaroundOptions, FlyaroundScenario
+from formsync_design.sim.flyaround_scenario import ALLOCATIONS, FlyaroundOptions, FlyaroundScenario
 from formsync_design.spec.declarations import GainKind
 from formsync_design.spec.loader import Spec, load_spec
 from formsync_design.tomlio import load_toml
+from formsync_design.verify.flyaround_claims import QUANTITIES
 
 __all__ = ["FlyaroundCase", "Variant", "load_flyaround_case", "apply_variant", "LAYOUTS"]
 
@@ -243,7 +244,6 @@ def _options(sim: dict, thr: dict, where: str) -> FlyaroundOptions:
 
 
 def _claims(t: dict, where: str) -> tuple[tuple[dict, ...], tuple[dict, ...]]:
-    from formsync_design.verify.flyaround import QUANTITIES
 
     out: list[list[dict]] = [[], []]
     seen: set[str] = set()

@@ -21,11 +21,8 @@ def verify_formation_case(req: VerifyRequest) -> int:
     from formsync_design.spec.loader import load_spec
     from formsync_design.verify.case import load_case
     from formsync_design.verify.output import display_path
-    from formsync_design.verify.verification import (
-        verification_json,
-        verify_case,
-        write_verification_report,
-    )
+    from formsync_design.verify.report import write_verification_report
+    from formsync_design.verify.verification import verification_json, verify_case
 
     path = req.path
     case_display = display_path(path)

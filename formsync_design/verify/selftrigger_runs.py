@@ -29,13 +29,14 @@ import numpy as np
 
 from formsync_design.errors import InputError
 from formsync_design.models.mrp import mrp_rate_matrix
-from formsync_design.sim.agent_kernel import get_agent_kernel
-from formsync_design.sim.agent_sampled import (
-    attitude_entries_np,
-    reference_trajectory,
+from formsync_design.sim.agent_kernel import agent_parameters, get_agent_kernel
+from formsync_design.sim.agent_sampled import attitude_entries_np, reference_trajectory
+from formsync_design.sim.agents import (
+    AgentFormation,
+    AgentOptions,
+    AgentResult,
     simulate_agents_sampled,
 )
-from formsync_design.sim.agents import AgentFormation, AgentOptions, AgentResult, agent_parameters
 from formsync_design.spec.agent import AgentDesign, sampling_variant
 
 __all__ = ["SCHEMES", "SchemeRun", "scheme_designs", "run_scheme", "measure", "REQUIRED_GAINS"]

@@ -52,12 +52,9 @@ import numpy as np
 
 from formsync_design.errors import InputError
 from formsync_design.verify.claims import (
-    QUANTITIES,
     ClaimResult,
-    ClaimSpec,
     Measurement,
     Outcome,
-    Verdict,
     chatter_end_time,
     combine,
     judge,
@@ -67,23 +64,10 @@ from formsync_design.verify.claims import (
     torque_reversals,
 )
 from formsync_design.verify.output import display_path
-from formsync_design.verify.report import write_verification_report
 from formsync_design.verify.results import SensitivityRow, TopologyRun, VerificationResult
 
 __all__ = [
-    "QUANTITIES",
-    "ClaimSpec",
-    "ClaimResult",
-    "Measurement",
-    "Verdict",
-    "TopologyRun",
-    "SensitivityRow",
-    "VerificationResult",
-    "parse_claims",
-    "judge",
-    "chatter_end_time",
     "verify_case",
-    "write_verification_report",
     "verification_json",
 ]
 
@@ -121,8 +105,9 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
     """
     from formsync_design.certify.engine import certify_box, check_kv
     from formsync_design.certify.multipliers import certify_with_multipliers
+    from formsync_design.derive.closed_form import required_kv
     from formsync_design.derive.compare import all_findings
-    from formsync_design.derive.conditions import derive_conditions, paper_conditions, required_kv
+    from formsync_design.derive.conditions import derive_conditions, paper_conditions
     from formsync_design.derive.report import report_basename
     from formsync_design.graphs.theorem import check_theorem_graph
     from formsync_design.sim.simulator import simulate
