@@ -71,8 +71,11 @@ def _random_predicate(rng: np.random.Generator, depth: int) -> str:
 
     def pred(d: int) -> str:
         r = rng.integers(4 if d > 0 else 1)
-        if r == 0:
-            return f"{num(2)} {rng.choice(['<', '<=', '>', '>=', '==', '!='])} {num(2)}"
+        if r == 0:  # a comparison reads a metric (one of constants only is refused)
+            while True:
+                left, right = num(2), num(2)
+                if any(ch in left + right for ch in "abc"):
+                    return f"{left} {rng.choice(['<', '<=', '>', '>=', '==', '!='])} {right}"
         if r == 1:
             return f"not {pred(d - 1)}"
         word = str(rng.choice(["and", "or"]))
@@ -164,3 +167,10 @@ def test_three_valued_semantics_intervals_and_unknowns():
 def test_names_are_the_metrics_read():
     p = parse_predicate('a < b * 2 or (not v == "x" and c > 0)', KINDS)
     assert p.names() == {"a", "b", "c", "v"}
+
+
+@pytest.mark.parametrize("text", ["1 == 1", '"certified" == "certified"', "t < 3 or 2 > 1",
+                                  "not (0 < 1)", "-(1) <= 2 * 3"])
+def test_a_comparison_of_constants_is_a_typed_in_verdict_and_refused(text: str) -> None:
+    with pytest.raises(InputError, match="to read a metric"):
+        parse_predicate(text, {"t": "number"})

@@ -21,7 +21,9 @@ nodes; nothing is handed to ``eval``, ``compile`` or SymPy, and anything else (`
 ``f(x)``, ``a.b``, ``[``, ``'``, ``**``, a chained ``a < b < c``) is refused with one line
 naming the column.  Types are checked against the metrics' kinds when the case is read:
 arithmetic and ordering take numbers, ``==``/``!=`` compare two numbers or two texts, and
-``and``/``or``/``not`` take truth values (a bare metric is no predicate).
+``and``/``or``/``not`` take truth values (a bare metric is no predicate).  Every comparison
+reads at least one metric: ``1 == 1`` would be a verdict typed in, not computed, and is
+refused.
 
 **Semantics** (:func:`evaluate`).  A number metric is an *interval* ``[lo, hi]`` of what the
 quantity can be: a measured or exact value is ``[v, v]``; a certified lower bound ``b`` is
@@ -236,7 +238,11 @@ class _Parser:
         if "text" in types and op not in ("==", "!="):
             raise InputError(f"expected '==' or '!=' between texts at column {col} of "
                              f"{self.where}, received '{op}'")
-        return Node(op, "truth", args=(left, right))
+        node = Node(op, "truth", args=(left, right))
+        if not node.names():  # a verdict typed in, not computed: refused
+            raise InputError(f"expected the comparison at column {col} of {self.where} to read "
+                             f"a metric, received one of constants only in {self.text[:80]!r}")
+        return node
 
     def _arith(self, ops: tuple[str, ...], sub: Any) -> Node:
         node: Node = sub()
