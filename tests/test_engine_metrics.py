@@ -71,15 +71,14 @@ def _angle_deg(qa, qb):
 def damped_run():
     """Three free bodies with rate damping u = -k J w: the attitudes stay apart (tens of
     degrees), so the final pairwise error is far from 0 and known from the quaternions."""
-    import os
-
-    os.environ["FORMSYNC_NO_COMPILE"] = "1"
     d = agent_design_from_functions(lambda v: -v.k * v.J * v.w, gains={"k": {}})
     att = np.array([_axis_angle([1, 0, 0], 10), _axis_angle([0, 1, 1], 50),
                     _axis_angle([1, -1, 0.5], 35)])
     f = AgentFormation(load_graph("ring:3"), np.array([np.diag([50.0, 55, 60])] * 3), att,
                        np.array([[0.02, 0, 0], [0, -0.01, 0.01], [0.005, 0.005, 0]]), Gains(k=0.5))
-    r = simulate_agents(d, f, AgentOptions(tf=6, output_step=0.5, step=0.05))
+    with pytest.MonkeyPatch.context() as mp:  # no compiler for this run only (not a global leak)
+        mp.setenv("FORMSYNC_NO_COMPILE", "1")
+        r = simulate_agents(d, f, AgentOptions(tf=6, output_step=0.5, step=0.05))
     return d, r
 
 

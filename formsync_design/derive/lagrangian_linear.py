@@ -73,7 +73,8 @@ def _rational(x: Any, name: str) -> sp.Rational:
 
 
 def _scalar(expr: Any, sub: Mapping[Any, Any], what: str, design: str) -> Fraction:
-    v = sp.nsimplify(sp.expand(sp.sympify(expr).xreplace(dict(sub))))
+    e = sp.Integer(expr) if isinstance(expr, int) else expr  # a derived expression (no text)
+    v = sp.nsimplify(sp.expand(e.xreplace(dict(sub))))
     if not v.is_Rational:
         raise InputError(f"expected a number for {what} of {design} at the gains given, "
                          f"received {v}")
