@@ -58,15 +58,25 @@ R7 self-trigger (patent s3-s4: next time from the state at the current one, no l
 The event-triggered variant checks the same ``|e_i|`` against the same threshold
 continuously (:func:`event_rule`, with :func:`hold` storing ``s_i(t_k)`` and the
 neighbours' part at each broadcast); the periodic variant holds the same law with a fixed
-period.  Both are built by :func:`formsync_design.spec.agent.sampling_variant`.
+period.  Both are built by :func:`formsync_design.spec.agent.rule_variant` (an engine
+scenario's ``sampling = "event" | "periodic"``).
 
-The certificate (:func:`conditions`) and the inter-event bound (:func:`interevent_bound`)
-are derived from these expressions; the case-dependent conditions (the leader's rate bound,
-the disturbance part of ``delta``) are checked by the case kind
-(:mod:`formsync_design.verify.selftrigger`).
+The certificate (:func:`conditions`) and the inter-event bound
+(:func:`formsync_design.analysis.triggering.interevent_bound`) are derived from these
+expressions; the case-dependent conditions (the leader's rate bound, the disturbance part of
+``delta``) are metrics of the engine case ``verification/selftrigger_mrp.toml``.  The
+measurements only this design defines (the nonlinear term ``f_i`` against ``delta``, the
+measurement error against its threshold, the staleness and ``Delta`` over the tail, and the
+two ISS ultimate bounds they feed: :mod:`formsync_design.analysis.sliding_iss`) are metrics
+registered at the end of this file (:func:`sliding_measurements`).
 """
 
+import math
+
+import numpy as np
 import sympy as sp
+
+from formsync_design.verify.metrics import register_metric
 
 FORM = "agent"
 NAME = "selftrigger_mrp"
@@ -262,3 +272,209 @@ def conditions(c):
         ("threshold", sp.Matrix([[m - 1]]), ("m-1",)),
         ("surface", sp.Matrix([[r * (1 - rho**2) - 6 * rho * wbar]]), ("r",)),
     ]
+
+
+# ------------------------------------------------------------------ measurements (metrics)
+
+
+def _gain(formation, name):
+    v = formation.gains.as_dict()[name]
+    return float(v[0] if isinstance(v, tuple) else v)
+
+
+def sliding_measurements(design, f, opt, res, rec, tail):
+    """Measured on the output grid of a run of this law (any sampling rule; ``design``: this
+    self-triggered design, whose kernel's plant gives the rate derivatives), with ``k`` the
+    spacecraft's last update: the measurement error ``e_i = s_i(t_k) - sbar_i(t)`` against the
+    threshold ``(1 - 1/m)|s_i(t_k)| + eps + eta0 exp(-alpha t)`` (``e_ratio``: the largest
+    ratio); the nonlinear term ``f_i = sbar_i' + m s_i(t_k)`` against ``delta`` (``f_ratio``;
+    ``sbar_i' = D_i y_i' - b_i y_d'``, the rate derivative from the plant, disturbance
+    included); over the last ``tail`` of the horizon the staleness ``xi_i = sum_j a_ij y_j(t)
+    - c_i(t_k)``, ``Delta_i = f_i - d_i y_d'`` (sups of the stacked 2-norms), the threshold
+    floors ``c_norm = sqrt(N) (eps + eta_i)`` and the largest ``|sigma_i - sigma_d|``
+    (``tail_sigma_error``); ``sigma_max`` the largest ``|sigma_i|`` and ``|sigma_d|`` seen."""
+    from formsync_design.models.mrp import mrp_rate_matrix
+    from formsync_design.sim.agent_kernel import get_agent_kernel
+    from formsync_design.sim.agent_sampled import attitude_entries_np, reference_trajectory
+    from formsync_design.sim.agents import agent_parameters
+
+    n = f.n
+    r, m = _gain(f, "r"), _gain(f, "m_f")
+    delta, eps, alpha, eta0 = (_gain(f, k) for k in ("delta", "eps", "alpha", "eta0"))
+    g = f.graph
+    A = g.adjacency
+    b = g.pinning_matrix.diagonal()
+    D = A.sum(axis=1) + b
+    t = res.t
+    T = len(t)
+    sig = np.array([[attitude_entries_np("mrp", res.quaternions[k, i]) for i in range(n)]
+                    for k in range(T)])
+    W = res.rates
+    ref_at = reference_trajectory(f.reference, float(t[-1]))
+    sig_d = np.array([attitude_entries_np("mrp", q) for q in res.reference])
+    wd = np.array([ref_at(tk)[1] for tk in t])
+    wdd = np.array([ref_at(tk)[2] for tk in t])
+    y = r * sig + W
+    y_d = r * sig_d + wd
+    yd_dot = np.array([r * mrp_rate_matrix(sig_d[k]) @ wd[k] + wdd[k] for k in range(T)])
+    kern = get_agent_kernel(design, f.neighbours(), opt.switch, 1, 1, f.reference.rate,
+                            compile=False)
+    p = agent_parameters(design, f, opt, kern.layout)
+    wdot = np.empty_like(W)
+    for k in range(T):
+        x = np.concatenate([res.quaternions[k].ravel(), W[k].ravel(), [0.0, 0.0, 0.0, 1.0]])
+        dx = np.asarray(kern.plant(x, res.torques[k].ravel(), t[k], p)).ravel()
+        wdot[k] = dx[4 * n: 7 * n].reshape(n, 3)
+    y_dot = np.array([[r * mrp_rate_matrix(sig[k, i]) @ W[k, i] + wdot[k, i] for i in range(n)]
+                      for k in range(T)])
+    hyb = rec["hybrid"]
+    kept = rec["kept"]
+    trig = [np.asarray(ts) for ts in hyb.trigger_times]
+    s_k = np.empty((T, n, 3))
+    c_k = np.empty((T, n, 3))
+    for i in range(n):
+        idx = np.searchsorted(trig[i], t, side="right") - 1  # the update in force (right-continuous)
+        s_k[:, i] = kept[i][idx, :3]
+        c_k[:, i] = kept[i][idx, 3:6]
+    sbar = D[None, :, None] * y - c_k - b[None, :, None] * y_d[:, None, :]
+    e = s_k - sbar
+    thr = (1 - 1 / m) * np.linalg.norm(s_k, axis=2) + eps + eta0 * np.exp(-alpha * t)[:, None]
+    f_term = D[None, :, None] * y_dot - b[None, :, None] * yd_dot[:, None, :] + m * s_k
+    xi = np.einsum("ij,tjk->tik", A, y) - c_k
+    Delta = f_term - A.sum(axis=1)[None, :, None] * yd_dot[:, None, :]
+    tail_mask = t >= t[-1] * (1 - tail) - 1e-9
+    sig_err = np.linalg.norm(sig - sig_d[:, None, :], axis=2)
+
+    def sup_norm(X):
+        return float(np.linalg.norm(X[tail_mask].reshape(int(tail_mask.sum()), -1), axis=1).max())
+
+    return {
+        "tail_sigma_error": float(sig_err[tail_mask].max()),
+        "f_ratio": float((np.linalg.norm(f_term, axis=2) / delta).max()),
+        "e_ratio": float((np.linalg.norm(e, axis=2) / thr).max()),
+        "sigma_max": float(max(np.linalg.norm(sig, axis=2).max(), np.linalg.norm(sig_d, axis=1).max())),
+        "staleness": sup_norm(xi), "delta_norm": sup_norm(Delta),
+        "c_norm": float(math.sqrt(n) * (eps + eta0 * math.exp(-alpha * t[tail_mask][0]))),
+    }
+
+
+def _this_law(design):
+    return None if design.name == NAME else f"the metric measures {NAME}'s law, not {design.name}"
+
+
+def _measured(ctx):
+    """The measurements of the run of ``ctx`` (cached per formation, scenario and draw)."""
+
+    def compute():
+        return sliding_measurements(ctx.case.design, ctx.initial(), ctx.options(), ctx.run(),
+                                    ctx.record(), TAIL)
+
+    return ctx.memo(("sliding",) + ctx.key(), compute)
+
+
+#: The tail (last fraction of the horizon) of the ISS measurements.
+TAIL = 0.2
+
+
+@register_metric("nonlinear_term_ratio", unit="1", evidence="simulation", applies=_this_law,
+                 doc="max over the run of |f_i| / delta: at most 1 is the rule's assumption "
+                 "delta >= |f_i| (the self-trigger's and tau_min's premise)")
+def nonlinear_term_ratio(ctx):
+    return ctx.value(_measured(ctx)["f_ratio"], "on the output grid, every spacecraft")
+
+
+@register_metric("error_threshold_ratio", unit="1", evidence="simulation", applies=_this_law,
+                 doc="max over the run of |e_i| / ((1 - 1/m)|s_i(t_k)| + eps + eta_i): at most "
+                 "1 is the trigger's guarantee")
+def error_threshold_ratio(ctx):
+    return ctx.value(_measured(ctx)["e_ratio"], "on the output grid, every spacecraft")
+
+
+@register_metric("tail_mrp_error", unit="1", evidence="simulation", applies=_this_law,
+                 doc="max |sigma_i - sigma_d| over the last 20 % of the horizon (the quantity "
+                 "the ISS bounds bound)")
+def tail_mrp_error(ctx):
+    return ctx.value(_measured(ctx)["tail_sigma_error"], "every spacecraft")
+
+
+@register_metric("mrp_norm_max", unit="1", evidence="simulation", applies=_this_law,
+                 doc="the largest |sigma_i| and |sigma_d| seen in the run (the operating region "
+                 "needs it <= rho)")
+def mrp_norm_max(ctx):
+    return ctx.value(_measured(ctx)["sigma_max"], f"rho = {OPERATING_REGION['rho']}")
+
+
+@register_metric("min_inter_event_within_delta", unit="s", evidence="simulation",
+                 applies=_this_law,
+                 doc="the run's shortest inter-event time when |f_i| <= delta held throughout "
+                 "(where tau_min bounds an event-triggered interval); unknown otherwise")
+def min_inter_event_within_delta(ctx):
+    fr = _measured(ctx)["f_ratio"]
+    r = ctx.run()
+    if fr > 1:
+        return ctx.value(None, f"outside the delta assumption (max |f|/delta = {fr:.4g})")
+    v = np.asarray(r.min_interevent, float)
+    v = v[np.isfinite(v)]
+    if not v.size:
+        return ctx.value(None, "fewer than two updates per spacecraft")
+    return ctx.value(float(v.min()), f"max |f|/delta = {fr:.4g} <= 1")
+
+
+def _iss_inputs(ctx):
+    fam = ctx.families()
+    reach = next((x for x in fam.families if x.name == "reaching"), None)
+    if str(fam.status) != "certified" or reach is None or reach.lower is None:
+        return None, f"no certified reaching margin ({fam.status})"
+    gains = {k: float(v[0] if isinstance(v, tuple) else v)
+             for k, v in ctx.case.gains.as_dict().items()}
+    return (float(reach.lower), gains, _measured(ctx)), ""
+
+
+def _vacuous(design, bound):
+    from fractions import Fraction
+
+    from formsync_design.analysis.sliding_iss import iss_vacuous
+
+    two_rho = 2 * float(Fraction(OPERATING_REGION["rho"]))
+    return f"{'vacuous' if iss_vacuous(design, bound) else 'not vacuous'} (2 rho = {two_rho:g})"
+
+
+@register_metric("iss_norm_chain", unit="1", evidence="simulation", applies=_this_law,
+                 families=True,
+                 doc="the ultimate bound of max_i |sigma_i - sigma_d| predicted by the norm chain "
+                 "(analysis/sliding_iss.py) from the certified reaching margin over the "
+                 "[families] box and the run's measured tail threshold floors, staleness and "
+                 "Delta: a prediction from measured inputs (evidence), vacuous above 2 rho")
+def iss_norm_chain(ctx):
+    from formsync_design.analysis.sliding_iss import iss_prediction
+
+    inp, why = _iss_inputs(ctx)
+    if inp is None:
+        return ctx.value(None, why)
+    lam, gains, ms = inp
+    v = iss_prediction(ctx.case.design, ctx.graph, gains, lam, ms["c_norm"], ms["staleness"],
+                       ms["delta_norm"])
+    return ctx.value(v, f"lambda = {lam:.4g}; {_vacuous(ctx.case.design, v)}; measured "
+                     f"{ms['tail_sigma_error']:.4g}")
+
+
+@register_metric("iss_ellipsoid", unit="1", evidence="simulation", applies=_this_law,
+                 families=True,
+                 doc="the invariant-ellipsoid ultimate bound of max_i |sigma_i - sigma_d| "
+                 "(analysis/sliding_iss.py: LMI solved by cvxpy + Clarabel and re-checked "
+                 "exactly) from the run's measured tail inputs: a bound given those inputs "
+                 "(evidence), vacuous above 2 rho; unknown when no ellipsoid passes the re-check")
+def iss_ellipsoid_metric(ctx):
+    from formsync_design.analysis.sliding_iss import iss_ellipsoid
+
+    inp, why = _iss_inputs(ctx)
+    if inp is None:
+        return ctx.value(None, why)
+    _, gains, ms = inp
+    e = iss_ellipsoid(ctx.case.design, ctx.graph, gains, ms["c_norm"] / math.sqrt(ctx.graph.n),
+                      ms["staleness"], ms["delta_norm"])
+    if not e.certified:
+        return ctx.value(None, "no ellipsoid passed the exact re-check")
+    return ctx.value(e.sigma_bound, f"split k = {e.split:g}; "
+                     f"{_vacuous(ctx.case.design, e.sigma_bound)}; measured "
+                     f"{ms['tail_sigma_error']:.4g}")

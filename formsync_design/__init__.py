@@ -37,17 +37,15 @@ data flows through the stages:
   :class:`AgentOptions`, :func:`simulate_agents` (:class:`AgentResult`), gyro models
   :class:`RateSensors`, :func:`measured_l2_gain`;
 * verification of a published case: :func:`load_case`, :func:`verify_case` (a case of
-  any kind, formation, lv2012, selftrigger, flyaround, agent-comparison or engine, by file or
+  any kind, formation, lv2012, flyaround, agent-comparison or engine, by file or
   shipped name; returns that kind's result);
   :func:`load_agent_case` (the case files of agent designs); the verification engine
   (case kind ``engine``: formations, scenarios, Monte-Carlo, metrics and claims declared
   in the case file): :func:`load_engine_case`, :func:`run_engine` (->
   :class:`EngineVerification`), :func:`register_metric` (the metric registry, -> a
-  :class:`MetricValue`); self-triggered designs
-  (seed 001): :func:`sampling_variant` (a design under another sampling rule),
-  :func:`scheme_designs`, :func:`run_scheme` (self-, event-triggered and periodic runs
-  with their measurements), :func:`interevent_bound` (the certified inter-event lower
-  bound; ``formsync verify`` judges a case);
+  :class:`MetricValue`); sampled designs: :func:`sampling_variant`, :func:`rule_variant`
+  (a design under another sampling rule: an engine scenario's ``sampling``),
+  :func:`interevent_bound` (the certified inter-event lower bound of a self-trigger rule);
 * tracking designs (the fly-around of Zhang et al. 2014): :func:`load_flyaround_case`,
   :class:`FlyaroundScenario`, :class:`FlyaroundOptions`, :func:`simulate_flyaround`
   (-> :class:`FlyaroundRun`), :func:`flyaround_figures`, :func:`derive_tracking_attitude`,
@@ -179,10 +177,9 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "EngineVerification": "formsync_design.verify.engine",
     "register_metric": "formsync_design.verify.metrics",
     "MetricValue": "formsync_design.verify.metrics",
-    "scheme_designs": "formsync_design.verify.selftrigger_runs",
-    "run_scheme": "formsync_design.verify.selftrigger_runs",
-    "interevent_bound": "formsync_design.verify.selftrigger_cert",
+    "interevent_bound": "formsync_design.analysis.triggering",
     "sampling_variant": "formsync_design.spec.agent",
+    "rule_variant": "formsync_design.spec.agent",
     # tracking designs: the fly-around case
     "load_flyaround_case": "formsync_design.verify.flyaround_case",
     "FlyaroundScenario": "formsync_design.sim.flyaround_scenario",

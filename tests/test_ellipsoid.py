@@ -85,12 +85,9 @@ def test_sqrt_up_is_an_upper_bound() -> None:
 
 
 def test_selftrigger_vacuous_label_and_interevent_origin() -> None:
+    from formsync_design.analysis.sliding_iss import iss_vacuous
+    from formsync_design.analysis.triggering import interevent_bound, interevent_origin
     from formsync_design.spec.loader import load_design
-    from formsync_design.verify.selftrigger_cert import (
-        interevent_bound,
-        interevent_origin,
-        iss_vacuous,
-    )
 
     d = load_design("selftrigger_mrp")
     rho = Fraction(d.module["OPERATING_REGION"]["rho"])

@@ -38,7 +38,7 @@ class _Results:
     def __init__(self, run):
         self._run = run
 
-    def run(self, formation, scenario):
+    def run(self, formation, scenario, draw=None):
         return self._run
 
     def certificate(self, formation, scenario):

@@ -14,17 +14,16 @@ import pytest
 import sympy as sp
 from scipy.integrate import solve_ivp
 
+from formsync_design.analysis.triggering import interevent_bound
 from formsync_design.errors import DerivationError
 from formsync_design.graphs.digraph_io import digraph_from_edges
 from formsync_design.models.disturbances import no_disturbance
 from formsync_design.models.mrp import integrate_mrp, mrp_rate_matrix
-from formsync_design.sim.agent_sampled import attitude_entries_np
+from formsync_design.sim.agent_sampled import attitude_entries_np, simulate_agents_sampled
 from formsync_design.sim.agents import AgentFormation, AgentOptions, Reference
 from formsync_design.sim.formation import Gains
-from formsync_design.spec.agent import agent_design_from_functions, mrp_G
+from formsync_design.spec.agent import agent_design_from_functions, mrp_G, rule_variant
 from formsync_design.spec.loader import load_design
-from formsync_design.verify.selftrigger_cert import interevent_bound
-from formsync_design.verify.selftrigger_runs import run_scheme, scheme_designs
 
 
 @pytest.fixture(autouse=True)
@@ -34,7 +33,22 @@ def _vm(monkeypatch):
 
 @pytest.fixture(scope="module")
 def designs():
-    return scheme_designs(load_design("selftrigger_mrp"))
+    d = load_design("selftrigger_mrp")
+    return {"self-triggered": d, "event": rule_variant(d, "event"),
+            "periodic": rule_variant(d, "periodic")}
+
+
+def run_scheme(designs, f, opt, scheme):
+    """One run under a scheme with the design's own measurements (the engine's path: the
+    scenario's rule_variant, the sampled simulator's record, sliding_measurements)."""
+    from types import SimpleNamespace
+
+    rec = {}
+    res = simulate_agents_sampled(designs[scheme], f, opt, record=rec)
+    d = designs["self-triggered"]
+    ms = d.module["sliding_measurements"](d, f, opt, res, rec, 0.2)
+    return SimpleNamespace(result=res, evaluations=np.asarray(rec["trigger_evaluations"]),
+                           transmissions=np.asarray(res.transmissions), **ms)
 
 
 GAINS = {"r": 0.5, "m_f": 1.5, "delta": 0.05, "eps": 0.01, "alpha": 0.1, "eta0": 0.05}
@@ -279,7 +293,7 @@ def test_surface_bound_holds_on_random_points():
 
 
 def test_certificate_families_and_a_law_that_does_not_cancel_is_refused():
-    from formsync_design.verify.selftrigger_cert import certify_design
+    from formsync_design.certify.agent import certify_families as certify_design
 
     d = load_design("selftrigger_mrp")
     g = digraph_from_edges([(2, 1, 1), (3, 2, 1), (3, 1, "0.5"), (1, 0, 1), (2, 0, "0.5")], n=3)

@@ -12,7 +12,8 @@ documented commands produce:
 * ``formsync verify pd_consensus`` -> reports/pd_consensus-verification.md (+ figures) and
   reports/pd_consensus-derivation-ring4.{md,tex}: the PD consensus baseline design end to end;
 * ``formsync verify selftrigger_mrp`` -> reports/selftrigger_mrp-verification.md (+ figures):
-  the self-triggered MRP design of seed 001 against its event-triggered and periodic variants;
+  the self-triggered MRP design of seed 001 against its event-triggered and periodic variants
+  (an engine case: the variants are scenarios);
 * ``formsync verify zhang2014_flyaround`` -> reports/zhang2014_flyaround-verification.md (+
   figures): the fly-around case of Zhang et al. 2014 (a tracking design, case kind
   ``flyaround``), its claims, sensitivity study, allocation comparison and certificates;

@@ -27,8 +27,8 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
-__all__ = ["agent_multipliers", "certify_agent", "region_agent", "AgentGainDesign",
-           "design_agent"]
+__all__ = ["agent_multipliers", "certify_agent", "certify_families", "region_agent",
+           "AgentGainDesign", "design_agent"]
 
 
 def agent_multipliers(design: Any, box: Any) -> dict[str, Any]:
@@ -57,6 +57,21 @@ def certify_agent(design: Any, conditions: Any, box: Any, *, margin: Any = 0) ->
     if mult:
         return certify_with_multipliers(conditions, box, mult, margin=margin)
     return certify_box(conditions, box, margin=margin)
+
+
+def certify_families(design: Any, graph: Any, box: Any, *, points: int = 25) -> Any:
+    """The design's ``conditions(c)`` families on ``graph`` decided over ``box`` (a gain ->
+    ``"lo:hi"``/number mapping over every controller gain), the multipliers searched over
+    their declared ranges on a grid of ``points`` values with exact re-checks (no SDP): a
+    :class:`~formsync_design.certify.results.CertificationResult` (tested in
+    ``tests/test_selftrigger.py``)."""
+    from formsync_design.certify.multipliers import certify_with_multipliers
+    from formsync_design.derive.agent import agent_conditions
+
+    ac = agent_conditions(design, graph)
+    mult = {g.name: g.range for g in design.decl.gains
+            if str(g.role) == "multiplier" and g.range is not None}
+    return certify_with_multipliers(ac, dict(box), mult, use_sdp=False, points=points)
 
 
 def region_agent(design: Any, conditions: Any, box: Any, *, resolution: int,

@@ -111,6 +111,8 @@ __all__ = [
     "agent_design_from_functions",
     "agent_expressions",
     "sampling_variant",
+    "rule_variant",
+    "SAMPLING_RULES",
 ]
 
 _FUNCTIONS = ("controller", "states", "event", "next_interval", "monitors", "hold")
@@ -520,3 +522,49 @@ def sampling_variant(design: AgentDesign, sampling: str, *, name: str | None = N
     return AgentDesign(name=d.name, title=f"{design.title} ({sampling} sampling)", path=design.path,
                        key=key, source=design.source, decl=d.decl, functions=d.functions,
                        module=d.module)
+
+
+#: The sampling rules a variant can take (:func:`rule_variant`).
+SAMPLING_RULES = ("continuous", "periodic", "event", "self-triggered")
+
+
+def rule_variant(design: AgentDesign, rule: str) -> AgentDesign:
+    """``design`` under the sampling rule ``rule``, its functions from the design file:
+    the design itself for its own rule; otherwise :func:`sampling_variant` with the design's
+    ``hold`` and ``HOLD`` kept (a rule that keeps values keeps them in every variant) and the
+    new rule's function: ``event`` for ``"event"`` (the design's ``event``, else its
+    ``event_rule``: an event rule offered beside another sampling rule), ``next_interval``
+    for ``"self-triggered"`` (the design's); ``"periodic"`` and ``"continuous"`` need none.
+    A rule the file offers no function for is refused (:class:`~formsync_design.errors.
+    DerivationError`).
+
+    >>> from formsync_design.spec.loader import load_design
+    >>> d = load_design("selftrigger_mrp")
+    >>> e = rule_variant(d, "event")
+    >>> e.decl.sampling, e.has("event"), dict(e.decl.hold) == dict(d.decl.hold)
+    ('event', True, True)
+    >>> rule_variant(d, "self-triggered") is d
+    True
+    """
+    if rule not in SAMPLING_RULES:
+        raise DerivationError(f"expected a sampling rule among {list(SAMPLING_RULES)}, "
+                              f"received {rule!r}")
+    if rule == design.decl.sampling:
+        return design
+    mod = design.module
+    fns: dict[str, Any] = {}
+    if callable(mod.get("hold")) and rule != "continuous":
+        fns["hold"] = mod["hold"]
+        fns["HOLD"] = dict(design.decl.hold)
+    if rule == "event":
+        fn = mod.get("event") if callable(mod.get("event")) else mod.get("event_rule")
+        if not callable(fn):
+            raise DerivationError(f"{design.path}: expected event(v) or event_rule(v) for the "
+                                  f"event-triggered variant of {design.name}, received none")
+        fns["event"] = fn
+    elif rule == "self-triggered":
+        if not callable(mod.get("next_interval")):
+            raise DerivationError(f"{design.path}: expected next_interval(v) for the "
+                                  f"self-triggered variant of {design.name}, received none")
+        fns["next_interval"] = mod["next_interval"]
+    return sampling_variant(design, rule, **fns)

@@ -82,7 +82,8 @@ __all__ = ["ENGINE_TABLES", "AgentCase", "load_agent_case", "parse_agent_case", 
 
 #: The tables an engine case (``[case] kind = "engine"``, :mod:`formsync_design.verify.enginecase`)
 #: adds to the agent case layout; :func:`load_agent_case` reads such a file's base case without them.
-ENGINE_TABLES = ("formations", "scenarios", "montecarlo", "metrics", "claims")
+ENGINE_TABLES = ("formations", "scenarios", "montecarlo", "families", "report", "metrics",
+                 "claims")
 
 _TABLES: dict[str, set[str] | None] = {
     "case": {"name", "title", "source", "kind", "design", "assumptions", "graph"},

@@ -9,7 +9,6 @@ result object, writing nothing:
 ``[case] kind``               result
 ============================  ==============================================================
 ``formation`` (the default)   :class:`~formsync_design.verify.results.VerificationResult`
-``selftrigger``               :class:`~formsync_design.verify.selftrigger.SelftriggerVerification`
 ``flyaround``                 :class:`~formsync_design.verify.flyaround_claims.FlyaroundVerification`
 ``lv2012``                    :class:`~formsync_design.verify.lv2012.CaseOutcome`
 ``agent-comparison``          :class:`~formsync_design.verify.comparison.ComparisonResult`
@@ -39,7 +38,6 @@ __all__ = ["RESULT_KINDS", "resolve_case", "verify_case"]
 #: Case kind -> the name of the result class :func:`verify_case` returns for it.
 RESULT_KINDS: dict[str, str] = {
     "formation": "VerificationResult",
-    "selftrigger": "SelftriggerVerification",
     "flyaround": "FlyaroundVerification",
     "lv2012": "CaseOutcome",
     "agent-comparison": "ComparisonResult",
@@ -134,10 +132,6 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
     from formsync_design.verify.agentcase import load_agent_case
 
     case = load_agent_case(path, design=spec)
-    if kind == "selftrigger":
-        from formsync_design.verify.selftrigger import verify_selftrigger
-
-        return verify_selftrigger(case, progress=progress)
     if kind == "agent-comparison":
         from formsync_design.verify.comparison import run_comparison
 

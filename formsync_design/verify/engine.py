@@ -11,7 +11,15 @@ What is computed, once per verification (:class:`EngineResults`, cached):
 
 * **runs**: one simulation per (formation, scenario) a metric reads
   (:func:`~formsync_design.sim.agents.simulate_agents`: the scenario's options, its
-  convergence criterion ``angle_tol``/``rate_tol``);
+  convergence criterion ``angle_tol``/``rate_tol``; a sampled design through
+  :func:`~formsync_design.sim.agent_sampled.simulate_agents_sampled`, its record kept: the
+  trigger evaluations and the values kept at each broadcast), with the scenario's design
+  (its ``sampling`` variant) and period (``period_matching``: from the matched scenario's run
+  of the same formation and draw); and per Monte-Carlo draw for a ``montecarlo = "max"|"min"``
+  row (the draws of :mod:`formsync_design.verify.enginedraws`, the same for every scenario of
+  a formation, the ``[montecarlo] tf`` horizon);
+* **the design's families** over the ``[families]`` box, per formation
+  (:func:`~formsync_design.certify.agent.certify_families`);
 * **certificates**: the formation-level certificate
   (:func:`~formsync_design.certify.formation.certify_formation`) of the scenario's gains (a
   point box) on the formation's graph and inertias, the switching function realised as the
@@ -70,28 +78,29 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Any
+
+import numpy as np
 
 from formsync_design.verify.enginecase import (
     ClaimRow,
     EngineCase,
     MetricRow,
     load_engine_case,
-    point_gains,
 )
 from formsync_design.verify.kinds import VerifyRequest
-from formsync_design.verify.metrics import MetricContext, MetricValue
+from formsync_design.verify.metrics import MetricContext, MetricValue, format_number, point_gains
 from formsync_design.verify.predicates import evaluate
 
 __all__ = ["EngineResults", "ClaimVerdict", "EngineVerification", "run_engine",
-           "verify_engine_case", "certificate_inputs"]
+           "verify_engine_case", "certificate_inputs", "aggregate"]
 
 
 def certificate_inputs(case: Any) -> tuple[dict[str, Fraction] | None, str, str, str]:
     """``(point, switch, phi, why)`` of the certificate of an agent case's gains: the exact
-    point (:func:`~formsync_design.verify.enginecase.point_gains`; ``None`` when a diagonal
+    point (:func:`~formsync_design.verify.metrics.point_gains`; ``None`` when a diagonal
     gain has unequal entries, ``why`` says so), the switching realisation and boundary layer
     of its options."""
     point, why = point_gains(case)
@@ -107,20 +116,107 @@ class EngineResults:
         self.case = case
         self.progress = progress
         self.runs: dict[tuple[str, str], Any] = {}
+        self.draw_runs: dict[tuple[str, str, int], Any] = {}
+        self.records: dict[tuple[str, str, int | None], Any] = {}
+        self.periods: dict[tuple[str, str, int | None], float] = {}
         self.mc: dict[tuple[str, str], Any] = {}
         self._certs: dict[tuple[Any, ...], Any] = {}
+        self._families: dict[str, Any] = {}
+        self._draws: dict[tuple[str, str], list[Any]] = {}
+        self._memo: dict[tuple[Any, ...], Any] = {}
         self.cert_keys: dict[tuple[str, str], tuple[Any, ...]] = {}
 
-    def run(self, formation: str, scenario: str) -> Any:
-        from formsync_design.sim.agents import simulate_agents
+    def options(self, formation: str, scenario: str, draw: int | None = None) -> Any:
+        """The simulation options of a run: the scenario's, the Monte-Carlo horizon for a
+        draw, and the matched period of a ``period_matching`` scenario."""
+        from dataclasses import replace
+
+        opt = self.case.case_for(formation, scenario).options
+        mc = self.case.montecarlo
+        if draw is not None and mc is not None and mc.tf is not None:
+            opt = replace(opt, tf=mc.tf)
+        match = self.case.scenario(scenario).period_matching
+        if match is not None:
+            key = (formation, scenario, draw)
+            if key not in self.periods:
+                tx = self.run(formation, match, draw).transmissions
+                k = max(1, int(round(float(np.mean(tx)))))
+                self.periods[key] = opt.tf / k
+            opt = replace(opt, period=self.periods[key])
+        return opt
+
+    def draws(self, formation: str, scenario: str) -> list[Any]:
+        """The Monte-Carlo draws of a formation under a scenario
+        (:mod:`formsync_design.verify.enginedraws`)."""
+        from formsync_design.sim.agent_montecarlo import agent_run_formation
+        from formsync_design.verify.enginedraws import reference_draws
 
         key = (formation, scenario)
-        if key not in self.runs:
-            self.progress(f"simulate {formation} / {scenario}")
+        if key not in self._draws:
+            mc = self.case.montecarlo
+            assert mc is not None  # the case refuses Monte-Carlo rows without [montecarlo]
             c = self.case.case_for(formation, scenario)
-            f = c.formation(self.case.formation(formation).graph)
-            self.runs[key] = simulate_agents(c.design, f, c.options)
-        return self.runs[key]
+            base = c.formation(self.case.formation(formation).graph)
+            st = mc.settings
+            if mc.draws == "about-reference":
+                self._draws[key] = reference_draws(base, c.reference, st.runs, st.seed,
+                                                   st.max_angle_deg, mc.rate_sigma)
+            else:
+                box = self._mc_box(c)
+                self._draws[key] = [agent_run_formation(c.design, base, box, st, sd)
+                                    for sd in st.run_seeds()]
+        return self._draws[key]
+
+    def run(self, formation: str, scenario: str, draw: int | None = None) -> Any:
+        from formsync_design.sim.agent_sampled import simulate_agents_sampled
+        from formsync_design.sim.agents import simulate_agents
+
+        key = (formation, scenario, draw)
+        store: dict[Any, Any] = self.runs if draw is None else self.draw_runs
+        skey = key[:2] if draw is None else key
+        if skey not in store:
+            sc = self.case.scenario(scenario)
+            opt = self.options(formation, scenario, draw)
+            f = self.initial(formation, scenario, draw)
+            d = sc.run_design
+            self.progress(f"simulate {formation} / {scenario}"
+                          + ("" if draw is None else f" / draw {draw + 1}"))
+            rec: dict[str, Any] = {}
+            if d.decl.sampling != "continuous":
+                store[skey] = simulate_agents_sampled(d, f, opt, record=rec)
+            else:
+                store[skey] = simulate_agents(d, f, opt)
+            self.records[key] = rec
+        return store[skey]
+
+    def initial(self, formation: str, scenario: str, draw: int | None = None) -> Any:
+        """The formation a run starts from: the case's (resized), or the draw's."""
+        if draw is not None:
+            return self.draws(formation, scenario)[draw]
+        c = self.case.case_for(formation, scenario)
+        return c.formation(self.case.formation(formation).graph)
+
+    def record(self, formation: str, scenario: str, draw: int | None = None) -> Any:
+        self.run(formation, scenario, draw)
+        return self.records[(formation, scenario, draw)]
+
+    def families(self, formation: str) -> Any:
+        """The design's own families (``conditions(c)``) on the formation's graph decided
+        over the case's ``[families]`` box
+        (:func:`~formsync_design.certify.agent.certify_families`)."""
+        from formsync_design.certify.agent import certify_families
+
+        if formation not in self._families:
+            self.progress(f"certify the design's families on {formation}")
+            self._families[formation] = certify_families(
+                self.case.base.design, self.case.formation(formation).graph,
+                self.case.families_box or {})
+        return self._families[formation]
+
+    def memo(self, key: tuple[Any, ...], compute: Callable[[], Any]) -> Any:
+        if key not in self._memo:
+            self._memo[key] = compute()
+        return self._memo[key]
 
     def certificate(self, formation: str, scenario: str) -> Any:
         from formsync_design.certify.formation import certify_formation
@@ -141,8 +237,25 @@ class EngineResults:
                                                   phi=phi)
         return self._certs[ckey]
 
-    def montecarlo(self, formation: str, scenario: str) -> Any:
+    def _mc_box(self, c: Any) -> Any:
         from formsync_design.gains import GainBox
+
+        mc = self.case.montecarlo
+        assert mc is not None
+        point, _, _, why = certificate_inputs(c)
+        ranges: dict[str, Any] = dict(mc.box)
+        for k in c.design.decl.controller_gains:
+            if k not in ranges:
+                if point is None:
+                    from formsync_design.errors import InputError
+
+                    raise InputError(f"expected montecarlo.box.{k} ({why}), received none")
+                ranges[k] = (point[k], point[k])
+        return GainBox.parse(ranges, list(c.design.decl.controller_gains))
+
+    def montecarlo(self, formation: str, scenario: str) -> Any:
+        from dataclasses import replace
+
         from formsync_design.sim.agent_montecarlo import run_agent_montecarlo
 
         key = (formation, scenario)
@@ -150,19 +263,11 @@ class EngineResults:
             mc = self.case.montecarlo
             assert mc is not None  # the case refuses montecarlo metrics without [montecarlo]
             c = self.case.case_for(formation, scenario)
-            point, _, _, why = certificate_inputs(c)
-            ranges: dict[str, Any] = dict(mc.box)
-            for k in c.design.decl.controller_gains:
-                if k not in ranges:
-                    if point is None:
-                        from formsync_design.errors import InputError
-
-                        raise InputError(f"expected montecarlo.box.{k} ({why}), received none")
-                    ranges[k] = (point[k], point[k])
-            box = GainBox.parse(ranges, list(c.design.decl.controller_gains))
+            box = self._mc_box(c)
             self.progress(f"Monte-Carlo {formation} / {scenario} ({mc.settings.runs} runs)")
             f = c.formation(self.case.formation(formation).graph)
-            self.mc[key] = run_agent_montecarlo(c.design, f, box, mc.settings, c.options,
+            opt = c.options if mc.tf is None else replace(c.options, tf=mc.tf)
+            self.mc[key] = run_agent_montecarlo(c.design, f, box, mc.settings, opt,
                                                 certify=False)
         return self.mc[key]
 
@@ -213,6 +318,43 @@ def judge(claim: ClaimRow, values: dict[str, MetricValue],
     return ClaimVerdict(claim, out.verdict, out.deciding, ev, basis, read, scope)
 
 
+def aggregate(values: list[MetricValue], stat: str, skip_unknown: bool, unit: str
+              ) -> MetricValue:
+    """The ``max`` or ``min`` of a number metric over the Monte-Carlo draws (evidence
+    ``montecarlo``): unknown when a draw has no value (unless ``skip_unknown``: those draws
+    are left out); a lower bound when the extreme may be one of the lower bounds.
+
+    >>> vs = [MetricValue(2.0, "s", "simulation"), MetricValue(3.0, "s", "simulation", bound="lower")]
+    >>> aggregate(vs, "max", False, "s").text(), aggregate(vs, "min", False, "s").text()
+    ('>= 3', '2')
+    >>> aggregate([MetricValue(None, "s", "simulation", "diverged")] + vs, "min", False, "s").value is None
+    True
+    """
+    n = len(values)
+    known = [(k, v) for k, v in enumerate(values) if v.value is not None]
+    missing = [k + 1 for k, v in enumerate(values) if v.value is None]
+    if not known or (missing and not skip_unknown):
+        why = values[missing[0] - 1].detail if missing else "no draws"
+        return MetricValue(None, unit, "montecarlo", f"{len(missing)} of {n} draws without a "
+                           f"value (draw {missing[0] if missing else '-'}: {why})")
+    lo = [float(v.value) for _, v in known]  # type: ignore[arg-type]
+    lower = [v.bound == "lower" for _, v in known]
+    if stat == "max":
+        k = int(np.argmax(lo))
+        bound = "lower" if any(lower) else "exact"
+        val = max(lo)
+    else:
+        k = int(np.argmin(lo))
+        exact = [x for x, lb in zip(lo, lower) if not lb]
+        val = min(lo)
+        bound = "exact" if exact and min(exact) <= val else "lower"
+    left = f"; {len(missing)} draws without a value left out ({', '.join(map(str, missing[:5]))})" \
+        if missing else ""
+    return MetricValue(val, unit, "montecarlo",
+                       f"{stat} over {len(known)} of {n} draws (draw {known[k][0] + 1}); range "
+                       f"{format_number(min(lo))} to {format_number(max(lo))}{left}", bound)
+
+
 def _checked(m: MetricRow, v: Any) -> MetricValue:
     """A metric's result, refused (one line) unless it is a MetricValue of the declared kind."""
     from formsync_design.errors import InputError
@@ -238,8 +380,14 @@ def run_engine(case: EngineCase, progress: Callable[[str], None] = lambda s: Non
     rows = []
     for m in case.metrics:
         ctx = MetricContext(case.case_for(m.formation, m.scenario), m.formation, m.scenario,
-                            m.spec, res, m.args)
-        v = _checked(m, m.spec.fn(ctx))
+                            m.spec, res, m.args, graph=case.formation(m.formation).graph)
+        if m.aggregate is None:
+            v = _checked(m, m.spec.fn(ctx))
+        else:
+            assert case.montecarlo is not None
+            per = [_checked(m, m.spec.fn(replace(ctx, draw=k)))
+                   for k in range(case.montecarlo.settings.runs)]
+            v = aggregate(per, m.aggregate, m.skip_unknown, m.spec.unit)
         values[m.id] = v
         rows.append((m, v))
     by_id = {m.id: m for m in case.metrics}

@@ -6,8 +6,8 @@ of :mod:`formsync_design.sim.agent_figures`, named ``<formation>-<scenario>-<fig
 through :mod:`formsync_design.outdir` (atomic writes).  The report holds: the command that
 regenerates it, the design and the case (with its sha256), the assumptions, the convergence
 criterion of every scenario, the formations x scenarios certificate table with the scope
-of every certificate verdict, the scope of the simulation and Monte-Carlo evidence, the
-metrics table, the claims table (verdict, evidence, basis, predicate, the values read), the
+of every certificate verdict, the scope of the simulation and Monte-Carlo evidence (with
+``[report] runs = true``, every simulated run and Monte-Carlo draw), the metrics table, the claims table (verdict, evidence, basis, predicate, the values read), the
 written semantics and the metrics' documentation.  :func:`engine_json` is the same as one
 JSON document.  Numbers have a fixed format (:func:`~formsync_design.verify.metrics.format_number`),
 no time or machine enters, and the Monte-Carlo draws are seeded: a rerun is byte-identical.
@@ -17,6 +17,8 @@ from __future__ import annotations
 
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from formsync_design.gains import json_number
 from formsync_design.outdir import write_text
@@ -54,7 +56,8 @@ def _run_scope(case: Any, f: str, s: str) -> str:
     c = case.case_for(f, s)
     o = c.options
     g = case.formation(f).graph
-    integ = "exact hybrid integrator (DOP853)" if c.design.decl.sampling != "continuous" else (
+    rule = case.scenario(s).run_design.decl.sampling
+    integ = f"{rule} sampling, exact hybrid integrator (DOP853)" if rule != "continuous" else (
         f"{o.integrator}, step {o.step:g} s" if o.integrator == "rk4" else "CVODES")
     return (f"formation on {g.name} (N = {g.n}) under scenario {s}: one simulated run of the "
             f"nonlinear closed loop over {o.tf:g} s ({integ}, switch {o.switch}"
@@ -67,8 +70,15 @@ def _mc_scope(case: Any, f: str, s: str) -> str:
     st = mc.settings
     box = ", ".join(f"{k} = {v}" for k, v in sorted(mc.box.items())) or "the scenario's gains"
     g = case.formation(f).graph
+    tf = "" if mc.tf is None else f", horizon {mc.tf:g} s"
+    if mc.draws == "about-reference":
+        return (f"formation on {g.name} (N = {g.n}) under scenario {s}: {st.runs} seeded draws "
+                f"(seed {st.seed}{tf}), attitudes rotated from the leader's initial attitude by "
+                f"up to {st.max_angle_deg:g} deg about uniform axes, rates N(0, "
+                f"{mc.rate_sigma:g}^2) rad/s per axis, disturbance phases drawn, the scenario's "
+                "gains [evidence]")
     return (f"formation on {g.name} (N = {g.n}) under scenario {s}: {st.runs} seeded runs "
-            f"(seed {st.seed}), attitudes up to {st.max_angle_deg:g} deg from the identity, "
+            f"(seed {st.seed}{tf}), attitudes up to {st.max_angle_deg:g} deg from the identity, "
             f"rates up to {st.max_rate:g} rad/s, gains {box} [evidence]")
 
 
@@ -77,7 +87,8 @@ def _scenario_rows(case: Any) -> list[str]:
          "| --- | --- | --- | --- | --- | --- |"]
     for s in case.scenarios:
         o = s.case.options
-        over = "; ".join(f"{t}: " + ", ".join(f"{k} = {v}" for k, v in sorted(d.items()))
+        over = "; ".join(f"{t}: " + (", ".join(f"{k} = {v}" for k, v in sorted(d.items()))
+                                      if isinstance(d, dict) else str(d))
                          for t, d in sorted(s.overrides.items())) or "none"
         L.append(f"| {s.name} | {_cell(s.description) or '-'} | {_cell(over)} | {o.tf:g} | "
                  f"{o.angle_tol:g} | {o.rate_tol:g} |")
@@ -122,15 +133,79 @@ def _certificate_section(ver: Any) -> list[str]:
 
 def _evidence_scopes(ver: Any) -> list[str]:
     runs = sorted({(m.formation, m.scenario) for m, _ in ver.metrics
-                   if m.spec.evidence == "simulation"})
+                   if m.evidence == "simulation"}
+                  | {(m.formation, str(m.args["versus"])) for m, _ in ver.metrics
+                     if m.evidence == "simulation" and "versus" in m.args})
     mcs = sorted({(m.formation, m.scenario) for m, _ in ver.metrics
-                  if m.spec.evidence == "montecarlo"})
+                  if m.evidence == "montecarlo"}
+                 | {(m.formation, str(m.args["versus"])) for m, _ in ver.metrics
+                    if m.evidence == "montecarlo" and "versus" in m.args})
     L = ["## Scope of the simulation evidence", ""]
     L += [f"- {f} / {s}: {_run_scope(ver.case, f, s)}" for f, s in runs]
     L += [f"- {f} / {s} (Monte-Carlo): {_mc_scope(ver.case, f, s)}" for f, s in mcs]
     if not runs and not mcs:
         L.append("- no simulation")
     return L + [""]
+
+
+def _run_row(res: Any, f: str, s: str, draw: int | None) -> str:
+    r = res.run(f, s, draw)
+    d = res.case.scenario(s).run_design
+    rule = d.decl.sampling
+    opt = res.options(f, s, draw)
+    per = _g(opt.period) if rule == "periodic" else "-"
+    tx = ev = ie = "-"
+    if r.transmissions is not None:
+        t = np.asarray(r.transmissions)
+        tx = f"{int(t.sum())} ({int(t.min())}-{int(t.max())})"
+        e = res.record(f, s, draw).get("trigger_evaluations")
+        ev = "-" if e is None else str(int(np.sum(e)))
+        mn = np.asarray(r.min_interevent, float)
+        mean = np.asarray(r.mean_interevent, float)
+        if np.any(np.isfinite(mn)):
+            ie = f"{_g(np.nanmin(mn))} / {_g(np.nanmean(mean))}"
+    ref = "-" if r.reference_error is None else _g(r.reference_error[-1])
+    head = f"| {f} | {s} |" if draw is None else f"| {f} | {s} | {draw + 1} |"
+    return (f"{head} {rule} | {per} | {r.status} | {tx} | {ev} | {ie} | "
+            f"{_g(r.attitude_error[-1])} | {ref} | {_g(float(np.sum(r.effort)))} | "
+            f"{_g(float(np.max(r.peak_torque)))} |")
+
+
+_RUN_COLS = ("sampling | period (s) | status | transmissions (per spacecraft) | trigger "
+             "evaluations | min / mean inter-event (s) | final pairwise angle (deg) | final "
+             "angle to the reference (deg) | control effort (N^2 m^2 s) | peak torque (N m) |")
+
+
+def _runs_section(ver: Any) -> list[str]:
+    """Every simulated run (formations x scenarios, then the Monte-Carlo draws), as run
+    (with ``[report] runs = true``)."""
+    res = ver.results
+    order = {(f.name, s.name): k for k, (f, s) in enumerate(
+        (f, s) for f in ver.case.formations for s in ver.case.scenarios)}
+    runs = sorted(res.runs, key=lambda k: order[k])
+    if not ver.case.report_runs or (not runs and not res.draw_runs):
+        return []
+    L = ["## Runs", "",
+         "Every run a metric read, as simulated (a sampled design: the exact hybrid integrator, "
+         "trigger instants located by root finding; a periodic run's period is the scenario's or "
+         "the one its period_matching derived; trigger evaluations: one per broadcast for a "
+         "self-trigger, the integrator's crossing detection and root finding for an event "
+         "trigger, none for periodic sampling).", ""]
+    if runs:
+        L += ["| formation | scenario | " + _RUN_COLS, "| --- " * 13 + "|"]
+        L += [_run_row(res, f, s, None) for f, s in runs]
+        L.append("")
+    if res.draw_runs:
+        mc = ver.case.montecarlo
+        L += [f"Monte-Carlo draws ({mc.draws}, seed {mc.settings.seed}"
+              + (f", horizon {mc.tf:g} s" if mc.tf is not None else "") + "): the same draws "
+              "for every scenario of a formation.", "",
+              "| formation | scenario | draw | " + _RUN_COLS, "| --- " * 14 + "|"]
+        keys = sorted(res.draw_runs, key=lambda k: (order[k[:2]] // len(ver.case.scenarios),
+                                                     k[2], order[k[:2]]))
+        L += [_run_row(res, f, s, k) for f, s, k in keys]
+        L.append("")
+    return L
 
 
 def engine_markdown(ver: Any, fig_dir: str, figures: list[str], command: str,
@@ -156,12 +231,14 @@ def engine_markdown(ver: Any, fig_dir: str, figures: list[str], command: str,
           "(and, with a leader, the largest angle to the reference) stays within angle_tol and "
           "the rate error within rate_tol.", ""]
     L += _scenario_rows(case)
-    L += [""] + _certificate_section(ver) + _evidence_scopes(ver)
+    L += [""] + _certificate_section(ver) + _evidence_scopes(ver) + _runs_section(ver)
     L += ["## Metrics", "",
           "| id | metric | formation | scenario | arguments | value | unit | evidence | detail |",
           "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for m, v in ver.metrics:
-        args = ", ".join(f"{k} = {a}" for k, a in sorted(m.args.items())) or "-"
+        args = ", ".join([f"{k} = {a}" for k, a in sorted(m.args.items())]
+                         + ([f"montecarlo = {m.aggregate}"] if m.aggregate else [])
+                         + (["skip_unknown"] if m.skip_unknown else [])) or "-"
         L.append(f"| {m.id} | {m.spec.name} | {m.formation} | {m.scenario} | {_cell(args)} | "
                  f"{_cell(v.text())} | {v.unit} | {v.evidence} | {_cell(v.detail) or '-'} |")
     L += ["", "## Claims", "",
@@ -223,7 +300,8 @@ def engine_json(ver: Any, command: str) -> dict[str, Any]:
                                 else json_number(float(c.evidence["spectral_abscissa"]))})}
                          for f, s, c in ver.certificates],
         "metrics": [{"id": m.id, "metric": m.spec.name, "formation": m.formation,
-                     "scenario": m.scenario, "args": dict(m.args), **v.to_dict()}
+                     "scenario": m.scenario, "args": dict(m.args),
+                     "montecarlo": m.aggregate, **v.to_dict()}
                     for m, v in ver.metrics],
         "claims": [{"id": c.claim.id, "text": c.claim.text, "source": c.claim.source,
                     "predicate": c.claim.predicate, "verdict": c.verdict,

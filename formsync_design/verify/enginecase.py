@@ -13,12 +13,26 @@ range-checked, :mod:`formsync_design.ranges`; bad input is one line, exit 2)::
                     arcs = [[i, j, a_ij], ...] with n; pinning = [b_1, ..., b_N] (leader);
                     certify = false (no certificate: for a formation too large to certify)
     [[scenarios]]   name, description, and overrides of the base case: gains = {K1 = 2.0},
-                    simulation = {tf = 40, switch = "sat"}, disturbance = {model = "none"}
-                    (the disturbance table replaced whole)
+                    simulation = {tf = 40, switch = "sat", period = 0.2}, disturbance =
+                    {model = "none"} (the disturbance table replaced whole); sampling =
+                    "periodic" | "event" | "self-triggered" | "continuous" (the design's law
+                    under another sampling rule: spec.agent.rule_variant); period_matching =
+                    "SCENARIO" (periodic sampling at the period giving, on each formation and
+                    draw, the broadcasts per spacecraft of that scenario's run: tf / round(mean
+                    broadcasts per spacecraft))
     [montecarlo]    runs, seed, max_angle (deg), max_rate (rad/s), box = {K1 = "1:2", ...}
-                    (the gains drawn; default the scenario's gains)
+                    (the gains drawn; default the scenario's gains), tf (the draws' horizon;
+                    default the scenario's), draws = "box" | "about-reference" (with
+                    rate_sigma, rad/s: verify/enginedraws.py)
+    [families]      box = {gain = "lo:hi" | number, ...}: every controller gain, the box over
+                    which the design's own certificate families (conditions(c)) are decided
+                    by the metrics family_certificate and family_margin
+    [report]        runs = true: the report lists every simulated run (and Monte-Carlo draw)
     [[metrics]]     id, metric (a name of the registry, formsync_design/verify/metrics.py),
-                    formation, scenario (default the first of each), the metric's arguments
+                    formation, scenario (default the first of each), the metric's arguments;
+                    montecarlo = "max" | "min" (a simulation metric measured on every draw's
+                    run and aggregated; skip_unknown = true leaves out the runs without a
+                    value, else one makes the aggregate unknown)
     [[claims]]      id, text (the paper's words), source (where in the paper),
                     predicate over metric ids (formsync_design/verify/predicates.py)
 
@@ -47,14 +61,15 @@ from formsync_design.errors import InputError
 from formsync_design.ranges import check_range
 from formsync_design.sim.agent_montecarlo import MAX_AGENT_RUNS, AgentMonteCarloSettings
 from formsync_design.tomlio import load_toml
+from formsync_design.verify import metrics_design, metrics_sampled  # noqa: F401 (registered)
 from formsync_design.verify.agentcase import ENGINE_TABLES, AgentCase, parse_agent_case
 from formsync_design.verify.case import case_path
-from formsync_design.verify.metrics import METRICS, MetricSpec, check_metric_args
+from formsync_design.verify.enginedraws import DRAW_RULES
+from formsync_design.verify.metrics import METRICS, MetricSpec, check_metric_args, point_gains
 from formsync_design.verify.predicates import KEYWORDS, Node, parse_predicate
 
 __all__ = ["FormationSpec", "ScenarioSpec", "MonteCarloSpec", "MetricRow",
-           "ClaimRow", "EngineCase", "load_engine_case", "parse_engine_case", "directed_cycle",
-           "point_gains"]
+           "ClaimRow", "EngineCase", "load_engine_case", "parse_engine_case", "directed_cycle"]
 
 #: The tables an engine case adds to the agent case layout.
 
@@ -63,8 +78,11 @@ _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,39}")
 _TEXT_MAX = 4000
 _KEYS = {
     "formations": {"name", "graph", "arcs", "n", "pinning", "certify"},
-    "scenarios": {"name", "description", "gains", "simulation", "disturbance"},
-    "montecarlo": {"runs", "seed", "max_angle", "max_rate", "box"},
+    "scenarios": {"name", "description", "gains", "simulation", "disturbance", "sampling",
+                  "period_matching"},
+    "montecarlo": {"runs", "seed", "max_angle", "max_rate", "box", "tf", "draws", "rate_sigma"},
+    "families": {"box"},
+    "report": {"runs"},
     "claims": {"id", "text", "source", "predicate"},
 }
 
@@ -82,34 +100,55 @@ class FormationSpec:
 
 @dataclass(frozen=True)
 class ScenarioSpec:
-    """A scenario: ``name``, ``description``, the validated ``case`` (base + overrides) and the
-    ``overrides`` as written."""
+    """A scenario: ``name``, ``description``, the validated ``case`` (base + overrides), the
+    ``overrides`` as written, the ``design`` its runs use (the case's, or its
+    :func:`~formsync_design.spec.agent.rule_variant` under ``sampling``) and
+    ``period_matching`` (the scenario whose broadcasts its period matches, or ``None``)."""
 
     name: str
     description: str
     case: AgentCase
     overrides: dict[str, Any]
+    design: Any = None
+    period_matching: str | None = None
+
+    @property
+    def run_design(self) -> Any:
+        return self.case.design if self.design is None else self.design
 
 
 @dataclass(frozen=True)
 class MonteCarloSpec:
-    """``settings`` (runs, seed, spreads) and ``box`` (gain -> ``"lo:hi"``, ``{}``: the
-    scenario's gains)."""
+    """``settings`` (runs, seed, spreads), ``box`` (gain -> ``"lo:hi"``, ``{}``: the
+    scenario's gains), ``tf`` (the draws' horizon, ``None``: the scenario's), ``draws``
+    (:data:`~formsync_design.verify.enginedraws.DRAW_RULES`) and ``rate_sigma`` (rad/s,
+    ``about-reference``)."""
 
     settings: AgentMonteCarloSettings
     box: dict[str, str]
+    tf: float | None = None
+    draws: str = "box"
+    rate_sigma: float = 0.01
 
 
 @dataclass(frozen=True)
 class MetricRow:
     """A ``[[metrics]]`` row: ``id``, the registered ``spec``, ``formation``, ``scenario``,
-    ``args`` (checked)."""
+    ``args`` (checked), ``aggregate`` (``max``/``min`` over the Monte-Carlo draws, or
+    ``None``: the scenario's run) and ``skip_unknown``."""
 
     id: str
     spec: MetricSpec
     formation: str
     scenario: str
     args: dict[str, Any]
+    aggregate: str | None = None
+    skip_unknown: bool = False
+
+    @property
+    def evidence(self) -> str:
+        """The row's evidence: ``montecarlo`` for an aggregate, else the metric's."""
+        return "montecarlo" if self.aggregate else self.spec.evidence
 
 
 @dataclass(frozen=True)
@@ -136,6 +175,8 @@ class EngineCase:
     metrics: tuple[MetricRow, ...]
     claims: tuple[ClaimRow, ...]
     digest: str = ""
+    families_box: dict[str, str] | None = None
+    report_runs: bool = False
 
     def formation(self, name: str) -> FormationSpec:
         return next(f for f in self.formations if f.name == name)
@@ -148,34 +189,6 @@ class EngineCase:
         g = self.formation(formation).graph
         c = self.scenario(scenario).case
         return c if g.n == c.n else c.cycled(g.n)
-
-
-def point_gains(case: AgentCase) -> tuple[dict[str, Any] | None, str]:
-    """The controller gains of ``case`` as exact numbers, one per gain (``None`` and why when
-    a diagonal gain has unequal entries: a certificate or a Monte-Carlo box takes one value
-    per gain).
-
-    >>> from formsync_design.resources import case_file
-    >>> from formsync_design.verify.agentcase import load_agent_case
-    >>> point_gains(load_agent_case(case_file("ma_so3")))[0]["K1"]
-    Fraction(23, 20)
-    """
-    from formsync_design.gains import parse_number
-    from formsync_design.spec.declarations import GainRole
-
-    point: dict[str, Any] = {}
-    given = case.gains.as_dict()
-    for g in case.design.decl.gains:
-        if g.role != GainRole.CONTROLLER:
-            continue
-        v = given[g.name]
-        if isinstance(v, tuple):
-            if len(set(v)) != 1:
-                return None, (f"the diagonal gain {g.name} = {list(v)} has unequal entries (a "
-                              "certificate or a Monte-Carlo box takes one value per gain)")
-            v = v[0]
-        point[g.name] = parse_number(v, g.name)
-    return point, ""
 
 
 def directed_cycle(n: int) -> Any:
@@ -321,8 +334,50 @@ def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[Sce
             else:
                 merged[table] = {**merged.get(table, {}), **t}
         case = parse_agent_case(merged, path, design=base.design)
-        out.append(ScenarioSpec(name, desc, case, over))
+        design, match = _sampling(row, where, case, over)
+        out.append(ScenarioSpec(name, desc, case, over, design, match))
+    names = [s.name for s in out]
+    for s in out:
+        m = s.period_matching
+        if m is not None and (m not in names or m == s.name
+                              or next(x for x in out if x.name == m).period_matching):
+            raise InputError(f"expected scenarios[{names.index(s.name) + 1}].period_matching "
+                             f"naming another scenario among {names} that has no "
+                             f"period_matching itself, received {m!r:.60}")
     return tuple(out)
+
+
+def _sampling(row: dict, where: str, case: AgentCase, over: dict[str, Any]
+              ) -> tuple[Any, str | None]:
+    """The run design and ``period_matching`` of a scenario row (module docstring)."""
+    from formsync_design.errors import DerivationError
+    from formsync_design.spec.agent import SAMPLING_RULES, rule_variant
+
+    rule = row.get("sampling")
+    match = row.get("period_matching")
+    design = None
+    if rule is not None:
+        if not isinstance(rule, str) or rule not in SAMPLING_RULES:
+            raise InputError(f"expected {where}.sampling among {list(SAMPLING_RULES)}, received "
+                             f"{rule!r:.40}")
+        try:
+            design = rule_variant(case.design, rule)
+        except DerivationError as e:
+            raise InputError(f"expected {where}.sampling = {rule!r} offered by the design: "
+                             f"{e}") from None
+        over["sampling"] = rule
+    if match is not None:
+        if not isinstance(match, str):
+            raise InputError(f"expected {where}.period_matching as a scenario name, received "
+                             f"{match!r:.40}")
+        if (design or case.design).decl.sampling != "periodic" or case.options.period is not None:
+            raise InputError(f"expected {where}.period_matching with sampling = \"periodic\" and "
+                             "no simulation.period, received another rule or a period")
+        over["period_matching"] = match
+    elif (design or case.design).decl.sampling == "periodic" and case.options.period is None:
+        raise InputError(f"expected simulation.period or period_matching for the periodic "
+                         f"{where}, received neither")
+    return design, match
 
 
 def _int(v: Any, where: str, lo: int, hi: int) -> int:
@@ -352,6 +407,18 @@ def _montecarlo(data: dict, base: AgentCase) -> MonteCarloSpec | None:
         seed=_int(t.get("seed", 0), "montecarlo.seed", 0, 2**63 - 1),
         max_angle_deg=_number(t.get("max_angle", 90.0), "montecarlo.max_angle", "angle"),
         max_rate=_number(t.get("max_rate", 0.01), "montecarlo.max_rate", "rate"))
+    draws = t.get("draws", "box")
+    if draws not in DRAW_RULES:
+        raise InputError(f"expected montecarlo.draws among {list(DRAW_RULES)}, received "
+                         f"{draws!r:.40}")
+    if draws == "box" and "rate_sigma" in t:
+        raise InputError("expected montecarlo.rate_sigma only with draws = \"about-reference\", "
+                         "received it with the box draws")
+    if draws == "about-reference" and ("max_rate" in t or "box" in t):
+        raise InputError("expected rate_sigma and the scenario's gains with draws = "
+                         "\"about-reference\", received max_rate or box")
+    tf = None if "tf" not in t else _number(t["tf"], "montecarlo.tf", "horizon")
+    sigma = _number(t.get("rate_sigma", 0.01), "montecarlo.rate_sigma", "rate")
     box = t.get("box", {})
     if not isinstance(box, dict):
         raise InputError(f"expected montecarlo.box = {{gain = \"lo:hi\"}}, received {box!r:.60}")
@@ -365,11 +432,36 @@ def _montecarlo(data: dict, base: AgentCase) -> MonteCarloSpec | None:
             raise InputError(f"expected montecarlo.box.{k} as \"lo:hi\" or a number, received {v!r:.40}")
         parse_gain_range(str(v), f"montecarlo.box.{k}")
         out[k] = str(v)
-    return MonteCarloSpec(settings, out)
+    return MonteCarloSpec(settings, out, tf, str(draws), sigma)
+
+
+def _families(data: dict, base: AgentCase) -> dict[str, str] | None:
+    from formsync_design.gains import parse_gain_range
+
+    t = data.get("families")
+    if t is None:
+        return None
+    if not isinstance(t, dict):
+        raise InputError(f"expected a [families] table, received {t!r:.60}")
+    _check_keys(t, "families", "[families]")
+    box = t.get("box")
+    ctrl = list(base.design.decl.controller_gains)
+    if not isinstance(box, dict) or set(box) != set(ctrl):
+        raise InputError(f"expected families.box with every controller gain {ctrl}, received "
+                         f"{sorted(box) if isinstance(box, dict) else box!r:.60}")
+    out = {}
+    for k in ctrl:
+        v = box[k]
+        if isinstance(v, bool) or not isinstance(v, (str, int, float)):
+            raise InputError(f"expected families.box.{k} as \"lo:hi\" or a number, received {v!r:.40}")
+        parse_gain_range(str(v), f"families.box.{k}")
+        out[k] = str(v)
+    return out
 
 
 def _metrics(data: dict, base: AgentCase, forms: tuple[FormationSpec, ...],
-             scens: tuple[ScenarioSpec, ...], mc: MonteCarloSpec | None) -> tuple[MetricRow, ...]:
+             scens: tuple[ScenarioSpec, ...], mc: MonteCarloSpec | None,
+             fam: dict[str, str] | None = None) -> tuple[MetricRow, ...]:
     out: list[Any] = []
     seen: set[str] = set()
     fnames, snames = [f.name for f in forms], [s.name for s in scens]
@@ -384,9 +476,21 @@ def _metrics(data: dict, base: AgentCase, forms: tuple[FormationSpec, ...],
         if why is not None:
             raise InputError(f"expected a metric that applies to the design in {where}, received "
                              f"{name!r} ({why})")
-        if spec.evidence == "montecarlo" and mc is None:
+        agg = row.get("montecarlo")
+        skip = row.get("skip_unknown", False)
+        if agg is not None and (agg not in ("max", "min") or spec.evidence != "simulation"
+                                or spec.value != "number"):
+            raise InputError(f"expected {where}.montecarlo = \"max\" or \"min\" on a simulation "
+                             f"metric, received {agg!r:.30} on {name!r} ({spec.evidence})")
+        if not isinstance(skip, bool) or (skip and agg is None):
+            raise InputError(f"expected {where}.skip_unknown = true or false with montecarlo, "
+                             f"received {skip!r:.30}")
+        if (spec.evidence == "montecarlo" or agg) and mc is None:
             raise InputError(f"expected a [montecarlo] table for the metric {name!r} of {where}, "
                              "received none")
+        if spec.evidence == "montecarlo" and mc is not None and mc.draws != "box":
+            raise InputError(f"expected montecarlo.draws = \"box\" for the batch metric {name!r} "
+                             f"of {where}, received {mc.draws!r}")
         f = row.get("formation", fnames[0])
         s = row.get("scenario", snames[0])
         if f not in fnames:
@@ -403,8 +507,16 @@ def _metrics(data: dict, base: AgentCase, forms: tuple[FormationSpec, ...],
             if point is None and missing:
                 raise InputError(f"expected montecarlo.box for {missing} ({why}) for the metric "
                                  f"{name!r} of {where}, received none")
-        raw = {a: v for a, v in row.items() if a not in ("id", "metric", "formation", "scenario")}
-        out.append(MetricRow(mid, spec, f, s, check_metric_args(spec, raw, where)))
+        if spec.needs_families and fam is None:
+            raise InputError(f"expected a [families] table for the metric {name!r} of {where}, "
+                             "received none")
+        raw = {a: v for a, v in row.items() if a not in (
+            "id", "metric", "formation", "scenario", "montecarlo", "skip_unknown")}
+        args = check_metric_args(spec, raw, where)
+        vs = args.get("versus")
+        if vs is not None and vs not in snames:
+            raise InputError(f"expected {where}.versus among {snames}, received {vs!r:.60}")
+        out.append(MetricRow(mid, spec, f, s, args, agg, skip))
     return tuple(out)
 
 
@@ -439,11 +551,20 @@ def parse_engine_case(data: dict, path: str = "<memory>", design: Any = None) ->
     forms = _formations(data, base, path)
     scens = _scenarios(data, agent, base, path)
     mc = _montecarlo(data, base)
-    metrics = _metrics(data, base, forms, scens, mc)
+    fam = _families(data, base)
+    metrics = _metrics(data, base, forms, scens, mc, fam)
     claims = _claims(data, metrics, path)
     if not claims and not metrics:
         raise InputError(f"expected [[metrics]] and [[claims]] in {path}, received neither")
-    return EngineCase(path, base, forms, scens, mc, metrics, claims)
+    rep = data.get("report", {})
+    if not isinstance(rep, dict):
+        raise InputError(f"expected a [report] table, received {rep!r:.60}")
+    _check_keys(rep, "report", "[report]")
+    runs = rep.get("runs", False)
+    if not isinstance(runs, bool):
+        raise InputError(f"expected report.runs = true or false, received {runs!r:.30}")
+    return EngineCase(path, base, forms, scens, mc, metrics, claims, families_box=fam,
+                      report_runs=runs)
 
 
 def load_engine_case(path: str | Path, design: Any = None) -> EngineCase:

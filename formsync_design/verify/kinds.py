@@ -5,7 +5,7 @@ verifier registered for that kind.  ``"formation"`` (the default, when the key i
 is the classic formation case of :mod:`formsync_design.verify.verification`: spacecraft,
 gains of a quaternion design, candidate topologies and a ``[claims]`` table.  A design
 whose verification has another shape (a single spacecraft flying around a target, a
-comparison of controllers on a digraph, a sampled formation with a leader) registers its
+comparison of controllers on a digraph) registers its
 own kind here, implemented by a module of the library with a function::
 
     verify_kind(request: VerifyRequest) -> int      # the exit status
@@ -41,7 +41,6 @@ __all__ = ["KINDS", "VerifyRequest", "case_kind", "verifier"]
 #: Case kind -> ``"module:function"`` of its verifier.
 KINDS: dict[str, str] = {
     "formation": "formsync_design.verify.formation:verify_formation_case",
-    "selftrigger": "formsync_design.verify.selftrigger:verify_selftrigger_case",
     "flyaround": "formsync_design.verify.flyaround:verify_flyaround_case",
     "lv2012": "formsync_design.verify.lv2012:verify_lv2012",
     "agent-comparison": "formsync_design.verify.comparison:verify_comparison_case",

@@ -52,8 +52,8 @@ mc_convergence_time_max    s         montecarlo   largest convergence time of th
 mc_peak_torque_max         N m       montecarlo   largest peak torque of the runs
 =========================  ========  ===========  ===============================================
 
->>> sorted(METRICS)[:3]
-['certified_decay_rate', 'control_effort', 'convergence_time']
+>>> {"certified_decay_rate", "control_effort", "convergence_time"} <= set(METRICS)
+True
 >>> v = MetricValue(12.5, "s", "simulation", "not converged by tf = 12.5 s", bound="lower")
 >>> v.text(), v.interval()
 ('>= 12.5', Interval(lo=12.5, hi=inf))
@@ -82,7 +82,7 @@ from formsync_design.ranges import check_range
 from formsync_design.verify.predicates import Interval
 
 __all__ = ["Evidence", "MetricValue", "MetricArg", "MetricSpec", "Results", "MetricContext",
-           "METRICS", "register_metric", "check_metric_args", "format_number"]
+           "METRICS", "register_metric", "check_metric_args", "format_number", "point_gains"]
 
 
 class Evidence(enum.StrEnum):
@@ -171,6 +171,7 @@ class MetricSpec:
     value: str = "number"
     args: tuple[MetricArg, ...] = ()
     applies: Callable[[Any], str | None] | None = None
+    needs_families: bool = False
 
 
 #: Metric name -> its :class:`MetricSpec`.
@@ -181,13 +182,15 @@ _NAME = re.compile(r"[a-z][a-z0-9_]*")
 
 def register_metric(name: str, *, unit: str, evidence: str, doc: str, value: str = "number",
                     args: tuple[MetricArg, ...] = (),
-                    applies: Callable[[Any], str | None] | None = None
+                    applies: Callable[[Any], str | None] | None = None,
+                    families: bool = False
                     ) -> Callable[[Callable[[MetricContext], MetricValue]],
                                   Callable[[MetricContext], MetricValue]]:
     """Register ``fn(ctx) -> MetricValue`` as metric ``name`` (module docstring).
 
     ``value``: ``number`` or ``text``; ``applies(design)``: ``None`` when the metric applies
-    to the design, else why not (the case is refused when it names it).
+    to the design, else why not (the case is refused when it names it); ``families``: the
+    metric reads :meth:`MetricContext.families` (the case must have a ``[families]`` box).
     """
     if not _NAME.fullmatch(name):
         raise InputError(f"expected a metric name of lower-case letters, digits and _, "
@@ -201,7 +204,8 @@ def register_metric(name: str, *, unit: str, evidence: str, doc: str, value: str
         if old is not None and _origin(old.fn) != _origin(fn):
             raise InputError(f"expected metric {name!r} registered once, received a second one "
                              f"({_origin(fn)[1]}; the first: {_origin(old.fn)[1]})")
-        METRICS[name] = MetricSpec(name, fn, unit, str(evidence), doc, value, tuple(args), applies)
+        METRICS[name] = MetricSpec(name, fn, unit, str(evidence), doc, value, tuple(args), applies,
+                                   families)
         return fn
 
     return deco
@@ -247,21 +251,62 @@ def check_metric_args(spec: MetricSpec, raw: Mapping[str, Any], where: str) -> d
     return out
 
 
-class Results(Protocol):
-    """The cached results a metric reads (implemented by the engine)."""
+def point_gains(case: Any) -> tuple[dict[str, Any] | None, str]:
+    """The controller gains of ``case`` as exact numbers, one per gain (``None`` and why when
+    a diagonal gain has unequal entries: a certificate or a Monte-Carlo box takes one value
+    per gain).
 
-    def run(self, formation: str, scenario: str) -> Any: ...
+    >>> from formsync_design.resources import case_file
+    >>> from formsync_design.verify.agentcase import load_agent_case
+    >>> point_gains(load_agent_case(case_file("ma_so3")))[0]["K1"]
+    Fraction(23, 20)
+    """
+    from formsync_design.gains import parse_number
+    from formsync_design.spec.declarations import GainRole
+
+    point: dict[str, Any] = {}
+    given = case.gains.as_dict()
+    for g in case.design.decl.gains:
+        if g.role != GainRole.CONTROLLER:
+            continue
+        v = given[g.name]
+        if isinstance(v, tuple):
+            if len(set(v)) != 1:
+                return None, (f"the diagonal gain {g.name} = {list(v)} has unequal entries (a "
+                              "certificate or a Monte-Carlo box takes one value per gain)")
+            v = v[0]
+        point[g.name] = parse_number(v, g.name)
+    return point, ""
+
+
+class Results(Protocol):
+    """The cached results a metric reads (implemented by the engine); ``draw``: the index of
+    a Monte-Carlo draw (``None``: the scenario's own initial state)."""
+
+    def run(self, formation: str, scenario: str, draw: int | None = None) -> Any: ...
+
+    def record(self, formation: str, scenario: str, draw: int | None = None) -> Any: ...
+
+    def options(self, formation: str, scenario: str, draw: int | None = None) -> Any: ...
+
+    def initial(self, formation: str, scenario: str, draw: int | None = None) -> Any: ...
 
     def certificate(self, formation: str, scenario: str) -> Any: ...
 
+    def families(self, formation: str) -> Any: ...
+
     def montecarlo(self, formation: str, scenario: str) -> Any: ...
+
+    def memo(self, key: tuple[Any, ...], compute: Callable[[], Any]) -> Any: ...
 
 
 @dataclass(frozen=True)
 class MetricContext:
     """What a metric sees: ``case`` (the :class:`~formsync_design.verify.agentcase.AgentCase`
     of the scenario, resized to the formation), ``formation`` and ``scenario`` names,
-    ``args`` (checked), ``spec`` (the metric), ``results`` (cached, :class:`Results`)."""
+    ``args`` (checked), ``spec`` (the metric), ``results`` (cached, :class:`Results`),
+    ``draw`` (the Monte-Carlo draw a ``montecarlo = "max"|"min"`` row measures, else
+    ``None``), ``graph`` (the formation's :class:`~formsync_design.graphs.digraph.Digraph`)."""
 
     case: Any
     formation: str
@@ -269,10 +314,43 @@ class MetricContext:
     spec: MetricSpec
     results: Results
     args: Mapping[str, Any] = field(default_factory=dict)
+    draw: int | None = None
+    graph: Any = None
 
-    def run(self) -> Any:
-        """The :class:`~formsync_design.sim.agents.AgentResult` of this formation and scenario."""
-        return self.results.run(self.formation, self.scenario)
+    def run(self, scenario: str | None = None) -> Any:
+        """The :class:`~formsync_design.sim.agents.AgentResult` of this formation and draw
+        under this scenario (or ``scenario``: another scenario's, for a comparison)."""
+        return self.results.run(self.formation, scenario or self.scenario, self.draw)
+
+    def record(self, scenario: str | None = None) -> Any:
+        """What the sampled run of :meth:`run` recorded (``hybrid``: the hybrid run,
+        ``trigger_evaluations``, ``kept``: the values kept at each broadcast), ``{}`` for a
+        continuous run."""
+        return self.results.record(self.formation, scenario or self.scenario, self.draw)
+
+    def options(self) -> Any:
+        """The :class:`~formsync_design.sim.agents.AgentOptions` of :meth:`run` (a draw's
+        horizon, a matched period included)."""
+        return self.results.options(self.formation, self.scenario, self.draw)
+
+    def initial(self) -> Any:
+        """The :class:`~formsync_design.sim.agents.AgentFormation` :meth:`run` started from
+        (the case's, or the draw's)."""
+        return self.results.initial(self.formation, self.scenario, self.draw)
+
+    def families(self) -> Any:
+        """The design's own families on this formation decided over the case's
+        ``[families]`` box (a :class:`~formsync_design.certify.results.CertificationResult`)."""
+        return self.results.families(self.formation)
+
+    def memo(self, key: tuple[Any, ...], compute: Callable[[], Any]) -> Any:
+        """``compute()`` once per verification for ``key`` (a measurement several metrics
+        read); the key should name the formation, scenario and draw it depends on."""
+        return self.results.memo(key, compute)
+
+    def key(self, scenario: str | None = None) -> tuple[Any, ...]:
+        """``(formation, scenario, draw)`` of :meth:`run`, for :meth:`memo`."""
+        return (self.formation, scenario or self.scenario, self.draw)
 
     def certificate(self) -> Any:
         """The formation certificate (or the text saying why there is none)."""
