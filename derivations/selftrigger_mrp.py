@@ -294,9 +294,8 @@ def sliding_measurements(design, f, opt, res, rec, tail):
     floors ``c_norm = sqrt(N) (eps + eta_i)`` and the largest ``|sigma_i - sigma_d|``
     (``tail_sigma_error``); ``sigma_max`` the largest ``|sigma_i|`` and ``|sigma_d|`` seen."""
     from formsync_design.models.mrp import mrp_rate_matrix
-    from formsync_design.sim.agent_kernel import get_agent_kernel
+    from formsync_design.sim.agent_kernel import agent_parameters, get_agent_kernel
     from formsync_design.sim.agent_sampled import attitude_entries_np, reference_trajectory
-    from formsync_design.sim.agents import agent_parameters
 
     n = f.n
     r, m = _gain(f, "r"), _gain(f, "m_f")

@@ -19,8 +19,13 @@ from formsync_design.errors import DerivationError
 from formsync_design.graphs.digraph_io import digraph_from_edges
 from formsync_design.models.disturbances import no_disturbance
 from formsync_design.models.mrp import integrate_mrp, mrp_rate_matrix
-from formsync_design.sim.agent_sampled import attitude_entries_np, simulate_agents_sampled
-from formsync_design.sim.agents import AgentFormation, AgentOptions, Reference
+from formsync_design.sim.agent_sampled import attitude_entries_np
+from formsync_design.sim.agents import (
+    AgentFormation,
+    AgentOptions,
+    Reference,
+    simulate_agents_sampled,
+)
 from formsync_design.sim.formation import Gains
 from formsync_design.spec.agent import agent_design_from_functions, mrp_G, rule_variant
 from formsync_design.spec.loader import load_design

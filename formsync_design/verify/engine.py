@@ -168,8 +168,7 @@ class EngineResults:
         return self._draws[key]
 
     def run(self, formation: str, scenario: str, draw: int | None = None) -> Any:
-        from formsync_design.sim.agent_sampled import simulate_agents_sampled
-        from formsync_design.sim.agents import simulate_agents
+        from formsync_design.sim.agents import simulate_agents, simulate_agents_sampled
 
         key = (formation, scenario, draw)
         store: dict[Any, Any] = self.runs if draw is None else self.draw_runs
