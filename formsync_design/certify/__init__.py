@@ -1,31 +1,70 @@
-"""Stage 5 — certificates over gain boxes: exact/rigorous re-checks, region maps, gain design."""
+"""Stage 5 — certificates over gain boxes: exact/rigorous re-checks, region maps, gain design.
 
-from formsync_design.certify.agent import (
-    AgentGainDesign,
-    certify_agent,
-    design_agent,
-    region_agent,
-)
-from formsync_design.certify.design import DesignResult, design_gains
-from formsync_design.certify.engine import as_box, certify_box, check_kv
-from formsync_design.certify.multipliers import certify_with_multipliers
-from formsync_design.certify.region import region_map
-from formsync_design.certify.results import CertificationResult, Status
-from formsync_design.certify.subdivision import RegionMap
+The public names are imported on first use (PEP 562, as in :mod:`formsync_design`), so
+importing one submodule (e.g. :mod:`~.engine` for one box) does not load the region maps,
+the gain design and the agent certificates with it.
+"""
 
-__all__ = [
-    "Status",
-    "as_box",
-    "CertificationResult",
-    "certify_box",
-    "certify_with_multipliers",
-    "check_kv",
-    "RegionMap",
-    "region_map",
-    "DesignResult",
-    "design_gains",
-    "AgentGainDesign",
-    "certify_agent",
-    "region_agent",
-    "design_agent",
-]
+from __future__ import annotations
+
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
+    from formsync_design.certify.agent import (
+        AgentGainDesign as AgentGainDesign,
+        certify_agent as certify_agent,
+        design_agent as design_agent,
+        region_agent as region_agent,
+    )
+    from formsync_design.certify.design import (
+        DesignResult as DesignResult,
+        design_gains as design_gains,
+    )
+    from formsync_design.certify.engine import (
+        as_box as as_box,
+        certify_box as certify_box,
+        check_kv as check_kv,
+    )
+    from formsync_design.certify.multipliers import (
+        certify_with_multipliers as certify_with_multipliers,
+    )
+    from formsync_design.certify.region import region_map as region_map
+    from formsync_design.certify.results import (
+        CertificationResult as CertificationResult,
+        Status as Status,
+    )
+    from formsync_design.certify.subdivision import RegionMap as RegionMap
+
+#: public name -> the module that defines it
+_LAZY: dict[str, str] = {
+    "AgentGainDesign": "formsync_design.certify.agent",
+    "certify_agent": "formsync_design.certify.agent",
+    "design_agent": "formsync_design.certify.agent",
+    "region_agent": "formsync_design.certify.agent",
+    "DesignResult": "formsync_design.certify.design",
+    "design_gains": "formsync_design.certify.design",
+    "as_box": "formsync_design.certify.engine",
+    "certify_box": "formsync_design.certify.engine",
+    "check_kv": "formsync_design.certify.engine",
+    "certify_with_multipliers": "formsync_design.certify.multipliers",
+    "region_map": "formsync_design.certify.region",
+    "CertificationResult": "formsync_design.certify.results",
+    "Status": "formsync_design.certify.results",
+    "RegionMap": "formsync_design.certify.subdivision",
+}
+
+__all__ = list(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

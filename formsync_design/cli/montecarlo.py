@@ -245,7 +245,6 @@ def _resolve_spec(args: argparse.Namespace, case: Any) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from formsync_design.cli.agent_commands import run_agent_montecarlo_cli
     from formsync_design.cli.agent_inputs import agent_design_or_none
     from formsync_design.graphs.build import Graph
     from formsync_design.sim.montecarlo import replay, run_montecarlo
@@ -255,6 +254,8 @@ def run(args: argparse.Namespace) -> int:
     check_run_options(args)
     agent = agent_design_or_none(args.spec, args.case)
     if agent is not None:
+        from formsync_design.cli.agent_commands import run_agent_montecarlo_cli
+
         return run_agent_montecarlo_cli(args, agent)
     from formsync_design.cli.defaults import (
         case_label,
