@@ -1,28 +1,13 @@
-"""Admissible-region maps: adaptive subdivision of a gain box.
+"""Admissible-region maps of any design: the one entry point :func:`region_map`.
 
-(Figures and the report: :mod:`formsync_design.certify.plots`; the subdivision of a three-gain
-box and the map's value: :mod:`formsync_design.certify.subdivision`.)
-
-A 3-D gain box is split on a grid of ``R`` cells per (non-degenerate) axis.
-Starting from the whole box, each box is classified from its vertices with
-the rigorous vertex decisions of :mod:`.certify` (same re-checks, LAPACK
-hints instead of one SDP per box, every grid vertex decided once):
-
-``certified``
-    every distinct diagonal block is PD (``> margin``) at every vertex: by
-    multi-affinity, at every point of the box;
-``refuted``
-    one integer vector ``x`` has ``x^T (F(v) - margin I) x <= 0`` exactly at
-    every vertex: by multi-affinity, *every* point of the box violates;
-``undecided``
-    neither, at the finest resolution: ``boundary`` when some vertex is
-    refuted and the box straddles the boundary, ``inconclusive`` otherwise.
-
-Boxes that are neither certified nor refuted are split at the middle grid
-line of every axis wider than one cell, down to ``1/R`` of each range.
-Families that are not multi-affine in the gains are never certified (nor
-uniformly refuted) here; use :func:`~formsync_design.certify.engine.certify_box`,
-which has an interval argument for them.
+It routes a design's conditions and gain ranges to the map that fits them: the adaptive
+subdivision of a three-gain box (:mod:`formsync_design.certify.subdivision`, whose module
+docstring states how a box is classified and split), the multiplier search of a design whose
+candidate has multipliers (:mod:`formsync_design.certify.multiregion`), and a design with
+other than three gains mapped over three axes, the others fixed or padded
+(:mod:`formsync_design.certify.reduce`).  Figures and the report:
+:mod:`formsync_design.certify.plots`.  :func:`closed_form_agreement` compares a map with the
+design's closed-form conditions where it has them.
 """
 
 from __future__ import annotations
