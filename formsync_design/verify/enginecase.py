@@ -19,7 +19,10 @@ range-checked, :mod:`formsync_design.ranges`; bad input is one line, exit 2)::
                     under another sampling rule: spec.agent.rule_variant); period_matching =
                     "SCENARIO" (periodic sampling at the period giving, on each formation and
                     draw, the broadcasts per spacecraft of that scenario's run: tf / round(mean
-                    broadcasts per spacecraft))
+                    broadcasts per spacecraft)); design = "NAME" | "file.py" (the scenario
+                    runs another agent design, resolved like [case] design: a comparison
+                    method on the same spacecraft, formations and simulation; its gains
+                    table is then required and replaces the base gains whole)
     [montecarlo]    runs, seed, max_angle (deg), max_rate (rad/s), box = {K1 = "1:2", ...}
                     (the gains drawn; default the scenario's gains), tf (the draws' horizon;
                     default the scenario's), draws = "box" | "about-reference" (with
@@ -78,8 +81,8 @@ _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,39}")
 _TEXT_MAX = 4000
 _KEYS = {
     "formations": {"name", "graph", "arcs", "n", "pinning", "certify"},
-    "scenarios": {"name", "description", "gains", "simulation", "disturbance", "sampling",
-                  "period_matching"},
+    "scenarios": {"name", "description", "design", "gains", "simulation", "disturbance",
+                  "sampling", "period_matching"},
     "montecarlo": {"runs", "seed", "max_angle", "max_rate", "box", "tf", "draws", "rate_sigma"},
     "families": {"box"},
     "report": {"runs"},
@@ -322,6 +325,7 @@ def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[Sce
         desc = _text(row, "description", where, required=False)
         merged = copy.deepcopy(agent)
         over: dict[str, Any] = {}
+        other = _other_design(row, where, merged, over)
         for table in ("gains", "simulation", "disturbance"):
             if table not in row:
                 continue
@@ -329,11 +333,11 @@ def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[Sce
             if not isinstance(t, dict):
                 raise InputError(f"expected {where}.{table} as a table, received {t!r:.60}")
             over[table] = dict(t)
-            if table == "disturbance":
+            if table == "disturbance" or (table == "gains" and other):
                 merged[table] = dict(t)
             else:
                 merged[table] = {**merged.get(table, {}), **t}
-        case = parse_agent_case(merged, path, design=base.design)
+        case = parse_agent_case(merged, path, design=None if other else base.design)
         design, match = _sampling(row, where, case, over)
         out.append(ScenarioSpec(name, desc, case, over, design, match))
     names = [s.name for s in out]
@@ -345,6 +349,24 @@ def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[Sce
                              f"naming another scenario among {names} that has no "
                              f"period_matching itself, received {m!r:.60}")
     return tuple(out)
+
+
+def _other_design(row: dict, where: str, merged: dict, over: dict[str, Any]) -> bool:
+    """Whether a scenario row runs another design (``design = "NAME" | "file.py"``): it then
+    names that design in the merged case (resolved like ``[case] design``, relative to the
+    case file) and must give that design's ``gains`` table whole."""
+    if "design" not in row:
+        return False
+    ref = row["design"]
+    if not isinstance(ref, str) or not _NAME.fullmatch(ref.removesuffix(".py")):
+        raise InputError(f"expected {where}.design as a design name or a .py file beside the "
+                         f"case, received {ref!r:.60}")
+    if not isinstance(row.get("gains"), dict):
+        raise InputError(f"expected {where}.gains (the whole gains table of design {ref!r}), "
+                         f"received {row.get('gains')!r:.60}")
+    merged["case"] = {**merged.get("case", {}), "design": ref}
+    over["design"] = ref
+    return True
 
 
 def _sampling(row: dict, where: str, case: AgentCase, over: dict[str, Any]
@@ -472,7 +494,9 @@ def _metrics(data: dict, base: AgentCase, forms: tuple[FormationSpec, ...],
         if not isinstance(name, str) or name not in METRICS:
             raise InputError(f"expected {where}.metric among {sorted(METRICS)}, received {name!r:.60}")
         spec = METRICS[name]
-        why = spec.applies(base.design) if spec.applies is not None else None
+        s = row.get("scenario", snames[0])
+        run = next((x.run_design for x in scens if x.name == s), base.design)
+        why = spec.applies(run) if spec.applies is not None else None
         if why is not None:
             raise InputError(f"expected a metric that applies to the design in {where}, received "
                              f"{name!r} ({why})")
@@ -492,7 +516,6 @@ def _metrics(data: dict, base: AgentCase, forms: tuple[FormationSpec, ...],
             raise InputError(f"expected montecarlo.draws = \"box\" for the batch metric {name!r} "
                              f"of {where}, received {mc.draws!r}")
         f = row.get("formation", fnames[0])
-        s = row.get("scenario", snames[0])
         if f not in fnames:
             raise InputError(f"expected {where}.formation among {fnames}, received {f!r:.60}")
         if s not in snames:
@@ -503,7 +526,7 @@ def _metrics(data: dict, base: AgentCase, forms: tuple[FormationSpec, ...],
                              f"metric {name!r} of {where}, received {f!r} (certify = false)")
         if spec.evidence == "montecarlo" and mc is not None:
             point, why = point_gains(next(x for x in scens if x.name == s).case)
-            missing = [g for g in base.design.decl.controller_gains if g not in mc.box]
+            missing = [g for g in run.decl.controller_gains if g not in mc.box]
             if point is None and missing:
                 raise InputError(f"expected montecarlo.box for {missing} ({why}) for the metric "
                                  f"{name!r} of {where}, received none")
