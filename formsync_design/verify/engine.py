@@ -90,6 +90,7 @@ from formsync_design.verify.enginecase import (
     MetricRow,
     load_engine_case,
 )
+from formsync_design.verify.enginesensors import scenario_inputs
 from formsync_design.verify.kinds import VerifyRequest
 from formsync_design.verify.metrics import MetricContext, MetricValue, format_number, point_gains
 from formsync_design.verify.predicates import evaluate
@@ -183,8 +184,8 @@ class EngineResults:
             rec: dict[str, Any] = {}
             if d.decl.sampling != "continuous":
                 store[skey] = simulate_agents_sampled(d, f, opt, record=rec)
-            else:
-                store[skey] = simulate_agents(d, f, opt)
+            else:  # a scenario's gyro model (verify/enginesensors.py)
+                store[skey] = simulate_agents(d, f, opt, **scenario_inputs(sc.overrides, f.n))
             self.records[key] = rec
         return store[skey]
 

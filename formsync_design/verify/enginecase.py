@@ -68,13 +68,12 @@ from formsync_design.verify import metrics_design, metrics_sampled  # noqa: F401
 from formsync_design.verify.agentcase import ENGINE_TABLES, AgentCase, parse_agent_case
 from formsync_design.verify.case import case_path
 from formsync_design.verify.enginedraws import DRAW_RULES
+from formsync_design.verify.enginesensors import scenario_sensors
 from formsync_design.verify.metrics import METRICS, MetricSpec, check_metric_args, point_gains
 from formsync_design.verify.predicates import KEYWORDS, Node, parse_predicate
 
 __all__ = ["FormationSpec", "ScenarioSpec", "MonteCarloSpec", "MetricRow",
            "ClaimRow", "EngineCase", "load_engine_case", "parse_engine_case", "directed_cycle"]
-
-#: The tables an engine case adds to the agent case layout.
 
 _ID = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,39}")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,39}")
@@ -82,7 +81,7 @@ _TEXT_MAX = 4000
 _KEYS = {
     "formations": {"name", "graph", "arcs", "n", "pinning", "certify"},
     "scenarios": {"name", "description", "design", "gains", "simulation", "disturbance",
-                  "sampling", "period_matching"},
+                  "sampling", "period_matching", "sensors"},
     "montecarlo": {"runs", "seed", "max_angle", "max_rate", "box", "tf", "draws", "rate_sigma"},
     "families": {"box"},
     "report": {"runs"},
@@ -339,6 +338,7 @@ def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[Sce
                 merged[table] = {**merged.get(table, {}), **t}
         case = parse_agent_case(merged, path, design=None if other else base.design)
         design, match = _sampling(row, where, case, over)
+        over.update(scenario_sensors(row, where, case))  # a gyro model: verify/enginesensors
         out.append(ScenarioSpec(name, desc, case, over, design, match))
     names = [s.name for s in out]
     for s in out:
