@@ -64,11 +64,11 @@ from formsync_design.errors import InputError
 from formsync_design.ranges import check_range
 from formsync_design.sim.agent_montecarlo import MAX_AGENT_RUNS, AgentMonteCarloSettings
 from formsync_design.tomlio import load_toml
-from formsync_design.verify import metrics_design, metrics_sampled  # noqa: F401 (registered)
+from formsync_design.verify import metric_modules  # noqa: F401 (registers the metrics)
 from formsync_design.verify.agentcase import ENGINE_TABLES, AgentCase, parse_agent_case
 from formsync_design.verify.case import case_path
 from formsync_design.verify.enginedraws import DRAW_RULES
-from formsync_design.verify.enginesensors import scenario_sensors
+from formsync_design.verify.enginesensors import scenario_leader, scenario_sensors
 from formsync_design.verify.metrics import METRICS, MetricSpec, check_metric_args, point_gains
 from formsync_design.verify.predicates import KEYWORDS, Node, parse_predicate
 
@@ -81,7 +81,7 @@ _TEXT_MAX = 4000
 _KEYS = {
     "formations": {"name", "graph", "arcs", "n", "pinning", "certify"},
     "scenarios": {"name", "description", "design", "gains", "simulation", "disturbance",
-                  "sampling", "period_matching", "sensors"},
+                  "sampling", "period_matching", "sensors", "leader"},
     "montecarlo": {"runs", "seed", "max_angle", "max_rate", "box", "tf", "draws", "rate_sigma"},
     "families": {"box"},
     "report": {"runs"},
@@ -324,7 +324,7 @@ def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[Sce
         desc = _text(row, "description", where, required=False)
         merged = copy.deepcopy(agent)
         over: dict[str, Any] = {}
-        other = _other_design(row, where, merged, over)
+        other = _other_design(row, where, merged, over) | scenario_leader(row, where, merged, over)
         for table in ("gains", "simulation", "disturbance"):
             if table not in row:
                 continue
@@ -352,9 +352,8 @@ def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[Sce
 
 
 def _other_design(row: dict, where: str, merged: dict, over: dict[str, Any]) -> bool:
-    """Whether a scenario row runs another design (``design = "NAME" | "file.py"``): it then
-    names that design in the merged case (resolved like ``[case] design``, relative to the
-    case file) and must give that design's ``gains`` table whole."""
+    """Whether a scenario row runs another design (``design = "NAME" | "file.py"``): it then names
+    that design in the merged case (resolved like ``[case] design``) with its ``gains`` whole."""
     if "design" not in row:
         return False
     ref = row["design"]

@@ -1,4 +1,4 @@
-"""The ``sensors`` override of an engine scenario: the runs read a rate-gyro model.
+"""The ``sensors`` and ``leader`` overrides of an engine scenario: what its runs read.
 
 A ``[[scenarios]]`` row may say ``sensors = {bias = 1e-4, noise = 3e-4, seed = 2012, failed =
 [1], failed_at = 0.0}``: its runs hand the law the output of
@@ -9,6 +9,10 @@ integrates the true rate), through the compiled kernel's ``measured`` variant.  
 optional and ``sensors = {}`` is a perfect gyro read through the same variant (a design that
 never reads the rate then runs bit for bit as under any other gyro).  It needs the ``rk4``
 integrator and a continuous design (:func:`~formsync_design.sim.agents.simulate_agents`).
+
+``leader = false`` drops the base case's ``[reference]`` table from the scenario (the runs
+have no leader): for a comparison ``design`` that declares none; the formation's pinning
+gains are then not read by its law.
 
 >>> from formsync_design.resources import case_file
 >>> from formsync_design.verify.agentcase import load_agent_case
@@ -25,7 +29,7 @@ from typing import Any
 from formsync_design.errors import InputError
 from formsync_design.ranges import check_range
 
-__all__ = ["SENSOR_KEYS", "parse_sensors", "scenario_sensors", "rate_sensors", "scenario_inputs"]
+__all__ = ["SENSOR_KEYS", "parse_sensors", "scenario_sensors", "scenario_leader", "rate_sensors", "scenario_inputs"]
 
 #: The keys of a scenario's ``sensors`` table.
 SENSOR_KEYS = ("bias", "noise", "seed", "failed", "failed_at")
@@ -75,6 +79,21 @@ def scenario_sensors(row: dict[str, Any], where: str, case: Any) -> dict[str, An
     if "sensors" not in row:
         return {}
     return {"sensors": parse_sensors(row["sensors"], f"{where}.sensors", case)}
+
+
+def scenario_leader(row: dict[str, Any], where: str, merged: dict[str, Any],
+                    over: dict[str, Any]) -> bool:
+    """Apply a row's ``leader = false`` to its ``merged`` tables (module docstring); whether
+    the row changed the design's setting (always ``False``: the design is not replaced)."""
+    if "leader" not in row:
+        return False
+    v = row["leader"]
+    if v is not False:
+        raise InputError(f"expected {where}.leader = false (the runs have no leader), received "
+                         f"{v!r:.40}")
+    merged.pop("reference", None)
+    over["leader"] = False
+    return False
 
 
 def rate_sensors(spec: dict[str, Any], n: int) -> Any:
