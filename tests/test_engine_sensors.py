@@ -90,3 +90,17 @@ sensors = {bias = 0.01, noise = 0.002, seed = 3}
 def test_bad_sensors_are_refused(tmp_path, table, integrator, needle):
     with pytest.raises(InputError, match=needle.replace("[", r"\[").replace("]", r"\]")):
         _case(tmp_path, f'[[scenarios]]\nname = "s"\nsensors = {table}\n', integrator)
+
+
+def test_leader_false_drops_the_reference(tmp_path):
+    from formsync_design.resources import case_file
+
+    text = case_file("lv2012_small").read_text()
+    assert 'leader = false' in text  # the comparison scenarios of the shipped case
+    case = load_engine_case(case_file("lv2012_small"))
+    assert case.scenario("cmp_perfect").case.reference is None
+    assert case.scenario("perfect").case.reference is not None
+    bad = text.replace("leader = false", "leader = true", 1)
+    (tmp_path / "c.toml").write_text(bad)
+    with pytest.raises(InputError, match="leader = false"):
+        load_engine_case(tmp_path / "c.toml")
