@@ -4,8 +4,9 @@ Every ``formsync`` subcommand runs on a shipped design with no other option.  Th
 the graph, the convergence criterion and the horizon then come from the design's **shipped
 case**: the case file under ``verification/`` whose ``[case] design`` names the design (the
 case named like the design first), else the case that lists the design as a **comparison
-design** (``[claims] comparison_design`` with ``comparison_gains``, or a
-``[claims.compare.X]`` table with ``design`` and ``gains``), with the comparison's gains and
+design** (``[claims] comparison_design`` with ``comparison_gains``, a
+``[claims.compare.X]`` table with ``design`` and ``gains``, or an engine case's
+``[[scenarios]]`` row with ``design`` and ``gains``), with the comparison's gains and
 simulation settings.  A gain no case gives takes the design's declared default range.
 Every default is said in one line (:class:`Defaults`), printed by the command on stderr.
 
@@ -138,6 +139,14 @@ def case_source(design: Any) -> CaseSource | None:
         if ref is not None and (ref == name or Path(ref).stem == name):
             return CaseSource(path, "design")
     for path, doc in docs:
+        rows = doc.get("scenarios")
+        row = next((r for r in (rows if isinstance(rows, list) else []) if isinstance(r, dict)
+                    and r.get("design") == name and isinstance(r.get("gains"), dict)), None)
+        if row is not None:  # an engine case's scenario running the design
+            sim = {("phi" if k == "boundary_layer" else k): v
+                   for k, v in dict(row.get("simulation", {})).items()
+                   if k in ("tf", "step", "switch", "boundary_layer")}
+            return CaseSource(path, "comparison", dict(row["gains"]), sim)
         claims = doc.get("claims", {})
         if not isinstance(claims, dict):
             continue
@@ -162,8 +171,12 @@ def agent_case_source_doc(design: Any, src: CaseSource) -> dict:
     (reference, pinning) is dropped for a design without one."""
     from formsync_design.tomlio import load_toml
 
+    from formsync_design.verify.agentcase import ENGINE_TABLES
+
     doc = dict(load_toml(src.path, "case TOML file"))
     doc.pop("claims", None)
+    for table in ENGINE_TABLES:  # an engine case's scenarios, metrics, ...
+        doc.pop(table, None)
     meta = dict(doc.get("case", {}))
     meta["design"] = design.name
     meta["kind"] = "agents"
