@@ -1,4 +1,4 @@
-"""Large-angle scope study (formsync_design.verify.large_angle) against laws whose region of
+"""Large-angle scope study (formsync_design.verify.metrics_scope) against laws whose region of
 convergence is known in closed form."""
 
 from __future__ import annotations

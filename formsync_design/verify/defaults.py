@@ -170,7 +170,6 @@ def agent_case_source_doc(design: Any, src: CaseSource) -> dict:
     comparison does not give: the lower end of the design's declared range); the leader
     (reference, pinning) is dropped for a design without one."""
     from formsync_design.tomlio import load_toml
-
     from formsync_design.verify.agentcase import ENGINE_TABLES
 
     doc = dict(load_toml(src.path, "case TOML file"))
