@@ -166,6 +166,13 @@ def test_engine_case_end_to_end(tmp_path, capsys):
                     "## Semantics", "angle_tol"):
         assert section in text
     assert (out / "figures" / "tiny-verification" / "ring3-nominal-attitude.png").is_file()
+    # the two scenarios certify the same system (same gains): one row each formation, naming
+    # both scenarios, and one scope line each; the law has sgn, realised by sat in the runs
+    rows = [ln for ln in text.splitlines() if ln.startswith("| ring3 |") or
+            ln.startswith("| cycle4 |")]
+    assert [r.split(" | ")[3] for r in rows if "**" in r] == ["nominal, short"] * 2
+    assert text.count("- ring3 / nominal, short: ") == 1
+    assert "switch sat, boundary layer 0.01" in text
 
     # the verdicts, recomputed here from the library's simulation and certificate directly
     from formsync_design.certify.formation import certify_formation
@@ -344,6 +351,9 @@ def test_a_design_file_registers_its_own_metric_and_undecided_stays_undecided(tm
     assert m["energy"]["value"] == pytest.approx(want, rel=1e-4)
     assert c["damped"]["verdict"] == ("holds" if want < 1e-6 else "fails")
     assert m["cert"]["value"] is None and m["cert"]["detail"].startswith("undecided")
+    # a damper's law has no switching function: the run's scope does not name one
+    report = (tmp_path / "o" / "damper_case-verification.md").read_text()
+    assert "no switching function" in report and "switch sat" not in report
     assert (c["stable"]["verdict"], c["stable"]["basis"]) == ("undecided", "evidence")
 
 
