@@ -231,12 +231,12 @@ def test_comparison_designs_follow_their_reaching_laws():
 
 
 def test_case_and_claims_configuration():
+    from formsync_design.analysis.equal_torque import in_order
     from formsync_design.errors import InputError
     from formsync_design.resources import case_file
     from formsync_design.tomlio import load_toml
     from formsync_design.verify.agentcase import load_agent_case, parse_agent_case
     from formsync_design.verify.comparison import method_list
-    from formsync_design.verify.equal_torque import in_order
 
     c = load_agent_case(case_file("ma_so3"))
     assert c.kind == "agent-comparison" and c.n == 5

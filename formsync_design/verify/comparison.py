@@ -14,7 +14,7 @@ digraph, gains, case-1 spacecraft, simulation options) whose free-form ``[claims
     [claims.near180]          angle_deg, tf, baselines = {liang2016 = {...}, pd_consensus = {...}}
     [claims.certify]          boxes = [{K1 = "lo:hi", ...}, ...], graphs = {label = spec | arcs}
     [claims.equal_torque]     hold = [gain names not scaled], rtol (optional: the comparisons
-                              rerun at equal peak torque, :mod:`~formsync_design.verify.equal_torque`)
+                              rerun at equal peak torque, :mod:`~formsync_design.analysis.equal_torque`)
 
 Every verdict is computed here (:func:`run_comparison`); the report is written by
 :mod:`formsync_design.verify.comparison_report`.  Verdicts: ``holds``, ``fails``,
@@ -31,12 +31,12 @@ from typing import Any
 
 import numpy as np
 
+from formsync_design.analysis.equal_torque import in_order
 from formsync_design.errors import InputError
 from formsync_design.models.euler import jumps, pitch_yaw_roll, qa_error, quats_to_matrices
 from formsync_design.sim.agents import AgentFormation, simulate_agents
 from formsync_design.sim.formation import Gains
 from formsync_design.verify.agentcase import AgentCase, euler321_to_quat, load_agent_case
-from formsync_design.verify.equal_torque import in_order
 from formsync_design.verify.kinds import VerifyRequest
 
 __all__ = [
@@ -507,8 +507,8 @@ def _equal_torque(case: AgentCase, methods: tuple[Method, ...], literal: tuple[A
                   init2: tuple[Any, ...], ncfg: Mapping[str, Any], thr: float,
                   progress: Callable[[str], None]) -> dict[str, Any]:
     """The comparisons rerun with each comparison design's gains scaled to the main design's
-    peak torque on case 1 (:mod:`~formsync_design.verify.equal_torque`)."""
-    from formsync_design.verify.equal_torque import equal_peak_scale, scaled_gains
+    peak torque on case 1 (:mod:`~formsync_design.analysis.equal_torque`)."""
+    from formsync_design.analysis.equal_torque import equal_peak_scale, scaled_gains
 
     cfg = _table(case.claims["equal_torque"], "claims.equal_torque")
     hold = cfg.get("hold", [])
@@ -521,11 +521,11 @@ def _equal_torque(case: AgentCase, methods: tuple[Method, ...], literal: tuple[A
     scaled, searches = [methods[0]], {}
     for m, r in zip(methods[1:], c1[1:]):
         def peak(c: float, m: Method = m) -> float:
-            return run_method(case, scaled_gains(m, c, hold), threshold=thr,
+            return run_method(case, replace(m, gains=scaled_gains(m.gains, c, hold)), threshold=thr,
                               series=False).peak_torque
         ep = equal_peak_scale(peak, target, rtol=rtol, start=target / r.peak_torque, step=1.1)
         searches[m.key] = ep
-        scaled.append(scaled_gains(m, ep.scale, hold))
+        scaled.append(replace(m, gains=scaled_gains(m.gains, ep.scale, hold)))
     others = tuple(scaled[1:])
     e1 = (c1[0],) + tuple(run_method(case, m, threshold=thr, series=False) for m in others)
     tf2 = _num(c2cfg, "tf", "claims.case2", case.options.tf)

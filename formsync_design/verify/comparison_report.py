@@ -257,7 +257,7 @@ def comparison_markdown(res: Any, fig_dir: str, command: str) -> str:
 
 def _equal_torque_section(res: Any) -> list[str]:
     """The comparisons at literal gains beside the same at equal peak torque (computed)."""
-    from formsync_design.verify.equal_torque import in_order, ordering
+    from formsync_design.analysis.equal_torque import in_order, ordering
 
     eq = res.equal_torque
     names = [m.design.name for m in res.methods]
