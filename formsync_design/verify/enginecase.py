@@ -11,7 +11,10 @@ range-checked, :mod:`formsync_design.ranges`; bad input is one line, exit 2)::
     [[formations]]  name, and one of: graph = "ring:6" | "cycle:8" | "edges.txt" (relative
                     to the case file) | "case" (the case's own graph, the default), or
                     arcs = [[i, j, a_ij], ...] with n; pinning = [b_1, ..., b_N] (leader);
-                    certify = false (no certificate: for a formation too large to certify)
+                    certify = false (no certificate: for a formation too large to certify);
+                    initial = [{euler_deg | q | quaternion, rate}, ...] (one per spacecraft,
+                    on a formation of the case's size: it starts there, inertias of the
+                    case), tf (its horizon, replacing the scenario's)
     [[scenarios]]   name, description, and overrides of the base case: gains = {K1 = 2.0},
                     simulation = {tf = 40, switch = "sat", period = 0.2}, disturbance =
                     {model = "none"} (the disturbance table replaced whole); sampling =
@@ -22,19 +25,25 @@ range-checked, :mod:`formsync_design.ranges`; bad input is one line, exit 2)::
                     broadcasts per spacecraft)); design = "NAME" | "file.py" (the scenario
                     runs another agent design, resolved like [case] design: a comparison
                     method on the same spacecraft, formations and simulation; its gains
-                    table is then required and replaces the base gains whole)
+                    table is then required and replaces the base gains whole);
+                    torque_matching = {scenario, formation, hold = [gain, ...], rtol}: every
+                    gain but those held is multiplied by the one factor c that makes the
+                    scenario's peak torque on that formation equal that scenario's (the
+                    search of formsync_design.analysis.equal_torque, done once per
+                    verification; every run of the scenario then uses the scaled gains)
     [montecarlo]    runs, seed, max_angle (deg), max_rate (rad/s), box = {K1 = "1:2", ...}
                     (the gains drawn; default the scenario's gains), tf (the draws' horizon;
                     default the scenario's), draws = "box" | "about-reference" (with
-                    rate_sigma, rad/s: verify/enginedraws.py)
+                    rate_sigma, rad/s) | "euler-uniform" (each 3-2-1 Euler angle uniform in
+                    +-max_angle, each rate component in +-max_rate: verify/enginedraws.py)
     [families]      box = {gain = "lo:hi" | number, ...}: every controller gain, the box over
                     which the design's own certificate families (conditions(c)) are decided
                     by the metrics family_certificate and family_margin
     [report]        runs = true: the report lists every simulated run (and Monte-Carlo draw)
     [[metrics]]     id, metric (a name of the registry, formsync_design/verify/metrics.py),
                     formation, scenario (default the first of each), the metric's arguments;
-                    montecarlo = "max" | "min" (a simulation metric measured on every draw's
-                    run and aggregated; skip_unknown = true leaves out the runs without a
+                    montecarlo = "max" | "min" | "mean" (a simulation metric measured on every
+                    draw's run and aggregated; skip_unknown = true leaves out the runs without a
                     value, else one makes the aggregate unknown)
     [[claims]]      id, text (the paper's words), source (where in the paper),
                     predicate over metric ids (formsync_design/verify/predicates.py)
@@ -64,7 +73,12 @@ from formsync_design.errors import InputError
 from formsync_design.ranges import check_range
 from formsync_design.sim.agent_montecarlo import MAX_AGENT_RUNS, AgentMonteCarloSettings
 from formsync_design.tomlio import load_toml
-from formsync_design.verify import metrics_design, metrics_sampled  # noqa: F401 (registered)
+from formsync_design.verify import (  # noqa: F401 (registered)
+    metrics_attitude,
+    metrics_compare,
+    metrics_design,
+    metrics_sampled,
+)
 from formsync_design.verify.agentcase import ENGINE_TABLES, AgentCase, parse_agent_case
 from formsync_design.verify.case import case_path
 from formsync_design.verify.enginedraws import DRAW_RULES
@@ -80,9 +94,9 @@ _ID = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,39}")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,39}")
 _TEXT_MAX = 4000
 _KEYS = {
-    "formations": {"name", "graph", "arcs", "n", "pinning", "certify"},
+    "formations": {"name", "graph", "arcs", "n", "pinning", "certify", "initial", "tf"},
     "scenarios": {"name", "description", "design", "gains", "simulation", "disturbance",
-                  "sampling", "period_matching"},
+                  "sampling", "period_matching", "torque_matching"},
     "montecarlo": {"runs", "seed", "max_angle", "max_rate", "box", "tf", "draws", "rate_sigma"},
     "families": {"box"},
     "report": {"runs"},
@@ -93,12 +107,16 @@ _KEYS = {
 @dataclass(frozen=True)
 class FormationSpec:
     """A formation: ``name``, its :class:`~formsync_design.graphs.digraph.Digraph`, ``source``
-    (the graph as the file wrote it), ``certify`` (whether its certificate is computed)."""
+    (the graph as the file wrote it), ``certify`` (whether its certificate is computed),
+    ``initial`` (``(attitudes (N, 4), rates (N, 3))`` it starts from, ``None``: the case's)
+    and ``tf`` (its horizon, ``None``: the scenario's)."""
 
     name: str
     graph: Any
     source: str
     certify: bool = True
+    initial: tuple[Any, Any] | None = None
+    tf: float | None = None
 
 
 @dataclass(frozen=True)
@@ -106,7 +124,9 @@ class ScenarioSpec:
     """A scenario: ``name``, ``description``, the validated ``case`` (base + overrides), the
     ``overrides`` as written, the ``design`` its runs use (the case's, or its
     :func:`~formsync_design.spec.agent.rule_variant` under ``sampling``) and
-    ``period_matching`` (the scenario whose broadcasts its period matches, or ``None``)."""
+    ``period_matching`` (the scenario whose broadcasts its period matches, or ``None``),
+    ``torque_matching`` (``scenario``, ``formation``, ``hold``, ``rtol``: its gains scaled to
+    that scenario's peak torque, or ``None``)."""
 
     name: str
     description: str
@@ -114,6 +134,7 @@ class ScenarioSpec:
     overrides: dict[str, Any]
     design: Any = None
     period_matching: str | None = None
+    torque_matching: dict[str, Any] | None = None
 
     @property
     def run_design(self) -> Any:
@@ -188,10 +209,18 @@ class EngineCase:
         return next(s for s in self.scenarios if s.name == name)
 
     def case_for(self, formation: str, scenario: str) -> AgentCase:
-        """The scenario's case resized to the formation (spacecraft cycled when it differs)."""
-        g = self.formation(formation).graph
+        """The scenario's case resized to the formation (spacecraft cycled when it differs),
+        from the formation's initial state and with its horizon when it declares them."""
+        from dataclasses import replace
+
+        f = self.formation(formation)
         c = self.scenario(scenario).case
-        return c if g.n == c.n else c.cycled(g.n)
+        c = c if f.graph.n == c.n else c.cycled(f.graph.n)
+        if f.initial is not None:
+            c = replace(c, attitudes=f.initial[0], rates=f.initial[1])
+        if f.tf is not None:
+            c = replace(c, options=replace(c.options, tf=f.tf))
+        return c
 
 
 def directed_cycle(n: int) -> Any:
@@ -287,6 +316,31 @@ def _graph(row: dict, where: str, base: AgentCase, path: str) -> tuple[Any, str]
     return make_digraph(case_path(spec, path), pinning=pin), spec
 
 
+def _initial(row: dict, where: str, agent: dict, n: int, path: str) -> tuple[Any, Any] | None:
+    """A formation's ``initial`` rows read by the agent case parser (each beside the case's
+    spacecraft ``i``'s inertia; only on a formation of the case's size)."""
+    init = row.get("initial")
+    if init is None:
+        return None
+    if not isinstance(init, list) or len(init) != n or not all(isinstance(r, dict) for r in init):
+        raise InputError(f"expected {where}.initial = [{{euler_deg | q | quaternion, rate}}, ...] "
+                         f"with {n} spacecraft, received {init!r:.60}")
+    sc = agent.get("spacecraft", [])
+    if n != len(sc):
+        raise InputError(f"expected {where}.initial on a formation of the case's {len(sc)} "
+                         f"spacecraft, received it on one of {n}")
+    for k, r in enumerate(init, 1):
+        extra = sorted(set(r) - {"euler_deg", "q", "quaternion", "rate"})
+        if extra:
+            raise InputError(f"expected {where}.initial[{k}] keys among euler_deg, q, quaternion, "
+                             f"rate, received unknown {extra}")
+    doc = copy.deepcopy(agent)
+    doc["spacecraft"] = [{"inertia": sc[i].get("inertia"), **copy.deepcopy(r)}
+                         for i, r in enumerate(init)]
+    c = parse_agent_case(doc, path)
+    return c.attitudes, c.rates
+
+
 def _formations(data: dict, base: AgentCase, path: str) -> tuple[FormationSpec, ...]:
     rows = _rows(data, "formations", path)
     if not rows:
@@ -308,7 +362,10 @@ def _formations(data: dict, base: AgentCase, path: str) -> tuple[FormationSpec, 
         cert = row.get("certify", True)
         if not isinstance(cert, bool):
             raise InputError(f"expected {where}.certify = true or false, received {cert!r:.30}")
-        out.append(FormationSpec(name, g, src, cert))
+        agent = {k: v for k, v in data.items() if k not in ENGINE_TABLES}
+        init = _initial(row, where, agent, g.n, path)
+        tf = None if "tf" not in row else _number(row["tf"], f"{where}.tf", "horizon")
+        out.append(FormationSpec(name, g, src, cert, init, tf))
     return tuple(out)
 
 
@@ -339,7 +396,8 @@ def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[Sce
                 merged[table] = {**merged.get(table, {}), **t}
         case = parse_agent_case(merged, path, design=None if other else base.design)
         design, match = _sampling(row, where, case, over)
-        out.append(ScenarioSpec(name, desc, case, over, design, match))
+        torque = _torque_matching(row, where, case, over)
+        out.append(ScenarioSpec(name, desc, case, over, design, match, torque))
     names = [s.name for s in out]
     for s in out:
         m = s.period_matching
@@ -348,7 +406,42 @@ def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[Sce
             raise InputError(f"expected scenarios[{names.index(s.name) + 1}].period_matching "
                              f"naming another scenario among {names} that has no "
                              f"period_matching itself, received {m!r:.60}")
+        t = s.torque_matching
+        if t is not None and (t["scenario"] not in names or t["scenario"] == s.name
+                              or next(x for x in out if x.name == t["scenario"]).torque_matching):
+            raise InputError(f"expected scenarios[{names.index(s.name) + 1}].torque_matching."
+                             f"scenario naming another scenario among {names} that has no "
+                             f"torque_matching itself, received {t['scenario']!r:.60}")
     return tuple(out)
+
+
+def _torque_matching(row: dict, where: str, case: AgentCase, over: dict[str, Any]
+                     ) -> dict[str, Any] | None:
+    """A scenario's ``torque_matching`` table, checked (module docstring); its formation is
+    checked against the formations by :func:`parse_engine_case`."""
+    t = row.get("torque_matching")
+    if t is None:
+        return None
+    keys = {"scenario", "formation", "hold", "rtol"}
+    if not isinstance(t, dict) or not {"scenario", "formation"} <= set(t) or set(t) - keys:
+        raise InputError(f"expected {where}.torque_matching = {{scenario, formation, hold, rtol}}, "
+                         f"received {t!r:.60}")
+    hold = t.get("hold", [])
+    gains = list(case.design.decl.controller_gains)
+    if not isinstance(hold, list) or not all(isinstance(h, str) and h in gains for h in hold):
+        raise InputError(f"expected {where}.torque_matching.hold as gains among {gains}, "
+                         f"received {hold!r:.60}")
+    rtol = _number(t.get("rtol", 1e-3), f"{where}.torque_matching.rtol", "tolerance")
+    if not 0 < rtol < 1:
+        raise InputError(f"expected {where}.torque_matching.rtol in (0, 1), received {rtol:g}")
+    for k in ("scenario", "formation"):
+        if not isinstance(t[k], str):
+            raise InputError(f"expected {where}.torque_matching.{k} as a name, received "
+                             f"{t[k]!r:.40}")
+    out = {"scenario": t["scenario"], "formation": t["formation"], "hold": list(hold),
+           "rtol": rtol}
+    over["torque_matching"] = out
+    return out
 
 
 def _other_design(row: dict, where: str, merged: dict, over: dict[str, Any]) -> bool:
@@ -439,6 +532,9 @@ def _montecarlo(data: dict, base: AgentCase) -> MonteCarloSpec | None:
     if draws == "about-reference" and ("max_rate" in t or "box" in t):
         raise InputError("expected rate_sigma and the scenario's gains with draws = "
                          "\"about-reference\", received max_rate or box")
+    if draws == "euler-uniform" and ("rate_sigma" in t or "box" in t):
+        raise InputError("expected max_angle, max_rate and the scenario's gains with draws = "
+                         "\"euler-uniform\", received rate_sigma or box")
     tf = None if "tf" not in t else _number(t["tf"], "montecarlo.tf", "horizon")
     sigma = _number(t.get("rate_sigma", 0.01), "montecarlo.rate_sigma", "rate")
     box = t.get("box", {})
@@ -502,9 +598,9 @@ def _metrics(data: dict, base: AgentCase, forms: tuple[FormationSpec, ...],
                              f"{name!r} ({why})")
         agg = row.get("montecarlo")
         skip = row.get("skip_unknown", False)
-        if agg is not None and (agg not in ("max", "min") or spec.evidence != "simulation"
+        if agg is not None and (agg not in ("max", "min", "mean") or spec.evidence != "simulation"
                                 or spec.value != "number"):
-            raise InputError(f"expected {where}.montecarlo = \"max\" or \"min\" on a simulation "
+            raise InputError(f"expected {where}.montecarlo = \"max\", \"min\" or \"mean\" on a simulation "
                              f"metric, received {agg!r:.30} on {name!r} ({spec.evidence})")
         if not isinstance(skip, bool) or (skip and agg is None):
             raise InputError(f"expected {where}.skip_unknown = true or false with montecarlo, "
@@ -539,6 +635,10 @@ def _metrics(data: dict, base: AgentCase, forms: tuple[FormationSpec, ...],
         vs = args.get("versus")
         if vs is not None and vs not in snames:
             raise InputError(f"expected {where}.versus among {snames}, received {vs!r:.60}")
+        listed = [x.strip() for x in str(args.get("scenarios", "")).split(",") if x.strip()]
+        if any(x not in snames for x in listed):
+            raise InputError(f"expected {where}.scenarios (comma-separated) among {snames}, "
+                             f"received {args['scenarios']!r:.60}")
         out.append(MetricRow(mid, spec, f, s, args, agg, skip))
     return tuple(out)
 
@@ -573,6 +673,11 @@ def parse_engine_case(data: dict, path: str = "<memory>", design: Any = None) ->
     base = parse_agent_case(copy.deepcopy(agent), path, design=design)
     forms = _formations(data, base, path)
     scens = _scenarios(data, agent, base, path)
+    fnames = [f.name for f in forms]
+    for k, sc in enumerate(scens, 1):
+        if sc.torque_matching is not None and sc.torque_matching["formation"] not in fnames:
+            raise InputError(f"expected scenarios[{k}].torque_matching.formation among {fnames}, "
+                             f"received {sc.torque_matching['formation']!r:.60}")
     mc = _montecarlo(data, base)
     fam = _families(data, base)
     metrics = _metrics(data, base, forms, scens, mc, fam)
