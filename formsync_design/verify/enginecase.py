@@ -12,9 +12,8 @@ range-checked, :mod:`formsync_design.ranges`; bad input is one line, exit 2)::
                     to the case file) | "case" (the case's own graph, the default), or
                     arcs = [[i, j, a_ij], ...] with n; pinning = [b_1, ..., b_N] (leader);
                     certify = false (no certificate: for a formation too large to certify);
-                    initial = [{euler_deg | q | quaternion, rate}, ...] (one per spacecraft,
-                    on a formation of the case's size: it starts there, inertias of the
-                    case), tf (its horizon, replacing the scenario's)
+                    initial = [{euler_deg | q | quaternion, rate}, ...], tf (its own initial
+                    state and horizon: formsync_design.verify.enginekeys)
     [[scenarios]]   name, description, and overrides of the base case: gains = {K1 = 2.0},
                     simulation = {tf = 40, switch = "sat", period = 0.2}, disturbance =
                     {model = "none"} (the disturbance table replaced whole); sampling =
@@ -26,11 +25,8 @@ range-checked, :mod:`formsync_design.ranges`; bad input is one line, exit 2)::
                     runs another agent design, resolved like [case] design: a comparison
                     method on the same spacecraft, formations and simulation; its gains
                     table is then required and replaces the base gains whole);
-                    torque_matching = {scenario, formation, hold = [gain, ...], rtol}: every
-                    gain but those held is multiplied by the one factor c that makes the
-                    scenario's peak torque on that formation equal that scenario's (the
-                    search of formsync_design.analysis.equal_torque, done once per
-                    verification; every run of the scenario then uses the scaled gains)
+                    torque_matching = {scenario, formation, hold, rtol} (its gains scaled to
+                    that scenario's peak torque: formsync_design.verify.enginekeys)
     [montecarlo]    runs, seed, max_angle (deg), max_rate (rad/s), box = {K1 = "1:2", ...}
                     (the gains drawn; default the scenario's gains), tf (the draws' horizon;
                     default the scenario's), draws = "box" | "about-reference" (with
@@ -71,7 +67,6 @@ from typing import Any
 
 from formsync_design.errors import InputError
 from formsync_design.ranges import check_range
-from formsync_design.sim.agent_montecarlo import MAX_AGENT_RUNS, AgentMonteCarloSettings
 from formsync_design.tomlio import load_toml
 from formsync_design.verify import (  # noqa: F401 (registered)
     metrics_attitude,
@@ -81,11 +76,17 @@ from formsync_design.verify import (  # noqa: F401 (registered)
 )
 from formsync_design.verify.agentcase import ENGINE_TABLES, AgentCase, parse_agent_case
 from formsync_design.verify.case import case_path
-from formsync_design.verify.enginedraws import DRAW_RULES
+from formsync_design.verify.enginekeys import (
+    MonteCarloSpec,
+    check_torque_matching,
+    formation_initial,
+    parse_montecarlo,
+    torque_matching,
+)
 from formsync_design.verify.metrics import METRICS, MetricSpec, check_metric_args, point_gains
 from formsync_design.verify.predicates import KEYWORDS, Node, parse_predicate
 
-__all__ = ["FormationSpec", "ScenarioSpec", "MonteCarloSpec", "MetricRow",
+__all__ = ["FormationSpec", "ScenarioSpec", "MetricRow",
            "ClaimRow", "EngineCase", "load_engine_case", "parse_engine_case", "directed_cycle"]
 
 #: The tables an engine case adds to the agent case layout.
@@ -97,7 +98,6 @@ _KEYS = {
     "formations": {"name", "graph", "arcs", "n", "pinning", "certify", "initial", "tf"},
     "scenarios": {"name", "description", "design", "gains", "simulation", "disturbance",
                   "sampling", "period_matching", "torque_matching"},
-    "montecarlo": {"runs", "seed", "max_angle", "max_rate", "box", "tf", "draws", "rate_sigma"},
     "families": {"box"},
     "report": {"runs"},
     "claims": {"id", "text", "source", "predicate"},
@@ -139,20 +139,6 @@ class ScenarioSpec:
     @property
     def run_design(self) -> Any:
         return self.case.design if self.design is None else self.design
-
-
-@dataclass(frozen=True)
-class MonteCarloSpec:
-    """``settings`` (runs, seed, spreads), ``box`` (gain -> ``"lo:hi"``, ``{}``: the
-    scenario's gains), ``tf`` (the draws' horizon, ``None``: the scenario's), ``draws``
-    (:data:`~formsync_design.verify.enginedraws.DRAW_RULES`) and ``rate_sigma`` (rad/s,
-    ``about-reference``)."""
-
-    settings: AgentMonteCarloSettings
-    box: dict[str, str]
-    tf: float | None = None
-    draws: str = "box"
-    rate_sigma: float = 0.01
 
 
 @dataclass(frozen=True)
@@ -316,31 +302,6 @@ def _graph(row: dict, where: str, base: AgentCase, path: str) -> tuple[Any, str]
     return make_digraph(case_path(spec, path), pinning=pin), spec
 
 
-def _initial(row: dict, where: str, agent: dict, n: int, path: str) -> tuple[Any, Any] | None:
-    """A formation's ``initial`` rows read by the agent case parser (each beside the case's
-    spacecraft ``i``'s inertia; only on a formation of the case's size)."""
-    init = row.get("initial")
-    if init is None:
-        return None
-    if not isinstance(init, list) or len(init) != n or not all(isinstance(r, dict) for r in init):
-        raise InputError(f"expected {where}.initial = [{{euler_deg | q | quaternion, rate}}, ...] "
-                         f"with {n} spacecraft, received {init!r:.60}")
-    sc = agent.get("spacecraft", [])
-    if n != len(sc):
-        raise InputError(f"expected {where}.initial on a formation of the case's {len(sc)} "
-                         f"spacecraft, received it on one of {n}")
-    for k, r in enumerate(init, 1):
-        extra = sorted(set(r) - {"euler_deg", "q", "quaternion", "rate"})
-        if extra:
-            raise InputError(f"expected {where}.initial[{k}] keys among euler_deg, q, quaternion, "
-                             f"rate, received unknown {extra}")
-    doc = copy.deepcopy(agent)
-    doc["spacecraft"] = [{"inertia": sc[i].get("inertia"), **copy.deepcopy(r)}
-                         for i, r in enumerate(init)]
-    c = parse_agent_case(doc, path)
-    return c.attitudes, c.rates
-
-
 def _formations(data: dict, base: AgentCase, path: str) -> tuple[FormationSpec, ...]:
     rows = _rows(data, "formations", path)
     if not rows:
@@ -363,7 +324,7 @@ def _formations(data: dict, base: AgentCase, path: str) -> tuple[FormationSpec, 
         if not isinstance(cert, bool):
             raise InputError(f"expected {where}.certify = true or false, received {cert!r:.30}")
         agent = {k: v for k, v in data.items() if k not in ENGINE_TABLES}
-        init = _initial(row, where, agent, g.n, path)
+        init = formation_initial(row, where, agent, g.n, path)
         tf = None if "tf" not in row else _number(row["tf"], f"{where}.tf", "horizon")
         out.append(FormationSpec(name, g, src, cert, init, tf))
     return tuple(out)
@@ -396,7 +357,7 @@ def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[Sce
                 merged[table] = {**merged.get(table, {}), **t}
         case = parse_agent_case(merged, path, design=None if other else base.design)
         design, match = _sampling(row, where, case, over)
-        torque = _torque_matching(row, where, case, over)
+        torque = torque_matching(row, where, case, over)
         out.append(ScenarioSpec(name, desc, case, over, design, match, torque))
     names = [s.name for s in out]
     for s in out:
@@ -406,42 +367,7 @@ def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[Sce
             raise InputError(f"expected scenarios[{names.index(s.name) + 1}].period_matching "
                              f"naming another scenario among {names} that has no "
                              f"period_matching itself, received {m!r:.60}")
-        t = s.torque_matching
-        if t is not None and (t["scenario"] not in names or t["scenario"] == s.name
-                              or next(x for x in out if x.name == t["scenario"]).torque_matching):
-            raise InputError(f"expected scenarios[{names.index(s.name) + 1}].torque_matching."
-                             f"scenario naming another scenario among {names} that has no "
-                             f"torque_matching itself, received {t['scenario']!r:.60}")
     return tuple(out)
-
-
-def _torque_matching(row: dict, where: str, case: AgentCase, over: dict[str, Any]
-                     ) -> dict[str, Any] | None:
-    """A scenario's ``torque_matching`` table, checked (module docstring); its formation is
-    checked against the formations by :func:`parse_engine_case`."""
-    t = row.get("torque_matching")
-    if t is None:
-        return None
-    keys = {"scenario", "formation", "hold", "rtol"}
-    if not isinstance(t, dict) or not {"scenario", "formation"} <= set(t) or set(t) - keys:
-        raise InputError(f"expected {where}.torque_matching = {{scenario, formation, hold, rtol}}, "
-                         f"received {t!r:.60}")
-    hold = t.get("hold", [])
-    gains = list(case.design.decl.controller_gains)
-    if not isinstance(hold, list) or not all(isinstance(h, str) and h in gains for h in hold):
-        raise InputError(f"expected {where}.torque_matching.hold as gains among {gains}, "
-                         f"received {hold!r:.60}")
-    rtol = _number(t.get("rtol", 1e-3), f"{where}.torque_matching.rtol", "tolerance")
-    if not 0 < rtol < 1:
-        raise InputError(f"expected {where}.torque_matching.rtol in (0, 1), received {rtol:g}")
-    for k in ("scenario", "formation"):
-        if not isinstance(t[k], str):
-            raise InputError(f"expected {where}.torque_matching.{k} as a name, received "
-                             f"{t[k]!r:.40}")
-    out = {"scenario": t["scenario"], "formation": t["formation"], "hold": list(hold),
-           "rtol": rtol}
-    over["torque_matching"] = out
-    return out
 
 
 def _other_design(row: dict, where: str, merged: dict, over: dict[str, Any]) -> bool:
@@ -495,62 +421,11 @@ def _sampling(row: dict, where: str, case: AgentCase, over: dict[str, Any]
     return design, match
 
 
-def _int(v: Any, where: str, lo: int, hi: int) -> int:
-    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-        raise InputError(f"expected {where} an integer in [{lo}, {hi}], received {v!r:.40}")
-    return v
-
-
 def _number(v: Any, where: str, quantity: str) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float)):
         raise InputError(f"expected {where} as a number, received {v!r:.40}")
     check_range(v, quantity, where)
     return float(v)
-
-
-def _montecarlo(data: dict, base: AgentCase) -> MonteCarloSpec | None:
-    from formsync_design.gains import parse_gain_range
-
-    t = data.get("montecarlo")
-    if t is None:
-        return None
-    if not isinstance(t, dict):
-        raise InputError(f"expected a [montecarlo] table, received {t!r:.60}")
-    _check_keys(t, "montecarlo", "[montecarlo]")
-    settings = AgentMonteCarloSettings(
-        runs=_int(t.get("runs", 20), "montecarlo.runs", 1, MAX_AGENT_RUNS),
-        seed=_int(t.get("seed", 0), "montecarlo.seed", 0, 2**63 - 1),
-        max_angle_deg=_number(t.get("max_angle", 90.0), "montecarlo.max_angle", "angle"),
-        max_rate=_number(t.get("max_rate", 0.01), "montecarlo.max_rate", "rate"))
-    draws = t.get("draws", "box")
-    if draws not in DRAW_RULES:
-        raise InputError(f"expected montecarlo.draws among {list(DRAW_RULES)}, received "
-                         f"{draws!r:.40}")
-    if draws == "box" and "rate_sigma" in t:
-        raise InputError("expected montecarlo.rate_sigma only with draws = \"about-reference\", "
-                         "received it with the box draws")
-    if draws == "about-reference" and ("max_rate" in t or "box" in t):
-        raise InputError("expected rate_sigma and the scenario's gains with draws = "
-                         "\"about-reference\", received max_rate or box")
-    if draws == "euler-uniform" and ("rate_sigma" in t or "box" in t):
-        raise InputError("expected max_angle, max_rate and the scenario's gains with draws = "
-                         "\"euler-uniform\", received rate_sigma or box")
-    tf = None if "tf" not in t else _number(t["tf"], "montecarlo.tf", "horizon")
-    sigma = _number(t.get("rate_sigma", 0.01), "montecarlo.rate_sigma", "rate")
-    box = t.get("box", {})
-    if not isinstance(box, dict):
-        raise InputError(f"expected montecarlo.box = {{gain = \"lo:hi\"}}, received {box!r:.60}")
-    ctrl = list(base.design.decl.controller_gains)
-    unknown = sorted(set(box) - set(ctrl))
-    if unknown:
-        raise InputError(f"expected montecarlo.box gains among {ctrl}, received unknown {unknown}")
-    out = {}
-    for k, v in box.items():
-        if isinstance(v, bool) or not isinstance(v, (str, int, float)):
-            raise InputError(f"expected montecarlo.box.{k} as \"lo:hi\" or a number, received {v!r:.40}")
-        parse_gain_range(str(v), f"montecarlo.box.{k}")
-        out[k] = str(v)
-    return MonteCarloSpec(settings, out, tf, str(draws), sigma)
 
 
 def _families(data: dict, base: AgentCase) -> dict[str, str] | None:
@@ -673,12 +548,8 @@ def parse_engine_case(data: dict, path: str = "<memory>", design: Any = None) ->
     base = parse_agent_case(copy.deepcopy(agent), path, design=design)
     forms = _formations(data, base, path)
     scens = _scenarios(data, agent, base, path)
-    fnames = [f.name for f in forms]
-    for k, sc in enumerate(scens, 1):
-        if sc.torque_matching is not None and sc.torque_matching["formation"] not in fnames:
-            raise InputError(f"expected scenarios[{k}].torque_matching.formation among {fnames}, "
-                             f"received {sc.torque_matching['formation']!r:.60}")
-    mc = _montecarlo(data, base)
+    check_torque_matching(scens, [f.name for f in forms])
+    mc = parse_montecarlo(data, base)
     fam = _families(data, base)
     metrics = _metrics(data, base, forms, scens, mc, fam)
     claims = _claims(data, metrics, path)
