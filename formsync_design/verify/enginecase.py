@@ -466,7 +466,7 @@ def _metrics(data: dict, base: AgentCase, forms: tuple[FormationSpec, ...],
             raise InputError(f"expected {where}.metric among {sorted(METRICS)}, received {name!r:.60}")
         spec = METRICS[name]
         s = row.get("scenario", snames[0])
-        run = next((x.run_design for x in scens if x.name == s), base.design)
+        run = next((x.case.design for x in scens if x.name == s), base.design)
         why = spec.applies(run) if spec.applies is not None else None
         if why is not None:
             raise InputError(f"expected a metric that applies to the design in {where}, received "
