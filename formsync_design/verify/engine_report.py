@@ -81,6 +81,11 @@ def _mc_scope(case: Any, f: str, s: str) -> str:
                 f"up to {st.max_angle_deg:g} deg about uniform axes, rates N(0, "
                 f"{mc.rate_sigma:g}^2) rad/s per axis, disturbance phases drawn, the scenario's "
                 "gains [evidence]")
+    if mc.draws == "euler-uniform":
+        return (f"formation on {g.name} (N = {g.n}) under scenario {s}: {st.runs} seeded draws "
+                f"(seed {st.seed}{tf}), every 3-2-1 Euler angle uniform in +-{st.max_angle_deg:g} "
+                f"deg, every rate component uniform in +-{st.max_rate:g} rad/s, the scenario's "
+                "gains [evidence]")
     return (f"formation on {g.name} (N = {g.n}) under scenario {s}: {st.runs} seeded runs "
             f"(seed {st.seed}{tf}), attitudes up to {st.max_angle_deg:g} deg from the identity, "
             f"rates up to {st.max_rate:g} rad/s, gains {box} [evidence]")
