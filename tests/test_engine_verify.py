@@ -424,6 +424,43 @@ id = "energy\"""", 1)
         METRICS.pop("test_other_energy", None)
 
 
+def test_scenarios_of_two_designs_with_the_same_gains_are_certified_apart(tmp_path, capsys):
+    """The certificate is of the scenario's design: a damper (no attitude feedback: undecided,
+    a marginal mode) and a PD law with the same gain name and value (certified) on the same
+    formation must not share one certificate."""
+    from formsync_design.verify.engine import run_engine
+    from formsync_design.verify.enginecase import load_engine_case
+
+    (tmp_path / "damper.py").write_text(DAMPER)
+    (tmp_path / "pd.py").write_text(
+        DAMPER.replace("return -v.k * v.J * v.w",
+                       "s = sum((n.a * (v.q - n.q) for n in v.nbrs), 0 * v.q)\n"
+                       "    return -v.k * v.J * v.w - v.k * s")
+        .replace("test_damper_kinetic_energy", "test_pd_energy"))
+    text = DAMPER_CASE.replace("[[metrics]]\nid = \"energy\"", """[[scenarios]]
+name = "nominal"
+[[scenarios]]
+name = "pd"
+design = "pd.py"
+gains = {k = 1.0}
+[[metrics]]
+id = "cert_pd"
+metric = "formation_certificate"
+scenario = "pd"
+[[metrics]]
+id = "energy\"""", 1)
+    try:
+        ver = run_engine(load_engine_case(_write(tmp_path, text, "damper_case.toml")))
+        certs = {s: c for _, s, c in ver.certificates}
+        assert str(certs["nominal"].status) == "undecided"
+        assert str(certs["pd"].status) == "certified"
+    finally:
+        from formsync_design.verify.metrics import METRICS
+
+        METRICS.pop("test_damper_kinetic_energy", None)
+        METRICS.pop("test_pd_energy", None)
+
+
 SAMPLED = """
 [case]
 kind = "engine"

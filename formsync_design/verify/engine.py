@@ -277,7 +277,7 @@ class EngineResults:
         if point is None:
             return why
         g = self.case.formation(formation).graph
-        ckey = (formation, tuple(sorted(point.items())), switch, phi,
+        ckey = (formation, c.design.key, tuple(sorted(point.items())), switch, phi,
                 c.inertias.tobytes())
         self.cert_keys[(formation, scenario)] = ckey
         if ckey not in self._certs:
