@@ -15,7 +15,7 @@ import pytest
 
 from formsync_design.cli.main import main
 from formsync_design.resources import case_file
-from formsync_design.sim import flyaround as F
+from formsync_design.sim import tracking as F
 from formsync_design.verify.flyaround_case import load_flyaround_case
 from formsync_design.verify.flyaround_claims import (
     METRICS,

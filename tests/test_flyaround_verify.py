@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from formsync_design.analysis.flyaround import (
+from formsync_design.analysis.tracking import (
     CertStatus,
     attitude_certificate,
     orbit_certificate,

@@ -1,10 +1,10 @@
 """The verifier of the fly-around case kind (``[case] kind = "flyaround"``).
 
-:func:`verify_flyaround` simulates the case (compiled, :mod:`formsync_design.sim.flyaround`),
+:func:`verify_flyaround` simulates the case (compiled, :mod:`formsync_design.sim.tracking`),
 computes every quantity of
 :data:`~formsync_design.verify.flyaround_claims.QUANTITIES` from the run, judges the claims, runs the
 sensitivity study and the allocation comparison (pseudo-inverse shift / clip against the
-minimum-fuel LP), and certifies the loop (:mod:`formsync_design.analysis.flyaround`).
+minimum-fuel LP), and certifies the loop (:mod:`formsync_design.analysis.tracking`).
 :func:`verify_flyaround_case` is the ``formsync verify`` entry point (registered in
 :mod:`formsync_design.verify.kinds`).
 
@@ -77,11 +77,11 @@ def verify_flyaround(path: str | Path | None = None, spec: Any = None,
     """
     from dataclasses import replace
 
-    from formsync_design.analysis.flyaround import attitude_certificate, orbit_certificate
+    from formsync_design.analysis.tracking import attitude_certificate, orbit_certificate
     from formsync_design.derive.tracking import derive_tracking_attitude
-    from formsync_design.models.flyaround import printed_phi_finding
     from formsync_design.models.pwm import rocket_fuel
-    from formsync_design.sim.flyaround import simulate_flyaround
+    from formsync_design.models.relative_reference import printed_phi_finding
+    from formsync_design.sim.tracking import simulate_flyaround
     from formsync_design.spec.loader import load_spec
     from formsync_design.verify.flyaround_case import apply_variant, load_flyaround_case
 

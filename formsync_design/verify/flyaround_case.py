@@ -42,11 +42,11 @@ import numpy as np
 
 from formsync_design.errors import InputError
 from formsync_design.gains import parse_real
-from formsync_design.models.flyaround import FlyaroundParams
 from formsync_design.models.orbit import KeplerElements
+from formsync_design.models.relative_reference import FlyaroundParams
 from formsync_design.models.thrusters import zhang2014_layout
 from formsync_design.ranges import check_range, quantity_of
-from formsync_design.sim.flyaround_scenario import ALLOCATIONS, FlyaroundOptions, FlyaroundScenario
+from formsync_design.sim.tracking_scenario import ALLOCATIONS, FlyaroundOptions, FlyaroundScenario
 from formsync_design.spec.declarations import GainKind
 from formsync_design.spec.loader import Spec, load_spec
 from formsync_design.tomlio import load_toml

@@ -239,7 +239,7 @@ def write_flyaround_report(res: FlyaroundVerification, out: str | Path, case_dis
                            command: str) -> tuple[Path, list[Path]]:
     """Write the report and its figures; returns ``(markdown path, figure paths)``."""
     from formsync_design.sim.figures import save_figure
-    from formsync_design.sim.flyaround_figures import (
+    from formsync_design.sim.tracking_figures import (
         flyaround_figures,
         fuel_figure,
         transition_figure,

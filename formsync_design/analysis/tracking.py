@@ -49,8 +49,8 @@ import sympy as sp
 from formsync_design.certify.exact import exact_ldl
 from formsync_design.derive.tracking import derive_tracking_attitude
 from formsync_design.gains import json_number
-from formsync_design.models.flyaround import desired_attitude
 from formsync_design.models.orbit import LQRMargins, cw_matrices, lqr_margins
+from formsync_design.models.relative_reference import desired_attitude
 
 __all__ = ["CertStatus", "OrbitCertificate", "orbit_certificate", "AttitudeCertificate",
            "attitude_certificate", "reference_rate_bounds"]
@@ -84,7 +84,7 @@ class OrbitCertificate:
 
 def orbit_certificate(case: Any) -> OrbitCertificate:
     """LQR evidence for a fly-around case (:class:`~formsync_design.verify.flyaround_case.FlyaroundCase`)."""
-    from formsync_design.sim.flyaround import lqr_for
+    from formsync_design.sim.tracking import lqr_for
 
     design, _, r = lqr_for(case.spec, case.scenario)
     a, b = cw_matrices(case.scenario.mean_motion)

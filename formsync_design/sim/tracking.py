@@ -3,7 +3,7 @@
 :func:`simulate_flyaround` runs a tracking design (default ``zhang2014_flyaround``) on a
 :class:`FlyaroundScenario` (orbits, spacecraft, fly-around reference, thrusters, gains):
 one control sample every ``sample_period`` seconds with the PWM pulses of that sample
-integrated inside it (:mod:`formsync_design.sim.flyaround_model`).  The sample step is
+integrated inside it (:mod:`formsync_design.sim.tracking_model`).  The sample step is
 generated once per design and option set, compiled to C through the kernel compiler and
 disk cache of :mod:`formsync_design.sim.kernels`, and folded over chunks of samples
 (``casadi.Function.mapaccum``), so the whole 18 000 s case is a few calls into C.  With
@@ -43,10 +43,6 @@ from typing import Any
 import numpy as np
 
 from formsync_design.errors import InputError
-from formsync_design.models.flyaround import (
-    desired_attitude,
-    rotation_rT,
-)
 from formsync_design.models.mrp import mrp_from_matrix
 from formsync_design.models.orbit import (
     LQRDesign,
@@ -55,16 +51,20 @@ from formsync_design.models.orbit import (
     lqr_design,
     relative_state,
 )
+from formsync_design.models.relative_reference import (
+    desired_attitude,
+    rotation_rT,
+)
 from formsync_design.models.thrusters import (
     positive_null_vector,
 )
-from formsync_design.sim.flyaround_model import (
+from formsync_design.sim.tracking_model import (
     N_THRUSTERS_MAX,
     OUTPUTS,
     build_functions,
     param_layout,
 )
-from formsync_design.sim.flyaround_scenario import (
+from formsync_design.sim.tracking_scenario import (
     FlyaroundOptions,
     FlyaroundRun,
     FlyaroundScenario,
