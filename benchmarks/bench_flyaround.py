@@ -39,7 +39,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from formsync_design.sim import tracking as F  # noqa: E402
-from formsync_design.verify.flyaround_case import load_flyaround_case  # noqa: E402
+from formsync_design.verify.tracking_case import load_flyaround_case  # noqa: E402
 from tests.flyaround_numpy import simulate_numpy  # noqa: E402
 
 

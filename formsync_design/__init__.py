@@ -181,7 +181,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "sampling_variant": "formsync_design.spec.agent",
     "rule_variant": "formsync_design.spec.agent",
     # tracking designs: the fly-around case
-    "load_flyaround_case": "formsync_design.verify.flyaround_case",
+    "load_flyaround_case": "formsync_design.verify.tracking_case",
     "FlyaroundScenario": "formsync_design.sim.tracking_scenario",
     "FlyaroundOptions": "formsync_design.sim.tracking_scenario",
     "FlyaroundRun": "formsync_design.sim.tracking_scenario",
@@ -189,7 +189,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "flyaround_figures": "formsync_design.sim.tracking_figures",
     "derive_tracking_attitude": "formsync_design.derive.tracking",
     "attitude_certificate": "formsync_design.analysis.tracking",
-    "verify_flyaround": "formsync_design.verify.flyaround",
+    "verify_flyaround": "formsync_design.verify.tracking",
     # agent designs: the paths the command line takes (the generic functions route there)
     "certify_agent": "formsync_design.certify.agent",
     "region_agent": "formsync_design.certify.agent",

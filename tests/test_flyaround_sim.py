@@ -37,7 +37,7 @@ from formsync_design.models.thrusters import (
 )
 from formsync_design.sim import tracking as F
 from formsync_design.sim.tracking_model import N_THRUSTERS_MAX, dcm_to_mrp_ca
-from formsync_design.verify.flyaround_case import load_flyaround_case
+from formsync_design.verify.tracking_case import load_flyaround_case
 from tests.flyaround_numpy import simulate_numpy
 
 CASE = load_flyaround_case()

@@ -83,7 +83,7 @@ class OrbitCertificate:
 
 
 def orbit_certificate(case: Any) -> OrbitCertificate:
-    """LQR evidence for a fly-around case (:class:`~formsync_design.verify.flyaround_case.FlyaroundCase`)."""
+    """LQR evidence for a fly-around case (:class:`~formsync_design.verify.tracking_case.FlyaroundCase`)."""
     from formsync_design.sim.tracking import lqr_for
 
     design, _, r = lqr_for(case.spec, case.scenario)
@@ -178,7 +178,7 @@ def _bound_poly(expr: sp.Expr, bounds: dict[sp.Symbol, Fraction]) -> Fraction:
 def attitude_certificate(case: Any, rate_samples: int = 721) -> AttitudeCertificate:
     """Certify the attitude law over the case's ``[certificate]`` box (module docstring).
 
-    >>> from formsync_design.verify.flyaround_case import load_flyaround_case
+    >>> from formsync_design.verify.tracking_case import load_flyaround_case
     >>> cert = attitude_certificate(load_flyaround_case(), rate_samples=50)
     >>> str(cert.status), cert.vertices, float(cert.alpha) > 0.02
     ('certified', 128, True)

@@ -17,7 +17,7 @@ Keplerian elements (:func:`~formsync_design.models.orbit.relative_state`); the i
 attitude is the desired attitude at ``t = 0`` rotated by the 3-2-1 angles
 ``attitude0_deg`` (body relative to desired), with the relative rate ``rate0``.
 
->>> from formsync_design.verify.flyaround_case import load_flyaround_case
+>>> from formsync_design.verify.tracking_case import load_flyaround_case
 >>> sc = load_flyaround_case().scenario          # the paper's case and the case file's gains
 >>> isinstance(sc, FlyaroundScenario), sc.gains["k_p"]
 (True, (807.0,))
@@ -253,7 +253,7 @@ def simulate_flyaround(scenario: FlyaroundScenario,
     Parameters
     ----------
     scenario : FlyaroundScenario
-        The case (:func:`~formsync_design.verify.flyaround_case.load_flyaround_case` reads
+        The case (:func:`~formsync_design.verify.tracking_case.load_flyaround_case` reads
         one from a case file).
     options : FlyaroundOptions, optional
     spec : Spec or str, optional

@@ -11,7 +11,7 @@ objects without pyplot (no backend is selected); save them with
 
 >>> from formsync_design.sim.tracking import simulate_flyaround
 >>> from formsync_design.sim.tracking_scenario import FlyaroundOptions
->>> from formsync_design.verify.flyaround_case import load_flyaround_case
+>>> from formsync_design.verify.tracking_case import load_flyaround_case
 >>> run = simulate_flyaround(load_flyaround_case().scenario, FlyaroundOptions(tf=4.0))
 >>> sorted(flyaround_figures(run))[:2]
 ['fig5-thrusters', 'fig6-attitude']

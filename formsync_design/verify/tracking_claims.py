@@ -1,5 +1,5 @@
 """The measurements of a fly-around run, the judging of its claims and the verification's
-result (:class:`FlyaroundVerification`), for :mod:`formsync_design.verify.flyaround`.
+result (:class:`FlyaroundVerification`), for :mod:`formsync_design.verify.tracking`.
 
 Judging rules (every verdict computed in the run)
 --------------------------------------------------
