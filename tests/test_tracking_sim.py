@@ -1,6 +1,6 @@
 """The compiled fly-around simulation and its parts against independent truth (issue 14).
 
-* the compiled closed loop against the numpy/scipy oracle (``tests/flyaround_numpy.py``:
+* the compiled closed loop against the numpy/scipy oracle (``tests/tracking_numpy.py``:
   Taylor-mode reference, numpy law, exact pulse segments with DOP853);
 * the CasADi reference and desired frame against :mod:`formsync_design.models.relative_reference`,
   the singular-case fallback included; the DCM -> MRP branches against Shepperd's numpy;
@@ -38,7 +38,7 @@ from formsync_design.models.thrusters import (
 from formsync_design.sim import tracking as F
 from formsync_design.sim.tracking_model import N_THRUSTERS_MAX, dcm_to_mrp_ca
 from formsync_design.verify.tracking_case import load_flyaround_case
-from tests.flyaround_numpy import simulate_numpy
+from tests.tracking_numpy import simulate_numpy
 
 CASE = load_flyaround_case()
 LAYOUT = zhang2014_layout()
