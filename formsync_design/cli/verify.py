@@ -30,7 +30,7 @@ above) or "flyaround" (a tracking design: zhang2014_flyaround simulates the
 18 000 s fly-around with PWM inside every 0.2 s sample, judges the published
 numbers and claims, runs the sensitivity study and the pseudo-inverse / LP
 allocation comparison, and certifies the LQR and the attitude law;
-format: formsync_design/verify/flyaround_case.py), or "engine" (any agent
+format: formsync_design/verify/tracking_case.py), or "engine" (any agent
 design: the case declares formations, scenarios, Monte-Carlo draws, metrics
 from the registry and claims as predicates over them; format and semantics:
 formsync_design/verify/enginecase.py, docs/engine.md).

@@ -9,7 +9,7 @@ result object, writing nothing:
 ``[case] kind``               result
 ============================  ==============================================================
 ``formation`` (the default)   :class:`~formsync_design.verify.results.VerificationResult`
-``flyaround``                 :class:`~formsync_design.verify.flyaround_claims.FlyaroundVerification`
+``flyaround``                 :class:`~formsync_design.verify.tracking_claims.FlyaroundVerification`
 ``lv2012``                    :class:`~formsync_design.verify.lv2012.CaseOutcome`
 ``engine``                    :class:`~formsync_design.verify.engine.EngineVerification`
 ============================  ==============================================================
@@ -115,7 +115,7 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
                              f"{display_path(path)}, received {spec.name} (a {kind_of} design)")
         return verify_formation(path, spec=spec, progress=progress)
     if kind == "flyaround":
-        from formsync_design.verify.flyaround import verify_flyaround
+        from formsync_design.verify.tracking import verify_flyaround
 
         return verify_flyaround(path, spec=spec, progress=progress)
     if kind == "lv2012":

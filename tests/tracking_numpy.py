@@ -1,9 +1,9 @@
 """An independent numpy/scipy implementation of the fly-around closed loop.
 
-The test oracle of :mod:`formsync_design.sim.flyaround` and the baseline of
+The test oracle of :mod:`formsync_design.sim.tracking` and the baseline of
 ``benchmarks/bench_flyaround.py``.  It shares no code with the compiled simulation's
 CasADi model: the reference and the desired frame come from
-:mod:`formsync_design.models.flyaround` (Taylor-mode derivatives, not CasADi's AD), the
+:mod:`formsync_design.models.relative_reference` (Taylor-mode derivatives, not CasADi's AD), the
 attitude law is written out here in numpy (not translated from the design's SymPy), the
 allocation and the PWM are :func:`~formsync_design.models.thrusters.pinv_allocation` and
 :func:`~formsync_design.models.pwm.pwm`, the truth dynamics are
@@ -20,12 +20,12 @@ import math
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from formsync_design.models.flyaround import desired_attitude, desired_position_T
 from formsync_design.models.mrp import mrp_from_matrix, mrp_rhs_terms, mrp_to_matrix
 from formsync_design.models.orbit import cw_matrices, relative_nonlinear_rhs
 from formsync_design.models.pwm import pwm
+from formsync_design.models.relative_reference import desired_attitude, desired_position_T
 from formsync_design.models.thrusters import pinv_allocation, positive_null_vector
-from formsync_design.sim.flyaround import initial_state, lqr_for
+from formsync_design.sim.tracking import initial_state, lqr_for
 
 
 def c_ti(t: float, sc) -> np.ndarray:

@@ -17,7 +17,7 @@ Layout (``verification/zhang2014_flyaround.toml`` is the paper's case)::
     [claims]        [[claims.published]] (id, text, quantity, value, match = "rel:R" |
                     "factor:F", why) and [[claims.qualitative]] (id, text, quantity,
                     op = "<=" | ">=", bound, why); quantities of
-                    :data:`formsync_design.verify.flyaround_claims.QUANTITIES`
+                    :data:`formsync_design.verify.tracking_claims.QUANTITIES`
     [sensitivity]   cases = [{label, gains = {...}, thrusters = {...}, simulation = {...},
                     spacecraft = {inertia_scale = s}}, ...]
     [certificate]   K_d_scale, k_p_scale, inertia_scale = [lo, hi], rate_margin
@@ -42,15 +42,15 @@ import numpy as np
 
 from formsync_design.errors import InputError
 from formsync_design.gains import parse_real
-from formsync_design.models.flyaround import FlyaroundParams
 from formsync_design.models.orbit import KeplerElements
+from formsync_design.models.relative_reference import FlyaroundParams
 from formsync_design.models.thrusters import zhang2014_layout
 from formsync_design.ranges import check_range, quantity_of
-from formsync_design.sim.flyaround_scenario import ALLOCATIONS, FlyaroundOptions, FlyaroundScenario
+from formsync_design.sim.tracking_scenario import ALLOCATIONS, FlyaroundOptions, FlyaroundScenario
 from formsync_design.spec.declarations import GainKind
 from formsync_design.spec.loader import Spec, load_spec
 from formsync_design.tomlio import load_toml
-from formsync_design.verify.flyaround_claims import QUANTITIES
+from formsync_design.verify.tracking_claims import QUANTITIES
 
 __all__ = ["FlyaroundCase", "Variant", "load_flyaround_case", "apply_variant", "LAYOUTS"]
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from formsync_design.analysis.flyaround import (
+from formsync_design.analysis.tracking import (
     CertStatus,
     attitude_certificate,
     orbit_certificate,
@@ -28,8 +28,8 @@ from formsync_design.derive.tracking import derive_tracking_attitude
 from formsync_design.errors import InputError
 from formsync_design.models.orbit import MarginStatus
 from formsync_design.resources import case_file
-from formsync_design.verify.flyaround_case import apply_variant, load_flyaround_case
-from formsync_design.verify.flyaround_claims import Verdict, judge
+from formsync_design.verify.tracking_case import apply_variant, load_flyaround_case
+from formsync_design.verify.tracking_claims import Verdict, judge
 
 CASE = load_flyaround_case()
 TEXT = case_file("zhang2014_flyaround").read_text()

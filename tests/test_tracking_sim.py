@@ -1,8 +1,8 @@
 """The compiled fly-around simulation and its parts against independent truth (issue 14).
 
-* the compiled closed loop against the numpy/scipy oracle (``tests/flyaround_numpy.py``:
+* the compiled closed loop against the numpy/scipy oracle (``tests/tracking_numpy.py``:
   Taylor-mode reference, numpy law, exact pulse segments with DOP853);
-* the CasADi reference and desired frame against :mod:`formsync_design.models.flyaround`,
+* the CasADi reference and desired frame against :mod:`formsync_design.models.relative_reference`,
   the singular-case fallback included; the DCM -> MRP branches against Shepperd's numpy;
 * the LQR gain against scipy's Riccati solver and a Hamiltonian eigenvector solution;
 * the allocations reproduce the commanded wrench or report the shortfall; the LP's fuel
@@ -24,10 +24,10 @@ import pytest
 import scipy.linalg
 
 from formsync_design.models.allocation import BoundedLP, MinFuelAllocator
-from formsync_design.models.flyaround import attitude_frame, desired_attitude
 from formsync_design.models.mrp import mrp_from_matrix, mrp_to_matrix
 from formsync_design.models.orbit import cw_matrices
 from formsync_design.models.pwm import pwm
+from formsync_design.models.relative_reference import attitude_frame, desired_attitude
 from formsync_design.models.thrusters import (
     AllocationStatus,
     lp_allocation,
@@ -35,10 +35,10 @@ from formsync_design.models.thrusters import (
     positive_null_vector,
     zhang2014_layout,
 )
-from formsync_design.sim import flyaround as F
-from formsync_design.sim.flyaround_model import N_THRUSTERS_MAX, dcm_to_mrp_ca
-from formsync_design.verify.flyaround_case import load_flyaround_case
-from tests.flyaround_numpy import simulate_numpy
+from formsync_design.sim import tracking as F
+from formsync_design.sim.tracking_model import N_THRUSTERS_MAX, dcm_to_mrp_ca
+from formsync_design.verify.tracking_case import load_flyaround_case
+from tests.tracking_numpy import simulate_numpy
 
 CASE = load_flyaround_case()
 LAYOUT = zhang2014_layout()

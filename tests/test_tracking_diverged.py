@@ -15,9 +15,9 @@ import pytest
 
 from formsync_design.cli.main import main
 from formsync_design.resources import case_file
-from formsync_design.sim import flyaround as F
-from formsync_design.verify.flyaround_case import load_flyaround_case
-from formsync_design.verify.flyaround_claims import (
+from formsync_design.sim import tracking as F
+from formsync_design.verify.tracking_case import load_flyaround_case
+from formsync_design.verify.tracking_claims import (
     METRICS,
     Verdict,
     diverged_time,

@@ -2,7 +2,7 @@
 
 Written by ``formsync verify zhang2014_flyaround`` to ``<out>/<case>-verification.md`` with
 the figures under ``<out>/figures/<case>-verification/``.  Every number and verdict comes
-from :class:`~formsync_design.verify.flyaround_claims.FlyaroundVerification` (nothing is typed in);
+from :class:`~formsync_design.verify.tracking_claims.FlyaroundVerification` (nothing is typed in);
 times of the run are not printed (they vary; ``benchmarks/bench_flyaround.py`` measures
 them).
 """
@@ -14,8 +14,8 @@ from pathlib import Path
 from typing import Any
 
 from formsync_design.outdir import write_text
-from formsync_design.verify.flyaround_claims import QUANTITIES, FlyaroundVerification, diverged_time
 from formsync_design.verify.output import display_path, report_marker, report_paths
+from formsync_design.verify.tracking_claims import QUANTITIES, FlyaroundVerification, diverged_time
 
 __all__ = ["write_flyaround_report", "flyaround_markdown"]
 
@@ -239,7 +239,7 @@ def write_flyaround_report(res: FlyaroundVerification, out: str | Path, case_dis
                            command: str) -> tuple[Path, list[Path]]:
     """Write the report and its figures; returns ``(markdown path, figure paths)``."""
     from formsync_design.sim.figures import save_figure
-    from formsync_design.sim.flyaround_figures import (
+    from formsync_design.sim.tracking_figures import (
         flyaround_figures,
         fuel_figure,
         transition_figure,

@@ -3,7 +3,7 @@ attitude, attitude error, the design's laws, allocation, PWM and the truth dynam
 
 One sample of the loop (period ``dt``), :func:`build_functions`:
 
-1. reference at ``t_k`` (:mod:`formsync_design.models.flyaround`, written again here in
+1. reference at ``t_k`` (:mod:`formsync_design.models.relative_reference`, written again here in
    CasADi with its time derivatives by automatic differentiation): ``l_r`` and its first
    three derivatives, the desired frame ``R_dr`` (sensor axis ``x_d = -l/|l|``, ``y_d =
    -h/|h|``, ``h = l x l'``) with the singular-case fallback, ``omega_di``, ``omega_di'``;
@@ -111,7 +111,7 @@ def reference_ca(t: Any, ref: Any, rrt: Any, n: Any, r_prev: Any, tol: Any) -> d
 
     ``ref = (a, b, c, phi0, theta0, P1, P2, T, printed)``; ``rrt`` = ``R_rT`` (3x3);
     ``tol = (tol_position, tol_momentum)`` as in
-    :func:`~formsync_design.models.flyaround.attitude_frame`.  Returns ``l_T``, its first
+    :func:`~formsync_design.models.relative_reference.attitude_frame`.  Returns ``l_T``, its first
     two derivatives, ``R_dT``, ``omega_di``, ``omega_di_dot`` (in ``d``), ``R_dr`` and the
     frame status (0 regular, 1 straight-line, 2 coincident).
     """
@@ -189,7 +189,7 @@ def build_functions(laws: dict[str, Any], ngain: int, substeps: int, dt: float) 
 
     ``laws``: ``torque`` and ``acceleration`` (SymPy 3x1), ``bind_torque(view quantities)``
     and ``bind_orbit(...)`` callables mapping CasADi values to the SymPy symbols (built by
-    :mod:`formsync_design.sim.flyaround`).  Returns ``ctrl(x, c, t, p) -> (wrench[6],
+    :mod:`formsync_design.sim.tracking`).  Returns ``ctrl(x, c, t, p) -> (wrench[6],
     thrust[16], out...)``, ``prop(x, c, t, p, f) -> (x+, c+, out)``, ``step(x, c, t, p) ->
     (x+, c+, out)`` and ``ref(t, x, c, p) -> (l_T, l_T', R_dT, omega_di, omega_di',
     status, sigma_sd, omega_sd)`` for tests.

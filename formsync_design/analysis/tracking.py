@@ -49,8 +49,8 @@ import sympy as sp
 from formsync_design.certify.exact import exact_ldl
 from formsync_design.derive.tracking import derive_tracking_attitude
 from formsync_design.gains import json_number
-from formsync_design.models.flyaround import desired_attitude
 from formsync_design.models.orbit import LQRMargins, cw_matrices, lqr_margins
+from formsync_design.models.relative_reference import desired_attitude
 
 __all__ = ["CertStatus", "OrbitCertificate", "orbit_certificate", "AttitudeCertificate",
            "attitude_certificate", "reference_rate_bounds"]
@@ -83,8 +83,8 @@ class OrbitCertificate:
 
 
 def orbit_certificate(case: Any) -> OrbitCertificate:
-    """LQR evidence for a fly-around case (:class:`~formsync_design.verify.flyaround_case.FlyaroundCase`)."""
-    from formsync_design.sim.flyaround import lqr_for
+    """LQR evidence for a fly-around case (:class:`~formsync_design.verify.tracking_case.FlyaroundCase`)."""
+    from formsync_design.sim.tracking import lqr_for
 
     design, _, r = lqr_for(case.spec, case.scenario)
     a, b = cw_matrices(case.scenario.mean_motion)
@@ -178,7 +178,7 @@ def _bound_poly(expr: sp.Expr, bounds: dict[sp.Symbol, Fraction]) -> Fraction:
 def attitude_certificate(case: Any, rate_samples: int = 721) -> AttitudeCertificate:
     """Certify the attitude law over the case's ``[certificate]`` box (module docstring).
 
-    >>> from formsync_design.verify.flyaround_case import load_flyaround_case
+    >>> from formsync_design.verify.tracking_case import load_flyaround_case
     >>> cert = attitude_certificate(load_flyaround_case(), rate_samples=50)
     >>> str(cert.status), cert.vertices, float(cert.alpha) > 0.02
     ('certified', 128, True)

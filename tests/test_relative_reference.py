@@ -1,4 +1,4 @@
-"""Tests of formsync_design.models.flyaround against independent truth.
+"""Tests of formsync_design.models.relative_reference against independent truth.
 
 * analytic derivatives of phi_r, theta_r and l_r against central finite differences;
 * the printed phi_r (exp(-1/P1)) is constant: computed over the simulated span;
@@ -18,7 +18,16 @@ import numpy as np
 import pytest
 
 from formsync_design.errors import InputError
-from formsync_design.models.flyaround import (
+from formsync_design.models.orbit import (
+    ZHANG2014_CHASER,
+    ZHANG2014_TARGET,
+    KeplerElements,
+    elements_to_state,
+    lvlh_matrix,
+    mean_motion,
+    relative_state,
+)
+from formsync_design.models.relative_reference import (
     ZHANG2014_FLYAROUND,
     FrameStatus,
     attitude_frame,
@@ -30,15 +39,6 @@ from formsync_design.models.flyaround import (
     printed_phi_finding,
     rotation_rT,
     theta_r,
-)
-from formsync_design.models.orbit import (
-    ZHANG2014_CHASER,
-    ZHANG2014_TARGET,
-    KeplerElements,
-    elements_to_state,
-    lvlh_matrix,
-    mean_motion,
-    relative_state,
 )
 
 P = ZHANG2014_FLYAROUND

@@ -1,5 +1,5 @@
 """The measurements of a fly-around run, the judging of its claims and the verification's
-result (:class:`FlyaroundVerification`), for :mod:`formsync_design.verify.flyaround`.
+result (:class:`FlyaroundVerification`), for :mod:`formsync_design.verify.tracking`.
 
 Judging rules (every verdict computed in the run)
 --------------------------------------------------
@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from formsync_design.gains import json_number
-from formsync_design.sim.flyaround import rotation_vectors
+from formsync_design.sim.tracking import rotation_vectors
 
 __all__ = ["QUANTITIES", "METRICS", "MIN_PULSE_AFTER", "Verdict", "diverged_time", "ClaimResult",
            "FlyaroundVerification", "judge", "run_metrics", "pointing_errors", "plane_normal"]
@@ -77,7 +77,7 @@ def pointing_errors(run: Any) -> np.ndarray:
 
 def plane_normal(params: Any) -> np.ndarray:
     """The normal ``z_r`` of the fly-around plane of ``params`` in the target frame."""
-    from formsync_design.models.flyaround import rotation_rT
+    from formsync_design.models.relative_reference import rotation_rT
 
     return rotation_rT(params).T @ np.array([0.0, 0.0, 1.0])  # z_r in T
 

@@ -1,15 +1,15 @@
 """The verifier of the fly-around case kind (``[case] kind = "flyaround"``).
 
-:func:`verify_flyaround` simulates the case (compiled, :mod:`formsync_design.sim.flyaround`),
+:func:`verify_flyaround` simulates the case (compiled, :mod:`formsync_design.sim.tracking`),
 computes every quantity of
-:data:`~formsync_design.verify.flyaround_claims.QUANTITIES` from the run, judges the claims, runs the
+:data:`~formsync_design.verify.tracking_claims.QUANTITIES` from the run, judges the claims, runs the
 sensitivity study and the allocation comparison (pseudo-inverse shift / clip against the
-minimum-fuel LP), and certifies the loop (:mod:`formsync_design.analysis.flyaround`).
+minimum-fuel LP), and certifies the loop (:mod:`formsync_design.analysis.tracking`).
 :func:`verify_flyaround_case` is the ``formsync verify`` entry point (registered in
 :mod:`formsync_design.verify.kinds`).
 
 The measurements, the judging rules, the claims and the result value are in
-:mod:`formsync_design.verify.flyaround_claims`.
+:mod:`formsync_design.verify.tracking_claims`.
 """
 
 from __future__ import annotations
@@ -23,14 +23,14 @@ from typing import Any
 import numpy as np
 
 from formsync_design.errors import InputError
-from formsync_design.verify.flyaround_claims import (
+from formsync_design.verify.kinds import VerifyRequest
+from formsync_design.verify.tracking_claims import (
     FlyaroundVerification,
     diverged_time,
     judge,
     plane_normal,
     run_metrics,
 )
-from formsync_design.verify.kinds import VerifyRequest
 
 __all__ = ["verify_flyaround", "verify_flyaround_case"]
 
@@ -77,13 +77,13 @@ def verify_flyaround(path: str | Path | None = None, spec: Any = None,
     """
     from dataclasses import replace
 
-    from formsync_design.analysis.flyaround import attitude_certificate, orbit_certificate
+    from formsync_design.analysis.tracking import attitude_certificate, orbit_certificate
     from formsync_design.derive.tracking import derive_tracking_attitude
-    from formsync_design.models.flyaround import printed_phi_finding
     from formsync_design.models.pwm import rocket_fuel
-    from formsync_design.sim.flyaround import simulate_flyaround
+    from formsync_design.models.relative_reference import printed_phi_finding
+    from formsync_design.sim.tracking import simulate_flyaround
     from formsync_design.spec.loader import load_spec
-    from formsync_design.verify.flyaround_case import apply_variant, load_flyaround_case
+    from formsync_design.verify.tracking_case import apply_variant, load_flyaround_case
 
     say = progress or (lambda _m: None)
     case = load_flyaround_case(path)
@@ -158,8 +158,8 @@ def verify_flyaround_case(req: VerifyRequest) -> int:
     :mod:`formsync_design.verify.kinds`)."""
     import json
 
-    from formsync_design.verify.flyaround_report import write_flyaround_report
     from formsync_design.verify.output import display_path
+    from formsync_design.verify.tracking_report import write_flyaround_report
 
     res = verify_flyaround(req.path, spec=req.design, progress=req.progress)
     req.progress("write the report")

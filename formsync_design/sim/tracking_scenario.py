@@ -1,4 +1,4 @@
-"""The inputs and the result of a fly-around simulation (:func:`~formsync_design.sim.flyaround.
+"""The inputs and the result of a fly-around simulation (:func:`~formsync_design.sim.tracking.
 simulate_flyaround`): the scenario (orbits, spacecraft, fly-around reference, thrusters,
 gains), the options (horizon, sample period, allocation rule, PWM), the run and its status,
 and the 3-2-1 Euler angles of the initial attitude.
@@ -15,10 +15,6 @@ import numpy as np
 
 from formsync_design.errors import InputError
 from formsync_design.gains import json_number
-from formsync_design.models.flyaround import (
-    ZHANG2014_FLYAROUND,
-    FlyaroundParams,
-)
 from formsync_design.models.orbit import (
     MU_EARTH,
     ZHANG2014_CHASER,
@@ -27,13 +23,17 @@ from formsync_design.models.orbit import (
     LQRDesign,
     mean_motion,
 )
+from formsync_design.models.relative_reference import (
+    ZHANG2014_FLYAROUND,
+    FlyaroundParams,
+)
 from formsync_design.models.thrusters import (
     EXHAUST_VELOCITY,
     MIN_PULSE_S,
     ThrusterLayout,
     zhang2014_layout,
 )
-from formsync_design.sim.flyaround_model import (
+from formsync_design.sim.tracking_model import (
     N_THRUSTERS_MAX,
 )
 
@@ -221,7 +221,7 @@ class FlyaroundRun:
         ``(K + 1, 12)`` truth states at ``t_k`` and the final time:
         ``(rho, rho', sigma, omega)``.
     outputs : dict of numpy.ndarray
-        Per-sample outputs (:data:`~formsync_design.sim.flyaround_model.OUTPUTS`): ``dX``,
+        Per-sample outputs (:data:`~formsync_design.sim.tracking_model.OUTPUTS`): ``dX``,
         ``sigma_sd``, ``omega_sd`` (at ``t_k``), ``on_time``, ``wrench_cmd``, ``wrench_pwm``,
         ``raw_min``, ``frame_status``, ``switched``, ``thrust_cmd``.
     lqr : LQRDesign

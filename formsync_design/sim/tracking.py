@@ -3,7 +3,7 @@
 :func:`simulate_flyaround` runs a tracking design (default ``zhang2014_flyaround``) on a
 :class:`FlyaroundScenario` (orbits, spacecraft, fly-around reference, thrusters, gains):
 one control sample every ``sample_period`` seconds with the PWM pulses of that sample
-integrated inside it (:mod:`formsync_design.sim.flyaround_model`).  The sample step is
+integrated inside it (:mod:`formsync_design.sim.tracking_model`).  The sample step is
 generated once per design and option set, compiled to C through the kernel compiler and
 disk cache of :mod:`formsync_design.sim.kernels`, and folded over chunks of samples
 (``casadi.Function.mapaccum``), so the whole 18 000 s case is a few calls into C.  With
@@ -17,7 +17,7 @@ Keplerian elements (:func:`~formsync_design.models.orbit.relative_state`); the i
 attitude is the desired attitude at ``t = 0`` rotated by the 3-2-1 angles
 ``attitude0_deg`` (body relative to desired), with the relative rate ``rate0``.
 
->>> from formsync_design.verify.flyaround_case import load_flyaround_case
+>>> from formsync_design.verify.tracking_case import load_flyaround_case
 >>> sc = load_flyaround_case().scenario          # the paper's case and the case file's gains
 >>> isinstance(sc, FlyaroundScenario), sc.gains["k_p"]
 (True, (807.0,))
@@ -43,10 +43,6 @@ from typing import Any
 import numpy as np
 
 from formsync_design.errors import InputError
-from formsync_design.models.flyaround import (
-    desired_attitude,
-    rotation_rT,
-)
 from formsync_design.models.mrp import mrp_from_matrix
 from formsync_design.models.orbit import (
     LQRDesign,
@@ -55,16 +51,20 @@ from formsync_design.models.orbit import (
     lqr_design,
     relative_state,
 )
+from formsync_design.models.relative_reference import (
+    desired_attitude,
+    rotation_rT,
+)
 from formsync_design.models.thrusters import (
     positive_null_vector,
 )
-from formsync_design.sim.flyaround_model import (
+from formsync_design.sim.tracking_model import (
     N_THRUSTERS_MAX,
     OUTPUTS,
     build_functions,
     param_layout,
 )
-from formsync_design.sim.flyaround_scenario import (
+from formsync_design.sim.tracking_scenario import (
     FlyaroundOptions,
     FlyaroundRun,
     FlyaroundScenario,
@@ -253,7 +253,7 @@ def simulate_flyaround(scenario: FlyaroundScenario,
     Parameters
     ----------
     scenario : FlyaroundScenario
-        The case (:func:`~formsync_design.verify.flyaround_case.load_flyaround_case` reads
+        The case (:func:`~formsync_design.verify.tracking_case.load_flyaround_case` reads
         one from a case file).
     options : FlyaroundOptions, optional
     spec : Spec or str, optional

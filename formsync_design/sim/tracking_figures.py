@@ -9,9 +9,9 @@ the 3-D relative trajectory with the 500 m sphere's 70 deg circle.  Further:
 objects without pyplot (no backend is selected); save them with
 :func:`formsync_design.sim.figures.save_figure`.
 
->>> from formsync_design.sim.flyaround import simulate_flyaround
->>> from formsync_design.sim.flyaround_scenario import FlyaroundOptions
->>> from formsync_design.verify.flyaround_case import load_flyaround_case
+>>> from formsync_design.sim.tracking import simulate_flyaround
+>>> from formsync_design.sim.tracking_scenario import FlyaroundOptions
+>>> from formsync_design.verify.tracking_case import load_flyaround_case
 >>> run = simulate_flyaround(load_flyaround_case().scenario, FlyaroundOptions(tf=4.0))
 >>> sorted(flyaround_figures(run))[:2]
 ['fig5-thrusters', 'fig6-attitude']
@@ -90,7 +90,7 @@ def _error_figure(run: Any, t_end: float | None, top: np.ndarray, bottom: np.nda
 
 def attitude_error_figure(run: Any, t_end: float | None = 7200.0) -> Figure:
     """Rate error ``omega_sd`` (deg/s) and attitude error (rotation vector, deg) (Fig. 6)."""
-    from formsync_design.sim.flyaround import rotation_vectors
+    from formsync_design.sim.tracking import rotation_vectors
 
     o = run.outputs
     return _error_figure(run, t_end, np.degrees(o["omega_sd"]),
@@ -125,7 +125,7 @@ def position_figure(run: Any, every: int = 25) -> Figure:
 
 def trajectory_figure(run: Any, every: int = 25) -> Figure:
     """3-D relative trajectory with the target and the 70 deg circle (paper Figs. 8-9)."""
-    from formsync_design.models.flyaround import rotation_rT
+    from formsync_design.models.relative_reference import rotation_rT
 
     fig = Figure(figsize=(6.0, 5.4))
     ax = fig.add_subplot(projection="3d")
