@@ -166,6 +166,13 @@ def test_engine_case_end_to_end(tmp_path, capsys):
                     "## Semantics", "angle_tol"):
         assert section in text
     assert (out / "figures" / "tiny-verification" / "ring3-nominal-attitude.png").is_file()
+    # the two scenarios certify the same system (same gains): one row each formation, naming
+    # both scenarios, and one scope line each; the law has sgn, realised by sat in the runs
+    rows = [ln for ln in text.splitlines() if ln.startswith("| ring3 |") or
+            ln.startswith("| cycle4 |")]
+    assert [r.split(" | ")[3] for r in rows if "**" in r] == ["nominal, short"] * 2
+    assert text.count("- ring3 / nominal, short: ") == 1
+    assert "switch sat, boundary layer 0.01" in text
 
     # the verdicts, recomputed here from the library's simulation and certificate directly
     from formsync_design.certify.formation import certify_formation
@@ -344,6 +351,9 @@ def test_a_design_file_registers_its_own_metric_and_undecided_stays_undecided(tm
     assert m["energy"]["value"] == pytest.approx(want, rel=1e-4)
     assert c["damped"]["verdict"] == ("holds" if want < 1e-6 else "fails")
     assert m["cert"]["value"] is None and m["cert"]["detail"].startswith("undecided")
+    # a damper's law has no switching function: the run's scope does not name one
+    report = (tmp_path / "o" / "damper_case-verification.md").read_text()
+    assert "no switching function" in report and "switch sat" not in report
     assert (c["stable"]["verdict"], c["stable"]["basis"]) == ("undecided", "evidence")
 
 
@@ -369,6 +379,49 @@ def test_design_option_replaces_the_case_design(tmp_path, capsys):
     bad = _write(tmp_path, CASE.replace('design = "ma_quat_smc"', 'design = "nope"'))
     assert main(["verify", str(bad), "--out", str(tmp_path / "o2")]) == 2
     assert "design" in capsys.readouterr().err
+
+
+def test_a_scenario_runs_another_design_with_its_own_gains(tmp_path, capsys):
+    """``[[scenarios]] design``: a comparison method on the same spacecraft and formation (a
+    damper with another gain name, so its gains table replaces the base's whole); each
+    scenario's final rate difference is the analytic decay of its own design."""
+    (tmp_path / "damper.py").write_text(DAMPER)
+    (tmp_path / "other.py").write_text(
+        DAMPER.replace('{"k": {}}', '{"c": {}}').replace("-v.k * v.J * v.w", "-v.c * v.J * v.w")
+        .replace("test_damper_kinetic_energy", "test_other_energy"))
+    text = DAMPER_CASE.replace("test_damper_kinetic_energy", "final_rate").replace(
+        "[[metrics]]\nid = \"energy\"", """[[scenarios]]
+name = "nominal"
+[[scenarios]]
+name = "other"
+design = "other.py"
+gains = {c = 3.0}
+[[metrics]]
+id = "other_rate"
+metric = "final_rate"
+scenario = "other"
+[[metrics]]
+id = "energy\"""", 1)
+    case = _write(tmp_path, text, "damper_case.toml")
+    try:
+        assert main(["verify", str(case), "--out", str(tmp_path / "o"), "--format", "json"]) == 0
+        doc = json.loads(capsys.readouterr().out)
+        m = {x["id"]: x["value"] for x in doc["metrics"]}
+        # |(0.1, -0.05, 0)| e^(-k tf), tf = 5: k = 1 for the base design, c = 3 for the other
+        assert m["energy"] == pytest.approx(float(np.hypot(0.1, 0.05) * np.exp(-5)), rel=1e-4)
+        assert m["other_rate"] == pytest.approx(float(np.hypot(0.1, 0.05) * np.exp(-15)),
+                                                rel=1e-3)
+        assert [s["overrides"].get("design") for s in doc["scenarios"]] == [None, "other.py"]
+        # the other design's gains are required whole, and only its own are accepted
+        for bad, words in (('gains = {c = 3.0}\n', "gains"), ("c = 3.0", "k = 1.0")):
+            case.write_text(text.replace(bad, "" if words == "gains" else words, 1))
+            assert main(["verify", str(case), "--out", str(tmp_path / "o2")]) == 2
+            assert capsys.readouterr().err.count("\n") == 1
+    finally:
+        from formsync_design.verify.metrics import METRICS
+
+        METRICS.pop("test_damper_kinetic_energy", None)
+        METRICS.pop("test_other_energy", None)
 
 
 SAMPLED = """

@@ -21,7 +21,6 @@ DATA = Path(__file__).parent / "data"
 COMPUTE = {
     "flyaround": ("formsync_design.verify.flyaround", "verify_flyaround"),
     "lv2012": ("formsync_design.verify.lv2012", "analyse_case"),
-    "agent-comparison": ("formsync_design.verify.comparison", "run_comparison"),
     "engine": ("formsync_design.verify.engine", "run_engine"),
 }
 
@@ -71,9 +70,7 @@ def test_each_kind_is_routed_to_its_own_verifier(kind, monkeypatch) -> None:
     assert [s[0] for s in seen] == [kind]
     _, args, kw = seen[0]
     assert say in (*args, *kw.values())
-    if kind == "agent-comparison":  # the parsed agent case is passed on
-        assert type(args[0]).__name__ == "AgentCase"
-    elif kind == "engine":  # the parsed engine case
+    if kind == "engine":  # the parsed engine case
         assert type(args[0]).__name__ == "EngineCase"
     else:
         assert Path(args[0]) == case_file(name)

@@ -113,6 +113,7 @@ __all__ = [
     "agent_design_from_module",
     "agent_design_from_functions",
     "agent_expressions",
+    "uses_switching",
     "sampling_variant",
     "rule_variant",
     "SAMPLING_RULES",
@@ -300,6 +301,19 @@ def _scalar(fn: str, out: Any, where: str) -> sp.Expr:
         raise DerivationError(f"{where}: {fn}(view): expected a scalar expression, received a "
                               f"{type(out).__name__}")
     return e
+
+
+def uses_switching(design: AgentDesign) -> bool:
+    """Whether the law (torque or controller states, one in-neighbour) calls ``sgn``, the
+    switching function a simulation realises by its ``switch`` option.
+
+    >>> uses_switching(agent_design_from_functions(lambda v: -v.k * v.w, gains={"k": {}}))
+    False
+    >>> uses_switching(agent_design_from_functions(lambda v: -v.k * v.sgn(v.w), gains={"k": {}}))
+    True
+    """
+    ex = agent_expressions(design, 1)
+    return bool(ex["u"].has(sgn) or any(e.has(sgn) for e in ex.get("states", {}).values()))
 
 
 def agent_expressions(design: AgentDesign, m: int, where: str | None = None) -> dict[str, Any]:

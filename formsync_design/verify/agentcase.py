@@ -271,7 +271,8 @@ def shipped_agent_case(design: Any) -> Path | None:
 
 def formation_case_path(design: Any) -> Path | None:
     """The shipped case that simulates ``design``: its own (:func:`shipped_agent_case`), else
-    a shipped agent case comparing it (``[claims.compare.X] design``); ``None`` when none.
+    a shipped engine case comparing it (a ``[[scenarios]]`` row with ``design``); ``None``
+    when none.
 
     >>> from formsync_design.spec.loader import load_design
     >>> formation_case_path(load_design("ma_quat_smc")).name
@@ -284,10 +285,9 @@ def formation_case_path(design: Any) -> Path | None:
 
     for name in case_names():
         path = case_file(name)
-        compare = load_toml(path, "case TOML file").get("claims", {})
-        compare = compare.get("compare", {}) if isinstance(compare, dict) else {}
-        if isinstance(compare, dict) and any(
-                isinstance(c, dict) and c.get("design") == design.name for c in compare.values()):
+        rows = load_toml(path, "case TOML file").get("scenarios", [])
+        if isinstance(rows, list) and any(
+                isinstance(c, dict) and c.get("design") == design.name for c in rows):
             if case_is_agent(path):
                 return path
     return None

@@ -4,9 +4,9 @@ Every ``formsync`` subcommand runs on a shipped design with no other option.  Th
 the graph, the convergence criterion and the horizon then come from the design's **shipped
 case**: the case file under ``verification/`` whose ``[case] design`` names the design (the
 case named like the design first), else the case that lists the design as a **comparison
-design** (``[claims] comparison_design`` with ``comparison_gains``, or a
-``[claims.compare.X]`` table with ``design`` and ``gains``), with the comparison's gains and
-simulation settings.  A gain no case gives takes the design's declared default range.
+design** (``[claims] comparison_design`` with ``comparison_gains``, or an engine case's
+``[[scenarios]]`` row with ``design`` and ``gains``, the first one without
+``torque_matching``), with the comparison's gains and simulation settings.  A gain no case gives takes the design's declared default range.
 Every default is said in one line (:class:`Defaults`), printed by the command on stderr.
 
 A graph of another size than the case's **resizes** the case: spacecraft ``i`` takes the
@@ -155,13 +155,14 @@ def case_source(design: Any) -> CaseSource | None:
             sim = {k: claims[f"comparison_{k}"] for k in ("tf", "step", "switch", "phi")
                    if f"comparison_{k}" in claims}
             return CaseSource(path, "comparison", dict(claims.get("comparison_gains", {})), sim)
-        compare = claims.get("compare", {})
-        for table in (compare.values() if isinstance(compare, dict) else ()):
-            if isinstance(table, dict) and table.get("design") == name:
-                sim = {"switch": table["switch"]} if "switch" in table else {}
-                if "boundary_layer" in table:
-                    sim["phi"] = table["boundary_layer"]
-                return CaseSource(path, "comparison", dict(table.get("gains", {})), sim)
+    for path, doc in docs:
+        rows = doc.get("scenarios", [])
+        for row in (rows if isinstance(rows, list) else ()):
+            if isinstance(row, dict) and row.get("design") == name and "torque_matching" not in row:
+                sim = {("phi" if k == "boundary_layer" else k): v
+                       for k, v in dict(row.get("simulation", {})).items()
+                       if k in ("tf", "step", "switch", "boundary_layer")}
+                return CaseSource(path, "comparison", dict(row.get("gains", {})), sim)
     return None
 
 
@@ -171,9 +172,11 @@ def agent_case_source_doc(design: Any, src: CaseSource) -> dict:
     comparison does not give: the lower end of the design's declared range); the leader
     (reference, pinning) is dropped for a design without one."""
     from formsync_design.tomlio import load_toml
+    from formsync_design.verify.agentcase import ENGINE_TABLES
 
     doc = dict(load_toml(src.path, "case TOML file"))
-    doc.pop("claims", None)
+    for table in ENGINE_TABLES:  # "claims" and an engine case's tables
+        doc.pop(table, None)
     meta = dict(doc.get("case", {}))
     meta["design"] = design.name
     meta["kind"] = "agents"

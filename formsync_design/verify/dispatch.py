@@ -11,7 +11,6 @@ result object, writing nothing:
 ``formation`` (the default)   :class:`~formsync_design.verify.results.VerificationResult`
 ``flyaround``                 :class:`~formsync_design.verify.flyaround_claims.FlyaroundVerification`
 ``lv2012``                    :class:`~formsync_design.verify.lv2012.CaseOutcome`
-``agent-comparison``          :class:`~formsync_design.verify.comparison.ComparisonResult`
 ``engine``                    :class:`~formsync_design.verify.engine.EngineVerification`
 ============================  ==============================================================
 
@@ -40,7 +39,6 @@ RESULT_KINDS: dict[str, str] = {
     "formation": "VerificationResult",
     "flyaround": "FlyaroundVerification",
     "lv2012": "CaseOutcome",
-    "agent-comparison": "ComparisonResult",
     "engine": "EngineVerification",
 }
 
@@ -130,12 +128,5 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
         from formsync_design.verify.enginecase import load_engine_case
 
         return run_engine(load_engine_case(path, design=spec), progress or (lambda s: None))
-    from formsync_design.verify.agentcase import load_agent_case
-
-    case = load_agent_case(path, design=spec)
-    if kind == "agent-comparison":
-        from formsync_design.verify.comparison import run_comparison
-
-        return run_comparison(case, progress or (lambda s: None))
     raise InputError(f"expected [case] kind one of {sorted(RESULT_KINDS)} in "  # pragma: no cover
                      f"{display_path(path)}, received {kind!r}")

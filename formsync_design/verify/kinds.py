@@ -43,7 +43,6 @@ KINDS: dict[str, str] = {
     "formation": "formsync_design.verify.formation:verify_formation_case",
     "flyaround": "formsync_design.verify.flyaround:verify_flyaround_case",
     "lv2012": "formsync_design.verify.lv2012:verify_lv2012",
-    "agent-comparison": "formsync_design.verify.comparison:verify_comparison_case",
     "engine": "formsync_design.verify.engine:verify_engine_case",
 }
 

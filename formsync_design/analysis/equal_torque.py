@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 from formsync_design.errors import InputError, SimulationError
@@ -93,27 +93,25 @@ def equal_peak_scale(peak_of: Callable[[float], float], target: float, *, rtol: 
                           f"within rtol {rtol:g} in {max_evaluations} runs")
 
 
-def scaled_gains(method: Any, scale: float, hold: Sequence[str] = ()) -> Any:
-    """``method`` (a :class:`~formsync_design.verify.comparison.Method`) with every gain but
-    those in ``hold`` multiplied by ``scale`` (a diagonal gain: each entry).
+def scaled_gains(gains: Any, scale: float, hold: Sequence[str] = ()) -> Any:
+    """``gains`` (a :class:`~formsync_design.sim.formation.Gains`) with every gain but those
+    in ``hold`` multiplied by ``scale`` (a diagonal gain: each entry).
 
     >>> from formsync_design.sim.formation import Gains
-    >>> from formsync_design.verify.comparison import Method
-    >>> m = scaled_gains(Method("a", "a", None, Gains({"K1": 1.5, "eps": 0.01})), 2.0, ["eps"])
-    >>> m.gains.as_dict()
+    >>> scaled_gains(Gains({"K1": 1.5, "eps": 0.01}), 2.0, ["eps"]).as_dict()
     {'K1': 3.0, 'eps': 0.01}
     """
     from formsync_design.sim.formation import Gains
 
     out: dict[str, Any] = {}
-    for k, v in method.gains.as_dict().items():
+    for k, v in gains.as_dict().items():
         if k in hold:
             out[k] = v
         elif isinstance(v, tuple):
             out[k] = tuple(float(x) * scale for x in v)
         else:
             out[k] = float(v) * scale
-    return replace(method, gains=Gains(out))
+    return Gains(out)
 
 
 def ordering(labels: Sequence[str], times: Sequence[float | None]) -> str:
