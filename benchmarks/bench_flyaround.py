@@ -9,7 +9,7 @@ nonlinear relative orbit and rigid-body attitude).  Everything is measured in th
    cold (an empty cache folder: code generation + gcc) and warm (disk cache hit);
 2. accuracy on a horizon ``--horizon`` (default 120 s: the initial transient with
    thousands of partial pulses): the reference is the scipy implementation of
-   ``tests/flyaround_numpy.py`` (numpy right-hand side on whole vectors, every sample
+   ``tests/tracking_numpy.py`` (numpy right-hand side on whole vectors, every sample
    integrated over the exact segments between pulse edges) at rtol 1e-12 with DOP853;
    ours is compared with it (largest state deviation, and whether every on-time agrees);
 3. baseline (the best plain alternative a user would write): the same scipy
@@ -38,9 +38,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from formsync_design.sim import flyaround as F  # noqa: E402
-from formsync_design.verify.flyaround_case import load_flyaround_case  # noqa: E402
-from tests.flyaround_numpy import simulate_numpy  # noqa: E402
+from formsync_design.sim import tracking as F  # noqa: E402
+from formsync_design.verify.tracking_case import load_flyaround_case  # noqa: E402
+from tests.tracking_numpy import simulate_numpy  # noqa: E402
 
 
 def _load() -> str:

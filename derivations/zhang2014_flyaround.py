@@ -7,7 +7,7 @@ desired relative position l_T (the paper's eq. 15-16, K = -R^-1 B^T P).  Attitud
 Lyapunov-based MRP tracking law with a positive definite K_d (the paper's eq. 17; the law
 itself was lost in the text we work from).  Both share 16 thrusters (pseudo-inverse
 allocation, PWM with a 30 ms minimum pulse: the case file and
-:mod:`formsync_design.sim.flyaround`).
+:mod:`formsync_design.sim.tracking`).
 
 Assumptions (ours; each is also listed in ``verification/zhang2014_flyaround.toml``)
 -------------------------------------------------------------------------------------

@@ -37,7 +37,7 @@ data flows through the stages:
   :class:`AgentOptions`, :func:`simulate_agents` (:class:`AgentResult`), gyro models
   :class:`RateSensors`, :func:`measured_l2_gain`;
 * verification of a published case: :func:`load_case`, :func:`verify_case` (a case of
-  any kind, formation, flyaround, agent-comparison or engine, by file or
+  any kind, formation, flyaround or engine, by file or
   shipped name; returns that kind's result);
   :func:`load_agent_case` (the case files of agent designs); the verification engine
   (case kind ``engine``: formations, scenarios, Monte-Carlo, metrics and claims declared
@@ -72,8 +72,7 @@ function of the package selects a matplotlib backend.
 
 from __future__ import annotations
 
-from importlib import import_module
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from formsync_design.errors import (
     ClusterError,
@@ -86,6 +85,7 @@ from formsync_design.errors import (
     SimulationError,
     SolverError,
 )
+from formsync_design.lazy import lazy_attributes
 
 __version__ = "0.1.0"
 
@@ -181,15 +181,15 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "sampling_variant": "formsync_design.spec.agent",
     "rule_variant": "formsync_design.spec.agent",
     # tracking designs: the fly-around case
-    "load_flyaround_case": "formsync_design.verify.flyaround_case",
-    "FlyaroundScenario": "formsync_design.sim.flyaround_scenario",
-    "FlyaroundOptions": "formsync_design.sim.flyaround_scenario",
-    "FlyaroundRun": "formsync_design.sim.flyaround_scenario",
-    "simulate_flyaround": "formsync_design.sim.flyaround",
-    "flyaround_figures": "formsync_design.sim.flyaround_figures",
+    "load_flyaround_case": "formsync_design.verify.tracking_case",
+    "FlyaroundScenario": "formsync_design.sim.tracking_scenario",
+    "FlyaroundOptions": "formsync_design.sim.tracking_scenario",
+    "FlyaroundRun": "formsync_design.sim.tracking_scenario",
+    "simulate_flyaround": "formsync_design.sim.tracking",
+    "flyaround_figures": "formsync_design.sim.tracking_figures",
     "derive_tracking_attitude": "formsync_design.derive.tracking",
-    "attitude_certificate": "formsync_design.analysis.flyaround",
-    "verify_flyaround": "formsync_design.verify.flyaround",
+    "attitude_certificate": "formsync_design.analysis.tracking",
+    "verify_flyaround": "formsync_design.verify.tracking",
     # agent designs: the paths the command line takes (the generic functions route there)
     "certify_agent": "formsync_design.certify.agent",
     "region_agent": "formsync_design.certify.agent",
@@ -223,15 +223,4 @@ if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
     from formsync_design.graphs import Graph as Graph, make_graph as make_graph
 
 
-def __getattr__(name: str) -> Any:
-    target = _LAZY.get(name)
-    if target is None:
-        raise AttributeError(f"module 'formsync_design' has no attribute {name!r}")
-    module, attr = target if isinstance(target, tuple) else (target, name)
-    value = getattr(import_module(module), attr)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(__all__)
+__getattr__, __dir__ = lazy_attributes(__name__, _LAZY, globals(), public_only=True)

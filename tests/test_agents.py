@@ -462,3 +462,25 @@ def test_periodic_sampling_needs_a_period():
     # u = -k J w held over 0.25 s: w(t_{k+1}) = (1 - k T) w(t_k) exactly (free axis-symmetric)
     assert abs(r.rates[-1, 0, 0] - 0.1 * (1 - 0.25) ** 4) < 1e-10
     assert r.transmissions is not None and r.transmissions.tolist() == [4, 4]
+
+
+def test_principal_angles_against_rotation_matrices_and_at_tiny_angles():
+    """The angle of ``R_a^T R_b`` from its trace (an independent formula) at generic angles,
+    and exactly the constructed angle where ``arccos`` of the dot product would give 0."""
+    from scipy.spatial.transform import Rotation
+
+    from formsync_design.sim.agents import principal_angles
+
+    rng = np.random.default_rng(11)
+    ra, rb = Rotation.random(200, random_state=rng), Rotation.random(200, random_state=rng)
+    qa, qb = ra.as_quat(), rb.as_quat() * rng.choice([-1.0, 1.0], size=(200, 1))  # scalar last
+    rel = np.einsum("kji,kjl->kil", ra.as_matrix(), rb.as_matrix())
+    want = np.arccos(np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1, 1))
+    np.testing.assert_allclose(principal_angles(qa, qb), want, atol=1e-7)
+    axis = rng.normal(size=(50, 3))
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    theta = 10.0 ** rng.uniform(-14, -6, size=50)
+    qa = ra.as_quat()[:50]
+    qb = (ra[:50] * Rotation.from_rotvec(axis * theta[:, None])).as_quat()
+    # qb itself is rounded to about 1e-16 per component: that is the floor of any formula
+    np.testing.assert_allclose(principal_angles(qa, qb), theta, rtol=1e-6, atol=1e-15)

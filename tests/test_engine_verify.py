@@ -166,6 +166,13 @@ def test_engine_case_end_to_end(tmp_path, capsys):
                     "## Semantics", "angle_tol"):
         assert section in text
     assert (out / "figures" / "tiny-verification" / "ring3-nominal-attitude.png").is_file()
+    # the two scenarios certify the same system (same gains): one row each formation, naming
+    # both scenarios, and one scope line each; the law has sgn, realised by sat in the runs
+    rows = [ln for ln in text.splitlines() if ln.startswith("| ring3 |") or
+            ln.startswith("| cycle4 |")]
+    assert [r.split(" | ")[3] for r in rows if "**" in r] == ["nominal, short"] * 2
+    assert text.count("- ring3 / nominal, short: ") == 1
+    assert "switch sat, boundary layer 0.01" in text
 
     # the verdicts, recomputed here from the library's simulation and certificate directly
     from formsync_design.certify.formation import certify_formation
@@ -344,6 +351,9 @@ def test_a_design_file_registers_its_own_metric_and_undecided_stays_undecided(tm
     assert m["energy"]["value"] == pytest.approx(want, rel=1e-4)
     assert c["damped"]["verdict"] == ("holds" if want < 1e-6 else "fails")
     assert m["cert"]["value"] is None and m["cert"]["detail"].startswith("undecided")
+    # a damper's law has no switching function: the run's scope does not name one
+    report = (tmp_path / "o" / "damper_case-verification.md").read_text()
+    assert "no switching function" in report and "switch sat" not in report
     assert (c["stable"]["verdict"], c["stable"]["basis"]) == ("undecided", "evidence")
 
 
@@ -412,6 +422,43 @@ id = "energy\"""", 1)
 
         METRICS.pop("test_damper_kinetic_energy", None)
         METRICS.pop("test_other_energy", None)
+
+
+def test_scenarios_of_two_designs_with_the_same_gains_are_certified_apart(tmp_path, capsys):
+    """The certificate is of the scenario's design: a damper (no attitude feedback: undecided,
+    a marginal mode) and a PD law with the same gain name and value (certified) on the same
+    formation must not share one certificate."""
+    from formsync_design.verify.engine import run_engine
+    from formsync_design.verify.enginecase import load_engine_case
+
+    (tmp_path / "damper.py").write_text(DAMPER)
+    (tmp_path / "pd.py").write_text(
+        DAMPER.replace("return -v.k * v.J * v.w",
+                       "s = sum((n.a * (v.q - n.q) for n in v.nbrs), 0 * v.q)\n"
+                       "    return -v.k * v.J * v.w - v.k * s")
+        .replace("test_damper_kinetic_energy", "test_pd_energy"))
+    text = DAMPER_CASE.replace("[[metrics]]\nid = \"energy\"", """[[scenarios]]
+name = "nominal"
+[[scenarios]]
+name = "pd"
+design = "pd.py"
+gains = {k = 1.0}
+[[metrics]]
+id = "cert_pd"
+metric = "formation_certificate"
+scenario = "pd"
+[[metrics]]
+id = "energy\"""", 1)
+    try:
+        ver = run_engine(load_engine_case(_write(tmp_path, text, "damper_case.toml")))
+        certs = {s: c for _, s, c in ver.certificates}
+        assert str(certs["nominal"].status) == "undecided"
+        assert str(certs["pd"].status) == "certified"
+    finally:
+        from formsync_design.verify.metrics import METRICS
+
+        METRICS.pop("test_damper_kinetic_energy", None)
+        METRICS.pop("test_pd_energy", None)
 
 
 SAMPLED = """

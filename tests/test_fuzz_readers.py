@@ -137,8 +137,8 @@ def _load_case_file(path: Path) -> None:
     from formsync_design.verify.agentcase import case_is_agent, load_agent_case
     from formsync_design.verify.case import load_case
     from formsync_design.verify.claims import parse_claims
-    from formsync_design.verify.flyaround_case import load_flyaround_case
     from formsync_design.verify.kinds import case_kind
+    from formsync_design.verify.tracking_case import load_flyaround_case
 
     kind = case_kind(load_toml(path, "case TOML file"), str(path))
     if kind == "flyaround":

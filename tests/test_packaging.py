@@ -138,7 +138,7 @@ for name in resources.design_names():
     assert callable(spec.controller), name
 from formsync_design.tomlio import load_toml
 from formsync_design.verify.kinds import case_kind
-from formsync_design.verify.flyaround_case import load_flyaround_case
+from formsync_design.verify.tracking_case import load_flyaround_case
 loaders = {{"formation": load_case, "flyaround": load_flyaround_case}}
 for name in resources.case_names():
     path = resources.case_file(name)

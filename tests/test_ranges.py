@@ -209,7 +209,8 @@ def test_a_case_names_its_graph_file_relative_to_itself(tmp_path, monkeypatch):
     start, end = ma.index("[graph]"), ma.index("[gains]")
     (d / "g5.txt").write_text("1 2\n2 3\n3 4\n4 5\n5 1\n")
     no_table = ma[:start] + ma[end:]  # the [graph] table replaced by [case] graph = FILE
-    (d / "a.toml").write_text(no_table.replace('kind = "agent-comparison"',
-                                               'kind = "agent-comparison"\ngraph = "g5.txt"', 1))
+    assert 'kind = "engine"' in no_table
+    (d / "a.toml").write_text(no_table.replace('kind = "engine"',
+                                               'kind = "engine"\ngraph = "g5.txt"', 1))
     agent = load_agent_case(d / "a.toml")
     assert Path(agent.graph_input) == d / "g5.txt" and agent.graph().n == 5

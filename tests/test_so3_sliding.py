@@ -234,18 +234,28 @@ def test_case_and_claims_configuration():
     from formsync_design.errors import InputError
     from formsync_design.resources import case_file
     from formsync_design.tomlio import load_toml
-    from formsync_design.verify.agentcase import load_agent_case, parse_agent_case
-    from formsync_design.verify.comparison import method_list
-    from formsync_design.verify.equal_torque import in_order
+    from formsync_design.verify.agentcase import euler321_to_quat, load_agent_case
+    from formsync_design.verify.enginecase import load_engine_case, parse_engine_case
 
     c = load_agent_case(case_file("ma_so3"))
-    assert c.kind == "agent-comparison" and c.n == 5
-    assert [m.key for m in method_list(c)] == ["main", "ma_quat_smc", "ma_mrp_ft"]
+    assert c.kind == "engine" and c.n == 5
+    e = load_engine_case(case_file("ma_so3"))
+    assert [(s.name, s.run_design.name) for s in e.scenarios[:5]] == [
+        ("so3", "ma_so3"), ("quat", "ma_quat_smc"), ("mrp", "ma_mrp_ft"),
+        ("quat_eq", "ma_quat_smc"), ("mrp_eq", "ma_mrp_ft")]
+    assert e.scenario("quat").case.options.switch == "tanh"
+    assert e.scenario("mrp_eq").torque_matching["hold"] == ["eps"]
+    two = e.case_for("case2", "so3")
+    assert np.allclose(two.attitudes[1], euler321_to_quat(100, -75, -120), atol=0, rtol=0)
+    assert np.array_equal(two.rates, c.rates) and two.options.tf == 80.0
+    near = e.case_for("near180", "quat")
+    assert near.options.tf == 120.0 and near.options.switch == "tanh"
+    ang = [2 * np.degrees(np.arccos(min(1.0, abs(q[3])))) for q in near.attitudes[1:]]
+    assert np.allclose(ang, 175.0)
     data = load_toml(case_file("ma_so3"), "case")
-    data["claims"]["compare"]["ma_quat_smc"]["gains"] = {"K1": 1.0}
-    with pytest.raises(InputError, match="gains with exactly"):
-        method_list(parse_agent_case(data, "x.toml"))
-    assert in_order([1.0, 2.0, None]) and not in_order([None, 1.0])
+    data["scenarios"][1]["gains"] = {"K1": 1.0}
+    with pytest.raises(InputError, match="gain"):
+        parse_engine_case(data, "x.toml")
 
 
 @pytest.mark.slow
@@ -255,20 +265,22 @@ def test_formsync_verify_ma_so3(tmp_path, monkeypatch):
 
     assert main(["verify", "ma_so3", "--out", str(tmp_path)]) == 0
     text = (tmp_path / "ma_so3-verification.md").read_text()
-    assert "| every spacecraft converges to a common attitude (case 1) |" in text
-    assert "## The comparisons at equal peak torque" in text
-    assert (tmp_path / "figures" / "ma_so3-verification" / "fig11_r23_case2.png").is_file()
+    assert "| consensus | every spacecraft converges to a common attitude (case 1) |" in text
+    assert "| ordering |" in text and "| scale_quat_eq | gain_scale |" in text
+    assert (tmp_path / "figures" / "ma_so3-verification").is_dir()
 
 
 @pytest.mark.slow
 def test_the_case_stays_on_the_group(monkeypatch):
-    """Case 1 of verification/ma_so3.toml over its whole horizon: |R^T R - I| < 1e-10."""
+    """Case 1 of verification/ma_so3.toml over its whole horizon, every method: |R^T R - I|
+    < 1e-10."""
     monkeypatch.delenv("FORMSYNC_NO_COMPILE")
+    from formsync_design.models.euler import quats_to_matrices
     from formsync_design.resources import case_file
-    from formsync_design.verify.agentcase import load_agent_case
-    from formsync_design.verify.comparison import method_list, run_method
+    from formsync_design.verify.engine import EngineResults
+    from formsync_design.verify.enginecase import load_engine_case
 
-    c = load_agent_case(case_file("ma_so3"))
-    for m in method_list(c):
-        r = run_method(c, m)
-        assert r.orthonormality < 1e-10, m.key
+    res = EngineResults(load_engine_case(case_file("ma_so3")))
+    for s in ("so3", "quat", "mrp"):
+        R = quats_to_matrices(res.run("case1", s).quaternions)
+        assert np.abs(np.einsum("...ki,...kj->...ij", R, R) - np.eye(3)).max() < 1e-10, s

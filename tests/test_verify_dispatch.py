@@ -19,8 +19,7 @@ DATA = Path(__file__).parent / "data"
 
 #: the module attribute each kind's computation is looked up under
 COMPUTE = {
-    "flyaround": ("formsync_design.verify.flyaround", "verify_flyaround"),
-    "agent-comparison": ("formsync_design.verify.comparison", "run_comparison"),
+    "flyaround": ("formsync_design.verify.tracking", "verify_flyaround"),
     "engine": ("formsync_design.verify.engine", "run_engine"),
 }
 
@@ -70,9 +69,7 @@ def test_each_kind_is_routed_to_its_own_verifier(kind, monkeypatch) -> None:
     assert [s[0] for s in seen] == [kind]
     _, args, kw = seen[0]
     assert say in (*args, *kw.values())
-    if kind == "agent-comparison":  # the parsed agent case is passed on
-        assert type(args[0]).__name__ == "AgentCase"
-    elif kind == "engine":  # the parsed engine case
+    if kind == "engine":  # the parsed engine case
         assert type(args[0]).__name__ == "EngineCase"
     else:
         assert Path(args[0]) == case_file(name)

@@ -23,8 +23,9 @@ documented commands produce:
   case and on a three-spacecraft chain, against controller (4) with perfect, noisy and failed
   gyros (engine cases: the gyro models and the comparison design are scenarios);
 * ``formsync verify ma_so3`` -> reports/ma_so3-verification.md (+ figures): the SO(3)
-  sliding-mode design of seed paper 002 against its comparison methods, the Lagrangian
-  designs and its certificates on digraph families;
+  sliding-mode design of seed paper 002 against its comparison methods (at their literal
+  gains and at equal peak torque) and Liang et al.'s controller, its derivation and its
+  certificates on digraph families (an engine case: the methods are scenarios);
 * ``formsync verify bai2008_passivity`` -> reports/bai2008_passivity-verification.md (+
   figures): the sixth design (Bai, Arcak, Wen 2008, reconstructed), a design file and an
   ``engine`` case only - formations, Monte-Carlo, metrics and claims declared in the case;

@@ -30,7 +30,7 @@ above) or "flyaround" (a tracking design: zhang2014_flyaround simulates the
 18 000 s fly-around with PWM inside every 0.2 s sample, judges the published
 numbers and claims, runs the sensitivity study and the pseudo-inverse / LP
 allocation comparison, and certifies the LQR and the attitude law;
-format: formsync_design/verify/flyaround_case.py), or "engine" (any agent
+format: formsync_design/verify/tracking_case.py), or "engine" (any agent
 design: the case declares formations, scenarios, Monte-Carlo draws, metrics
 from the registry and claims as predicates over them; format and semantics:
 formsync_design/verify/enginecase.py, docs/engine.md).
@@ -93,10 +93,11 @@ def _default_case(design_arg: Any) -> tuple[str, Any]:
     else liang2016 with the design; said on stderr."""
     if design_arg is None:
         return "liang2016", None
-    from formsync_design.spec.loader import load_design
+    from formsync_design.spec.loader import lagrangian_view, load_design
     from formsync_design.verify.defaults import Defaults, case_source
 
     design = load_design(design_arg)
+    design = lagrangian_view(design) or design  # a design with a Lagrangian view: its case
     src = case_source(design)
     defaults = Defaults()
     if src is None:

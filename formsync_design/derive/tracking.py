@@ -15,7 +15,7 @@ Euler's equation written for the error rate ``omega = omega_s - w_d``::
 * the linearized error dynamics about ``sigma = omega = 0`` for a diagonal plant inertia,
   with the reference rates ``w_d = R_sd(sigma) omega_di`` and ``a_d = R_sd(sigma)
   omega_di'`` expanded in ``sigma``: ``J x_omega' = -k_p sigma - K_d omega + N x + d``;
-  the certificate (:mod:`formsync_design.analysis.flyaround`) uses ``N`` and ``d``.
+  the certificate (:mod:`formsync_design.analysis.tracking`) uses ``N`` and ``d``.
 
 >>> d = derive_tracking_attitude()
 >>> d.nominal_holds, d.claim

@@ -30,7 +30,7 @@ Assumptions (the paper does not state them; each is ours)
   orbits) and ``u`` as the argument of latitude (the true anomaly for
   ``omega = 0``).  With these, the paper's initial relative position is about
   ``(-2, -500.41, -1.15) m`` in ``T``: a 500 m separation, consistent with the
-  500 m fly-around sphere (see :mod:`formsync_design.models.flyaround`, which
+  500 m fly-around sphere (see :mod:`formsync_design.models.relative_reference`, which
   recovers the paper's initial angles from it).
 * The paper writes the LQR law as ``u = K X`` with ``K = -R^-1 B^T P``; we
   return the positive gain ``K = R^-1 B^T P`` and use ``u = -K X``.

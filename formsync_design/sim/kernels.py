@@ -435,7 +435,7 @@ def compile_function(fn: ca.Function, key: str) -> tuple[ca.Function, bool]:
     """Compile a CasADi function through the kernel compiler and disk cache.
 
     The entry point for simulation modules other than the formation kernels (e.g.
-    :mod:`formsync_design.sim.flyaround`): C code generation, the C compiler, the disk
+    :mod:`formsync_design.sim.tracking`): C code generation, the C compiler, the disk
     cache keyed by the generated source, ``key`` (the design's content digest), the flags
     and the host; the CasADi virtual machine without a compiler.  Returns the function and
     whether it was compiled.

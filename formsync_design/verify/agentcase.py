@@ -230,15 +230,26 @@ def case_design_ref(path: str | Path) -> str | None:
 
 def case_is_agent(path: str | Path) -> bool:
     """Whether the case file's ``[case] design`` names an agent design (``FORM = "agent"``);
-    ``False`` for a Lagrangian design or a missing file; a design that does not load raises
-    its one-line error.
+    ``False`` for a Lagrangian design, a ``formation`` case (no ``[case] kind``) of a design
+    with a Lagrangian view (it runs that view) or a missing file; a design that does not load
+    raises its one-line error.
 
     >>> from formsync_design.resources import case_file
     >>> case_is_agent(case_file("ma_so3")), case_is_agent(case_file("liang2016"))
     (True, False)
+    >>> case_is_agent(case_file("pd_consensus"))
+    False
     """
     ref = case_design_ref(path)
-    return ref is not None and getattr(_design_of(ref, str(path)), "form", None) == "agent"
+    if ref is None:
+        return False
+    d = _design_of(ref, str(path))
+    if getattr(d, "form", None) != "agent":
+        return False
+    if getattr(d, "lagrangian", None) is None:
+        return True
+    meta = load_toml(Path(path), "case TOML file").get("case", {})
+    return (meta.get("kind", "formation") if isinstance(meta, dict) else "formation") != "formation"
 
 
 def shipped_agent_case(design: Any) -> Path | None:
@@ -260,7 +271,8 @@ def shipped_agent_case(design: Any) -> Path | None:
 
 def formation_case_path(design: Any) -> Path | None:
     """The shipped case that simulates ``design``: its own (:func:`shipped_agent_case`), else
-    a shipped agent case comparing it (``[claims.compare.X] design``); ``None`` when none.
+    a shipped engine case comparing it (a ``[[scenarios]]`` row with ``design``); ``None``
+    when none.
 
     >>> from formsync_design.spec.loader import load_design
     >>> formation_case_path(load_design("ma_quat_smc")).name
@@ -273,10 +285,9 @@ def formation_case_path(design: Any) -> Path | None:
 
     for name in case_names():
         path = case_file(name)
-        compare = load_toml(path, "case TOML file").get("claims", {})
-        compare = compare.get("compare", {}) if isinstance(compare, dict) else {}
-        if isinstance(compare, dict) and any(
-                isinstance(c, dict) and c.get("design") == design.name for c in compare.values()):
+        rows = load_toml(path, "case TOML file").get("scenarios", [])
+        if isinstance(rows, list) and any(
+                isinstance(c, dict) and c.get("design") == design.name for c in rows):
             if case_is_agent(path):
                 return path
     return None

@@ -4,10 +4,9 @@ Every ``formsync`` subcommand runs on a shipped design with no other option.  Th
 the graph, the convergence criterion and the horizon then come from the design's **shipped
 case**: the case file under ``verification/`` whose ``[case] design`` names the design (the
 case named like the design first), else the case that lists the design as a **comparison
-design** (``[claims] comparison_design`` with ``comparison_gains``, a
-``[claims.compare.X]`` table with ``design`` and ``gains``, or an engine case's
-``[[scenarios]]`` row with ``design`` and ``gains``), with the comparison's gains and
-simulation settings.  A gain no case gives takes the design's declared default range.
+design** (``[claims] comparison_design`` with ``comparison_gains``, or an engine case's
+``[[scenarios]]`` row with ``design`` and ``gains``, the first one without
+``torque_matching``), with the comparison's gains and simulation settings.  A gain no case gives takes the design's declared default range.
 Every default is said in one line (:class:`Defaults`), printed by the command on stderr.
 
 A graph of another size than the case's **resizes** the case: spacecraft ``i`` takes the
@@ -20,11 +19,12 @@ design) is a negative finding with its reason (:class:`NotApplicable`, exit stat
 a usage error.
 
 >>> from formsync_design.spec.loader import load_design
->>> src = case_source(load_design("liang2016_agent"))
+>>> src = case_source(load_design("liang2016"))
 >>> src.label, src.role, sorted(src.gains)
-('verification/lv2012.toml', 'comparison', ['K_o', 'K_q', 'beta', 'k_v'])
->>> case_source(load_design("pd_consensus")).label
-'verification/pd_consensus.toml'
+('verification/lv2012.toml', 'comparison', ['K_o', 'K_q', 'K_v', 'beta'])
+>>> from formsync_design.spec.loader import load_spec
+>>> case_source(load_spec("pd_consensus")).label, case_source(load_design("pd_consensus"))
+('verification/pd_consensus.toml', None)
 """
 
 from __future__ import annotations
@@ -119,12 +119,19 @@ def _case_ref(doc: dict) -> str | None:
     return ref if isinstance(ref, str) else None
 
 
+def _formation_case(doc: dict) -> bool:
+    meta = doc.get("case", {})
+    return (meta.get("kind", "formation") if isinstance(meta, dict) else "formation") == "formation"
+
+
 def case_source(design: Any) -> CaseSource | None:
     """The shipped case of ``design`` (module docstring), ``None`` when no case names it.
 
     A case whose ``[case] design`` names the design wins (the case named like the design
     first; a case naming no design is the paper's, liang2016's); else the first case listing
-    it as a comparison design.
+    it as a comparison design.  The agent form of a design is never given a ``formation``
+    case (that kind runs the design's Lagrangian view, :func:`load_spec
+    <formsync_design.spec.loader.load_spec>`).
     """
     from formsync_design.resources import case_file, case_names
     from formsync_design.tomlio import load_toml
@@ -132,6 +139,8 @@ def case_source(design: Any) -> CaseSource | None:
     name = str(getattr(design, "name", design))
     names = sorted(case_names(), key=lambda n: (n != name, n))
     docs = [(case_file(n), load_toml(case_file(n), "case TOML file")) for n in names]
+    if getattr(design, "form", None) == "agent":
+        docs = [(p, d) for p, d in docs if not _formation_case(d)]
     for path, doc in docs:
         ref = _case_ref(doc)
         if ref is None and path.stem == name == "liang2016":
@@ -139,14 +148,6 @@ def case_source(design: Any) -> CaseSource | None:
         if ref is not None and (ref == name or Path(ref).stem == name):
             return CaseSource(path, "design")
     for path, doc in docs:
-        rows = doc.get("scenarios")
-        row = next((r for r in (rows if isinstance(rows, list) else []) if isinstance(r, dict)
-                    and r.get("design") == name and isinstance(r.get("gains"), dict)), None)
-        if row is not None:  # an engine case's scenario running the design
-            sim = {("phi" if k == "boundary_layer" else k): v
-                   for k, v in dict(row.get("simulation", {})).items()
-                   if k in ("tf", "step", "switch", "boundary_layer")}
-            return CaseSource(path, "comparison", dict(row["gains"]), sim)
         claims = doc.get("claims", {})
         if not isinstance(claims, dict):
             continue
@@ -154,13 +155,14 @@ def case_source(design: Any) -> CaseSource | None:
             sim = {k: claims[f"comparison_{k}"] for k in ("tf", "step", "switch", "phi")
                    if f"comparison_{k}" in claims}
             return CaseSource(path, "comparison", dict(claims.get("comparison_gains", {})), sim)
-        compare = claims.get("compare", {})
-        for table in (compare.values() if isinstance(compare, dict) else ()):
-            if isinstance(table, dict) and table.get("design") == name:
-                sim = {"switch": table["switch"]} if "switch" in table else {}
-                if "boundary_layer" in table:
-                    sim["phi"] = table["boundary_layer"]
-                return CaseSource(path, "comparison", dict(table.get("gains", {})), sim)
+    for path, doc in docs:
+        rows = doc.get("scenarios", [])
+        for row in (rows if isinstance(rows, list) else ()):
+            if isinstance(row, dict) and row.get("design") == name and "torque_matching" not in row:
+                sim = {("phi" if k == "boundary_layer" else k): v
+                       for k, v in dict(row.get("simulation", {})).items()
+                       if k in ("tf", "step", "switch", "boundary_layer")}
+                return CaseSource(path, "comparison", dict(row.get("gains", {})), sim)
     return None
 
 
@@ -173,8 +175,7 @@ def agent_case_source_doc(design: Any, src: CaseSource) -> dict:
     from formsync_design.verify.agentcase import ENGINE_TABLES
 
     doc = dict(load_toml(src.path, "case TOML file"))
-    doc.pop("claims", None)
-    for table in ENGINE_TABLES:  # an engine case's scenarios, metrics, ...
+    for table in ENGINE_TABLES:  # "claims" and an engine case's tables
         doc.pop(table, None)
     meta = dict(doc.get("case", {}))
     meta["design"] = design.name

@@ -9,8 +9,7 @@ result object, writing nothing:
 ``[case] kind``               result
 ============================  ==============================================================
 ``formation`` (the default)   :class:`~formsync_design.verify.results.VerificationResult`
-``flyaround``                 :class:`~formsync_design.verify.flyaround_claims.FlyaroundVerification`
-``agent-comparison``          :class:`~formsync_design.verify.comparison.ComparisonResult`
+``flyaround``                 :class:`~formsync_design.verify.tracking_claims.FlyaroundVerification`
 ``engine``                    :class:`~formsync_design.verify.engine.EngineVerification`
 ============================  ==============================================================
 
@@ -36,7 +35,6 @@ __all__ = ["RESULT_KINDS", "resolve_case", "verify_case"]
 RESULT_KINDS: dict[str, str] = {
     "formation": "VerificationResult",
     "flyaround": "FlyaroundVerification",
-    "agent-comparison": "ComparisonResult",
     "engine": "EngineVerification",
 }
 
@@ -101,11 +99,12 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
     path = resolve_case(case_path)
     kind = case_kind(load_toml(path, "case TOML file"), display_path(path))
     if kind == "formation":
-        from formsync_design.spec.loader import Spec, load_design
+        from formsync_design.spec.loader import Spec, lagrangian_view, load_design
         from formsync_design.verify.verification import verify_case as verify_formation
 
         if spec is not None and not isinstance(spec, Spec):
             spec = load_design(spec)
+            spec = lagrangian_view(spec) or spec  # a formation case runs the Lagrangian view
         kind_of = ("agent" if getattr(spec, "form", "lagrangian") == "agent"
                    else getattr(getattr(spec, "decl", None), "kind", "formation"))
         if spec is not None and kind_of != "formation":
@@ -113,7 +112,7 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
                              f"{display_path(path)}, received {spec.name} (a {kind_of} design)")
         return verify_formation(path, spec=spec, progress=progress)
     if kind == "flyaround":
-        from formsync_design.verify.flyaround import verify_flyaround
+        from formsync_design.verify.tracking import verify_flyaround
 
         return verify_flyaround(path, spec=spec, progress=progress)
     if kind == "engine":
@@ -121,12 +120,5 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
         from formsync_design.verify.enginecase import load_engine_case
 
         return run_engine(load_engine_case(path, design=spec), progress or (lambda s: None))
-    from formsync_design.verify.agentcase import load_agent_case
-
-    case = load_agent_case(path, design=spec)
-    if kind == "agent-comparison":
-        from formsync_design.verify.comparison import run_comparison
-
-        return run_comparison(case, progress or (lambda s: None))
     raise InputError(f"expected [case] kind one of {sorted(RESULT_KINDS)} in "  # pragma: no cover
                      f"{display_path(path)}, received {kind!r}")

@@ -15,7 +15,9 @@ What is computed, once per verification (:class:`EngineResults`, cached):
   :func:`~formsync_design.sim.agent_sampled.simulate_agents_sampled`, its record kept: the
   trigger evaluations and the values kept at each broadcast), with the scenario's design
   (its ``sampling`` variant) and period (``period_matching``: from the matched scenario's run
-  of the same formation and draw); and per Monte-Carlo draw for a ``montecarlo = "max"|"min"``
+  of the same formation and draw) and gains (``torque_matching``: scaled by the factor that
+  gives the matched scenario's peak torque, :meth:`EngineResults.gain_scale`); and per
+  Monte-Carlo draw for a ``montecarlo = "max"|"min"``
   row (the draws of :mod:`formsync_design.verify.enginedraws`, the same for every scenario of
   a formation, the ``[montecarlo] tf`` horizon);
 * **the design's families** over the ``[families]`` box, per formation
@@ -125,7 +127,59 @@ class EngineResults:
         self._families: dict[str, Any] = {}
         self._draws: dict[tuple[str, str], list[Any]] = {}
         self._memo: dict[tuple[Any, ...], Any] = {}
+        self._scales: dict[str, tuple[Any, Any]] = {}
         self.cert_keys: dict[tuple[str, str], tuple[Any, ...]] = {}
+
+    def case_for(self, formation: str, scenario: str) -> Any:
+        """The scenario's case on the formation (:meth:`EngineCase.case_for
+        <formsync_design.verify.enginecase.EngineCase.case_for>`), with the scaled gains of
+        a ``torque_matching`` scenario."""
+        c = self.case.case_for(formation, scenario)
+        if self.case.scenario(scenario).torque_matching is None:
+            return c
+        scale = self.gain_scale(scenario)
+        assert scale is not None
+        return replace(c, gains=scale[1])
+
+    def gain_scale(self, scenario: str) -> tuple[Any, Any] | None:
+        """``(search, gains)`` of a ``torque_matching`` scenario: the
+        :class:`~formsync_design.analysis.equal_torque.EqualPeak` search (from the factor
+        target / literal peak, steps of 1.1) of the one factor on its gains (all but those
+        held) that makes its peak torque on the matching formation equal the matched
+        scenario's there, and the scaled gains; computed once (``None`` for a scenario
+        without torque_matching)."""
+        from formsync_design.analysis.equal_torque import equal_peak_scale, scaled_gains
+
+        t = self.case.scenario(scenario).torque_matching
+        if t is None:
+            return None
+        if scenario not in self._scales:
+            f = str(t["formation"])
+            target = float(np.max(self.run(f, str(t["scenario"])).peak_torque))
+            c = self.case.case_for(f, scenario)
+            d = self.case.scenario(scenario).run_design
+            opt = self.options(f, scenario)
+            g = self.case.formation(f).graph
+
+            def peak(k: float) -> float:
+                self.progress(f"torque matching {scenario}: gain factor {k:.6g}")
+                f0 = c.formation(g, gains=scaled_gains(c.gains, k, t["hold"]))
+                return float(np.max(self._simulate(d, f0, opt, {}).peak_torque))
+
+            lit = float(np.max(self._simulate(d, c.formation(g), opt, {}).peak_torque))
+            ep = equal_peak_scale(peak, target, rtol=float(t["rtol"]), start=target / lit,
+                                  step=1.1)
+            self._scales[scenario] = (ep, scaled_gains(c.gains, ep.scale, t["hold"]))
+        return self._scales[scenario]
+
+    @staticmethod
+    def _simulate(d: Any, f: Any, opt: Any, rec: dict[str, Any],
+                  inputs: dict[str, Any] | None = None) -> Any:
+        from formsync_design.sim.agents import simulate_agents, simulate_agents_sampled
+
+        if d.decl.sampling != "continuous":
+            return simulate_agents_sampled(d, f, opt, record=rec)
+        return simulate_agents(d, f, opt, **(inputs or {}))  # a gyro model: verify/enginesensors
 
     def options(self, formation: str, scenario: str, draw: int | None = None) -> Any:
         """The simulation options of a run: the scenario's, the Monte-Carlo horizon for a
@@ -150,18 +204,21 @@ class EngineResults:
         """The Monte-Carlo draws of a formation under a scenario
         (:mod:`formsync_design.verify.enginedraws`)."""
         from formsync_design.sim.agent_montecarlo import agent_run_formation
-        from formsync_design.verify.enginedraws import reference_draws
+        from formsync_design.verify.enginedraws import euler_draws, reference_draws
 
         key = (formation, scenario)
         if key not in self._draws:
             mc = self.case.montecarlo
             assert mc is not None  # the case refuses Monte-Carlo rows without [montecarlo]
-            c = self.case.case_for(formation, scenario)
+            c = self.case_for(formation, scenario)
             base = c.formation(self.case.formation(formation).graph)
             st = mc.settings
             if mc.draws == "about-reference":
                 self._draws[key] = reference_draws(base, c.reference, st.runs, st.seed,
                                                    st.max_angle_deg, mc.rate_sigma)
+            elif mc.draws == "euler-uniform":
+                self._draws[key] = euler_draws(base, st.runs, st.seed, st.max_angle_deg,
+                                               st.max_rate)
             else:
                 box = self._mc_box(c)
                 self._draws[key] = [agent_run_formation(c.design, base, box, st, sd)
@@ -169,8 +226,6 @@ class EngineResults:
         return self._draws[key]
 
     def run(self, formation: str, scenario: str, draw: int | None = None) -> Any:
-        from formsync_design.sim.agents import simulate_agents, simulate_agents_sampled
-
         key = (formation, scenario, draw)
         store: dict[Any, Any] = self.runs if draw is None else self.draw_runs
         skey = key[:2] if draw is None else key
@@ -182,10 +237,7 @@ class EngineResults:
             self.progress(f"simulate {formation} / {scenario}"
                           + ("" if draw is None else f" / draw {draw + 1}"))
             rec: dict[str, Any] = {}
-            if d.decl.sampling != "continuous":
-                store[skey] = simulate_agents_sampled(d, f, opt, record=rec)
-            else:  # a scenario's gyro model (verify/enginesensors.py)
-                store[skey] = simulate_agents(d, f, opt, **scenario_inputs(sc.overrides, f.n))
+            store[skey] = self._simulate(d, f, opt, rec, scenario_inputs(sc.overrides, f.n))
             self.records[key] = rec
         return store[skey]
 
@@ -193,7 +245,7 @@ class EngineResults:
         """The formation a run starts from: the case's (resized), or the draw's."""
         if draw is not None:
             return self.draws(formation, scenario)[draw]
-        c = self.case.case_for(formation, scenario)
+        c = self.case_for(formation, scenario)
         return c.formation(self.case.formation(formation).graph)
 
     def record(self, formation: str, scenario: str, draw: int | None = None) -> Any:
@@ -222,12 +274,12 @@ class EngineResults:
         from formsync_design.certify.formation import certify_formation
         from formsync_design.gains import GainBox
 
-        c = self.case.case_for(formation, scenario)
+        c = self.case_for(formation, scenario)
         point, switch, phi, why = certificate_inputs(c)
         if point is None:
             return why
         g = self.case.formation(formation).graph
-        ckey = (formation, tuple(sorted(point.items())), switch, phi,
+        ckey = (formation, c.design.key, tuple(sorted(point.items())), switch, phi,
                 c.inertias.tobytes())
         self.cert_keys[(formation, scenario)] = ckey
         if ckey not in self._certs:
@@ -262,7 +314,7 @@ class EngineResults:
         if key not in self.mc:
             mc = self.case.montecarlo
             assert mc is not None  # the case refuses montecarlo metrics without [montecarlo]
-            c = self.case.case_for(formation, scenario)
+            c = self.case_for(formation, scenario)
             box = self._mc_box(c)
             self.progress(f"Monte-Carlo {formation} / {scenario} ({mc.settings.runs} runs)")
             f = c.formation(self.case.formation(formation).graph)
@@ -320,13 +372,16 @@ def judge(claim: ClaimRow, values: dict[str, MetricValue],
 
 def aggregate(values: list[MetricValue], stat: str, skip_unknown: bool, unit: str
               ) -> MetricValue:
-    """The ``max`` or ``min`` of a number metric over the Monte-Carlo draws (evidence
-    ``montecarlo``): unknown when a draw has no value (unless ``skip_unknown``: those draws
-    are left out); a lower bound when the extreme may be one of the lower bounds.
+    """The ``max``, ``min`` or ``mean`` of a number metric over the Monte-Carlo draws
+    (evidence ``montecarlo``): unknown when a draw has no value (unless ``skip_unknown``:
+    those draws are left out); a lower bound when the extreme (for the mean: any value) may
+    be one of the lower bounds.
 
     >>> vs = [MetricValue(2.0, "s", "simulation"), MetricValue(3.0, "s", "simulation", bound="lower")]
     >>> aggregate(vs, "max", False, "s").text(), aggregate(vs, "min", False, "s").text()
     ('>= 3', '2')
+    >>> aggregate(vs, "mean", False, "s").text(), aggregate(vs[:1] * 2, "mean", False, "s").text()
+    ('>= 2.5', '2')
     >>> aggregate([MetricValue(None, "s", "simulation", "diverged")] + vs, "min", False, "s").value is None
     True
     """
@@ -339,6 +394,13 @@ def aggregate(values: list[MetricValue], stat: str, skip_unknown: bool, unit: st
                            f"value (draw {missing[0] if missing else '-'}: {why})")
     lo = [float(v.value) for _, v in known]  # type: ignore[arg-type]
     lower = [v.bound == "lower" for _, v in known]
+    if stat == "mean":
+        val = float(np.mean(lo))
+        left = f"; {len(missing)} draws without a value left out" if missing else ""
+        return MetricValue(val, unit, "montecarlo",
+                           f"mean over {len(known)} of {n} draws; range {format_number(min(lo))} "
+                           f"to {format_number(max(lo))}{left}",
+                           "lower" if any(lower) else "exact")
     if stat == "max":
         k = int(np.argmax(lo))
         bound = "lower" if any(lower) else "exact"
@@ -379,7 +441,7 @@ def run_engine(case: EngineCase, progress: Callable[[str], None] = lambda s: Non
     values: dict[str, MetricValue] = {}
     rows = []
     for m in case.metrics:
-        ctx = MetricContext(case.case_for(m.formation, m.scenario), m.formation, m.scenario,
+        ctx = MetricContext(res.case_for(m.formation, m.scenario), m.formation, m.scenario,
                             m.spec, res, m.args, graph=case.formation(m.formation).graph)
         if m.aggregate is None:
             v = _checked(m, m.spec.fn(ctx))

@@ -56,13 +56,17 @@ def _run_scope(case: Any, f: str, s: str) -> str:
     c = case.case_for(f, s)
     o = c.options
     g = case.formation(f).graph
-    rule = case.scenario(s).run_design.decl.sampling
+    from formsync_design.spec.agent import uses_switching
+
+    d = case.scenario(s).run_design
+    rule = d.decl.sampling
     integ = f"{rule} sampling, exact hybrid integrator (DOP853)" if rule != "continuous" else (
         f"{o.integrator}, step {o.step:g} s" if o.integrator == "rk4" else "CVODES")
+    switch = (f"switch {o.switch}" + (f", boundary layer {o.phi:g}" if o.switch != "sgn" else "")
+              if uses_switching(d) else "no switching function")
     return (f"formation on {g.name} (N = {g.n}) under scenario {s}: one simulated run of the "
-            f"nonlinear closed loop over {o.tf:g} s ({integ}, switch {o.switch}"
-            + (f", boundary layer {o.phi:g}" if o.switch != "sgn" else "")
-            + f", disturbance {c.disturbance.get('model', 'paper')}) [evidence]")
+            f"nonlinear closed loop over {o.tf:g} s ({integ}, {switch}"
+            f", disturbance {c.disturbance.get('model', 'paper')}) [evidence]")
 
 
 def _mc_scope(case: Any, f: str, s: str) -> str:
@@ -76,6 +80,11 @@ def _mc_scope(case: Any, f: str, s: str) -> str:
                 f"(seed {st.seed}{tf}), attitudes rotated from the leader's initial attitude by "
                 f"up to {st.max_angle_deg:g} deg about uniform axes, rates N(0, "
                 f"{mc.rate_sigma:g}^2) rad/s per axis, disturbance phases drawn, the scenario's "
+                "gains [evidence]")
+    if mc.draws == "euler-uniform":
+        return (f"formation on {g.name} (N = {g.n}) under scenario {s}: {st.runs} seeded draws "
+                f"(seed {st.seed}{tf}), every 3-2-1 Euler angle uniform in +-{st.max_angle_deg:g} "
+                f"deg, every rate component uniform in +-{st.max_rate:g} rad/s, the scenario's "
                 "gains [evidence]")
     return (f"formation on {g.name} (N = {g.n}) under scenario {s}: {st.runs} seeded runs "
             f"(seed {st.seed}{tf}), attitudes up to {st.max_angle_deg:g} deg from the identity, "
@@ -99,28 +108,28 @@ def _certificate_section(ver: Any) -> list[str]:
     L = ["## Formations and their certificates", "",
          "The formation-level certificate (`formsync_design/certify/formation.py`) of each "
          "scenario's gains on each formation's graph (inertias of the case, cycled when the "
-         "size differs).", "",
-         "| formation | graph | N | scenario | certificate | certified decay rate (1/s) | "
+         "size differs).  Scenarios that certify the same system (graph, inertias, gains and "
+         "switching realisation) share one row: the certificate is computed once.", "",
+         "| formation | graph | N | scenarios | certificate | certified decay rate (1/s) | "
          "largest real part (1/s, floats) | method |",
          "| --- | --- | --- | --- | --- | --- | --- | --- |"]
-    scopes: list[str] = []
-    first: dict[int, str] = {}
+    groups: dict[tuple[str, Any], tuple[list[str], Any]] = {}
     for f, s, c in ver.certificates:
+        key = (f, c if isinstance(c, str) else id(c))
+        groups.setdefault(key, ([], c))[0].append(s)
+    scopes: list[str] = []
+    for (f, _), (names, c) in groups.items():
         g = ver.case.formation(f).graph
+        sc = ", ".join(names)
         if isinstance(c, str):
             status = "undecided" if ver.case.formation(f).certify else "not computed"
-            L.append(f"| {f} | {_cell(g.name)} | {g.n} | {s} | {status} | - | - | "
+            L.append(f"| {f} | {_cell(g.name)} | {g.n} | {sc} | {status} | - | - | "
                      f"{_cell(c)} |")
             continue
         ab = c.evidence.get("spectral_abscissa")
-        L.append(f"| {f} | {_cell(g.name)} | {g.n} | {s} | **{c.status}** | {_g(c.decay)} | "
+        L.append(f"| {f} | {_cell(g.name)} | {g.n} | {sc} | **{c.status}** | {_g(c.decay)} | "
                  f"{_g(ab)} | {_cell(c.evidence.get('method', '')) or '-'} |")
-        if id(c) in first:
-            scopes.append(f"- {f} / {s}: the certificate of {first[id(c)]} (the same graph, "
-                          "inertias, gains and switching realisation)")
-            continue
-        first[id(c)] = f"{f} / {s}"
-        line = f"- {f} / {s}: {_cell(c.scope.text())}"
+        line = f"- {f} / {sc}: {_cell(c.scope.text())}"
         if c.reason:
             line += f"; reason: {_cell(c.reason)}"
         if c.witness is not None:

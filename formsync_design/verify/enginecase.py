@@ -11,7 +11,9 @@ range-checked, :mod:`formsync_design.ranges`; bad input is one line, exit 2)::
     [[formations]]  name, and one of: graph = "ring:6" | "cycle:8" | "edges.txt" (relative
                     to the case file) | "case" (the case's own graph, the default), or
                     arcs = [[i, j, a_ij], ...] with n; pinning = [b_1, ..., b_N] (leader);
-                    certify = false (no certificate: for a formation too large to certify)
+                    certify = false (no certificate: for a formation too large to certify);
+                    initial = [{euler_deg | q | quaternion, rate}, ...], tf (its own initial
+                    state and horizon: formsync_design.verify.enginekeys)
     [[scenarios]]   name, description, and overrides of the base case: gains = {K1 = 2.0},
                     simulation = {tf = 40, switch = "sat", period = 0.2}, disturbance =
                     {model = "none"} (the disturbance table replaced whole); sampling =
@@ -22,19 +24,22 @@ range-checked, :mod:`formsync_design.ranges`; bad input is one line, exit 2)::
                     broadcasts per spacecraft)); design = "NAME" | "file.py" (the scenario
                     runs another agent design, resolved like [case] design: a comparison
                     method on the same spacecraft, formations and simulation; its gains
-                    table is then required and replaces the base gains whole)
+                    table is then required and replaces the base gains whole);
+                    torque_matching = {scenario, formation, hold, rtol} (its gains scaled to
+                    that scenario's peak torque: formsync_design.verify.enginekeys)
     [montecarlo]    runs, seed, max_angle (deg), max_rate (rad/s), box = {K1 = "1:2", ...}
                     (the gains drawn; default the scenario's gains), tf (the draws' horizon;
                     default the scenario's), draws = "box" | "about-reference" (with
-                    rate_sigma, rad/s: verify/enginedraws.py)
+                    rate_sigma, rad/s) | "euler-uniform" (each 3-2-1 Euler angle uniform in
+                    +-max_angle, each rate component in +-max_rate: verify/enginedraws.py)
     [families]      box = {gain = "lo:hi" | number, ...}: every controller gain, the box over
                     which the design's own certificate families (conditions(c)) are decided
                     by the metrics family_certificate and family_margin
     [report]        runs = true: the report lists every simulated run (and Monte-Carlo draw)
     [[metrics]]     id, metric (a name of the registry, formsync_design/verify/metrics.py),
                     formation, scenario (default the first of each), the metric's arguments;
-                    montecarlo = "max" | "min" (a simulation metric measured on every draw's
-                    run and aggregated; skip_unknown = true leaves out the runs without a
+                    montecarlo = "max" | "min" | "mean" (a simulation metric measured on every
+                    draw's run and aggregated; skip_unknown = true leaves out the runs without a
                     value, else one makes the aggregate unknown)
     [[claims]]      id, text (the paper's words), source (where in the paper),
                     predicate over metric ids (formsync_design/verify/predicates.py)
@@ -62,27 +67,31 @@ from typing import Any
 
 from formsync_design.errors import InputError
 from formsync_design.ranges import check_range
-from formsync_design.sim.agent_montecarlo import MAX_AGENT_RUNS, AgentMonteCarloSettings
 from formsync_design.tomlio import load_toml
 from formsync_design.verify import metric_modules  # noqa: F401 (registers the metrics)
 from formsync_design.verify.agentcase import ENGINE_TABLES, AgentCase, parse_agent_case
 from formsync_design.verify.case import case_path
-from formsync_design.verify.enginedraws import DRAW_RULES
+from formsync_design.verify.enginekeys import (
+    MonteCarloSpec,
+    check_torque_matching,
+    formation_initial,
+    parse_montecarlo,
+    torque_matching,
+)
 from formsync_design.verify.enginesensors import scenario_leader, scenario_sensors
 from formsync_design.verify.metrics import METRICS, MetricSpec, check_metric_args, point_gains
 from formsync_design.verify.predicates import KEYWORDS, Node, parse_predicate
 
-__all__ = ["FormationSpec", "ScenarioSpec", "MonteCarloSpec", "MetricRow",
+__all__ = ["FormationSpec", "ScenarioSpec", "MetricRow",
            "ClaimRow", "EngineCase", "load_engine_case", "parse_engine_case", "directed_cycle"]
 
 _ID = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,39}")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,39}")
 _TEXT_MAX = 4000
 _KEYS = {
-    "formations": {"name", "graph", "arcs", "n", "pinning", "certify"},
+    "formations": {"name", "graph", "arcs", "n", "pinning", "certify", "initial", "tf"},
     "scenarios": {"name", "description", "design", "gains", "simulation", "disturbance",
-                  "sampling", "period_matching", "sensors", "leader"},
-    "montecarlo": {"runs", "seed", "max_angle", "max_rate", "box", "tf", "draws", "rate_sigma"},
+                  "sampling", "period_matching", "torque_matching", "sensors", "leader"},
     "families": {"box"},
     "report": {"runs"},
     "claims": {"id", "text", "source", "predicate"},
@@ -92,12 +101,16 @@ _KEYS = {
 @dataclass(frozen=True)
 class FormationSpec:
     """A formation: ``name``, its :class:`~formsync_design.graphs.digraph.Digraph`, ``source``
-    (the graph as the file wrote it), ``certify`` (whether its certificate is computed)."""
+    (the graph as the file wrote it), ``certify`` (whether its certificate is computed),
+    ``initial`` (``(attitudes (N, 4), rates (N, 3))`` it starts from, ``None``: the case's)
+    and ``tf`` (its horizon, ``None``: the scenario's)."""
 
     name: str
     graph: Any
     source: str
     certify: bool = True
+    initial: tuple[Any, Any] | None = None
+    tf: float | None = None
 
 
 @dataclass(frozen=True)
@@ -105,7 +118,9 @@ class ScenarioSpec:
     """A scenario: ``name``, ``description``, the validated ``case`` (base + overrides), the
     ``overrides`` as written, the ``design`` its runs use (the case's, or its
     :func:`~formsync_design.spec.agent.rule_variant` under ``sampling``) and
-    ``period_matching`` (the scenario whose broadcasts its period matches, or ``None``)."""
+    ``period_matching`` (the scenario whose broadcasts its period matches, or ``None``),
+    ``torque_matching`` (``scenario``, ``formation``, ``hold``, ``rtol``: its gains scaled to
+    that scenario's peak torque, or ``None``)."""
 
     name: str
     description: str
@@ -113,24 +128,11 @@ class ScenarioSpec:
     overrides: dict[str, Any]
     design: Any = None
     period_matching: str | None = None
+    torque_matching: dict[str, Any] | None = None
 
     @property
     def run_design(self) -> Any:
         return self.case.design if self.design is None else self.design
-
-
-@dataclass(frozen=True)
-class MonteCarloSpec:
-    """``settings`` (runs, seed, spreads), ``box`` (gain -> ``"lo:hi"``, ``{}``: the
-    scenario's gains), ``tf`` (the draws' horizon, ``None``: the scenario's), ``draws``
-    (:data:`~formsync_design.verify.enginedraws.DRAW_RULES`) and ``rate_sigma`` (rad/s,
-    ``about-reference``)."""
-
-    settings: AgentMonteCarloSettings
-    box: dict[str, str]
-    tf: float | None = None
-    draws: str = "box"
-    rate_sigma: float = 0.01
 
 
 @dataclass(frozen=True)
@@ -187,10 +189,18 @@ class EngineCase:
         return next(s for s in self.scenarios if s.name == name)
 
     def case_for(self, formation: str, scenario: str) -> AgentCase:
-        """The scenario's case resized to the formation (spacecraft cycled when it differs)."""
-        g = self.formation(formation).graph
+        """The scenario's case resized to the formation (spacecraft cycled when it differs),
+        from the formation's initial state and with its horizon when it declares them."""
+        from dataclasses import replace
+
+        f = self.formation(formation)
         c = self.scenario(scenario).case
-        return c if g.n == c.n else c.cycled(g.n)
+        c = c if f.graph.n == c.n else c.cycled(f.graph.n)
+        if f.initial is not None:
+            c = replace(c, attitudes=f.initial[0], rates=f.initial[1])
+        if f.tf is not None:
+            c = replace(c, options=replace(c.options, tf=f.tf))
+        return c
 
 
 def directed_cycle(n: int) -> Any:
@@ -307,7 +317,10 @@ def _formations(data: dict, base: AgentCase, path: str) -> tuple[FormationSpec, 
         cert = row.get("certify", True)
         if not isinstance(cert, bool):
             raise InputError(f"expected {where}.certify = true or false, received {cert!r:.30}")
-        out.append(FormationSpec(name, g, src, cert))
+        agent = {k: v for k, v in data.items() if k not in ENGINE_TABLES}
+        init = formation_initial(row, where, agent, g.n, path)
+        tf = None if "tf" not in row else _number(row["tf"], f"{where}.tf", "horizon")
+        out.append(FormationSpec(name, g, src, cert, init, tf))
     return tuple(out)
 
 
@@ -339,7 +352,8 @@ def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[Sce
         case = parse_agent_case(merged, path, design=None if other else base.design)
         design, match = _sampling(row, where, case, over)
         over.update(scenario_sensors(row, where, case))  # a gyro model: verify/enginesensors
-        out.append(ScenarioSpec(name, desc, case, over, design, match))
+        torque = torque_matching(row, where, case, over)
+        out.append(ScenarioSpec(name, desc, case, over, design, match, torque))
     names = [s.name for s in out]
     for s in out:
         m = s.period_matching
@@ -401,59 +415,11 @@ def _sampling(row: dict, where: str, case: AgentCase, over: dict[str, Any]
     return design, match
 
 
-def _int(v: Any, where: str, lo: int, hi: int) -> int:
-    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-        raise InputError(f"expected {where} an integer in [{lo}, {hi}], received {v!r:.40}")
-    return v
-
-
 def _number(v: Any, where: str, quantity: str) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float)):
         raise InputError(f"expected {where} as a number, received {v!r:.40}")
     check_range(v, quantity, where)
     return float(v)
-
-
-def _montecarlo(data: dict, base: AgentCase) -> MonteCarloSpec | None:
-    from formsync_design.gains import parse_gain_range
-
-    t = data.get("montecarlo")
-    if t is None:
-        return None
-    if not isinstance(t, dict):
-        raise InputError(f"expected a [montecarlo] table, received {t!r:.60}")
-    _check_keys(t, "montecarlo", "[montecarlo]")
-    settings = AgentMonteCarloSettings(
-        runs=_int(t.get("runs", 20), "montecarlo.runs", 1, MAX_AGENT_RUNS),
-        seed=_int(t.get("seed", 0), "montecarlo.seed", 0, 2**63 - 1),
-        max_angle_deg=_number(t.get("max_angle", 90.0), "montecarlo.max_angle", "angle"),
-        max_rate=_number(t.get("max_rate", 0.01), "montecarlo.max_rate", "rate"))
-    draws = t.get("draws", "box")
-    if draws not in DRAW_RULES:
-        raise InputError(f"expected montecarlo.draws among {list(DRAW_RULES)}, received "
-                         f"{draws!r:.40}")
-    if draws == "box" and "rate_sigma" in t:
-        raise InputError("expected montecarlo.rate_sigma only with draws = \"about-reference\", "
-                         "received it with the box draws")
-    if draws == "about-reference" and ("max_rate" in t or "box" in t):
-        raise InputError("expected rate_sigma and the scenario's gains with draws = "
-                         "\"about-reference\", received max_rate or box")
-    tf = None if "tf" not in t else _number(t["tf"], "montecarlo.tf", "horizon")
-    sigma = _number(t.get("rate_sigma", 0.01), "montecarlo.rate_sigma", "rate")
-    box = t.get("box", {})
-    if not isinstance(box, dict):
-        raise InputError(f"expected montecarlo.box = {{gain = \"lo:hi\"}}, received {box!r:.60}")
-    ctrl = list(base.design.decl.controller_gains)
-    unknown = sorted(set(box) - set(ctrl))
-    if unknown:
-        raise InputError(f"expected montecarlo.box gains among {ctrl}, received unknown {unknown}")
-    out = {}
-    for k, v in box.items():
-        if isinstance(v, bool) or not isinstance(v, (str, int, float)):
-            raise InputError(f"expected montecarlo.box.{k} as \"lo:hi\" or a number, received {v!r:.40}")
-        parse_gain_range(str(v), f"montecarlo.box.{k}")
-        out[k] = str(v)
-    return MonteCarloSpec(settings, out, tf, str(draws), sigma)
 
 
 def _families(data: dict, base: AgentCase) -> dict[str, str] | None:
@@ -501,9 +467,9 @@ def _metrics(data: dict, base: AgentCase, forms: tuple[FormationSpec, ...],
                              f"{name!r} ({why})")
         agg = row.get("montecarlo")
         skip = row.get("skip_unknown", False)
-        if agg is not None and (agg not in ("max", "min") or spec.evidence != "simulation"
+        if agg is not None and (agg not in ("max", "min", "mean") or spec.evidence != "simulation"
                                 or spec.value != "number"):
-            raise InputError(f"expected {where}.montecarlo = \"max\" or \"min\" on a simulation "
+            raise InputError(f"expected {where}.montecarlo = \"max\", \"min\" or \"mean\" on a simulation "
                              f"metric, received {agg!r:.30} on {name!r} ({spec.evidence})")
         if not isinstance(skip, bool) or (skip and agg is None):
             raise InputError(f"expected {where}.skip_unknown = true or false with montecarlo, "
@@ -538,6 +504,10 @@ def _metrics(data: dict, base: AgentCase, forms: tuple[FormationSpec, ...],
         vs = args.get("versus")
         if vs is not None and vs not in snames:
             raise InputError(f"expected {where}.versus among {snames}, received {vs!r:.60}")
+        listed = [x.strip() for x in str(args.get("scenarios", "")).split(",") if x.strip()]
+        if any(x not in snames for x in listed):
+            raise InputError(f"expected {where}.scenarios (comma-separated) among {snames}, "
+                             f"received {args['scenarios']!r:.60}")
         out.append(MetricRow(mid, spec, f, s, args, agg, skip))
     return tuple(out)
 
@@ -572,7 +542,8 @@ def parse_engine_case(data: dict, path: str = "<memory>", design: Any = None) ->
     base = parse_agent_case(copy.deepcopy(agent), path, design=design)
     forms = _formations(data, base, path)
     scens = _scenarios(data, agent, base, path)
-    mc = _montecarlo(data, base)
+    check_torque_matching(scens, [f.name for f in forms])
+    mc = parse_montecarlo(data, base)
     fam = _families(data, base)
     metrics = _metrics(data, base, forms, scens, mc, fam)
     claims = _claims(data, metrics, path)

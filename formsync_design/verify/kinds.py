@@ -41,8 +41,7 @@ __all__ = ["KINDS", "VerifyRequest", "case_kind", "verifier"]
 #: Case kind -> ``"module:function"`` of its verifier.
 KINDS: dict[str, str] = {
     "formation": "formsync_design.verify.formation:verify_formation_case",
-    "flyaround": "formsync_design.verify.flyaround:verify_flyaround_case",
-    "agent-comparison": "formsync_design.verify.comparison:verify_comparison_case",
+    "flyaround": "formsync_design.verify.tracking:verify_flyaround_case",
     "engine": "formsync_design.verify.engine:verify_engine_case",
 }
 

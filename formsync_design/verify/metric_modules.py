@@ -10,6 +10,8 @@ True
 from __future__ import annotations
 
 from formsync_design.verify import (  # noqa: F401 (each registers its metrics)
+    metrics_attitude,
+    metrics_compare,
     metrics_design,
     metrics_l2,
     metrics_sampled,

@@ -299,6 +299,8 @@ class Results(Protocol):
 
     def memo(self, key: tuple[Any, ...], compute: Callable[[], Any]) -> Any: ...
 
+    def gain_scale(self, scenario: str) -> tuple[Any, Any] | None: ...
+
 
 @dataclass(frozen=True)
 class MetricContext:

@@ -42,7 +42,7 @@ def rate_free_degrees(design: Any, graph: Any) -> dict[int, bool]:
     of ``graph``.
 
     >>> from formsync_design.spec.loader import load_design
-    >>> rate_free_degrees(load_design("lv2012"), "path:3"), rate_free_degrees(load_design("liang2016_agent"), "path:2")
+    >>> rate_free_degrees(load_design("lv2012"), "path:3"), rate_free_degrees(load_design("liang2016"), "path:2")
     ({1: True, 2: True}, {1: False})
     """
     from formsync_design.graphs.digraph_io import make_digraph

@@ -30,8 +30,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["TheoremRow", "TheoremCheck", "theorem_graphs", "check_theorem", "cycle_figure",
-           "theorem_claim"]
+__all__ = ["TheoremRow", "TheoremCheck", "theorem_graphs", "check_theorem", "theorem_claim"]
 
 
 @dataclass(frozen=True)
@@ -267,30 +266,3 @@ def theorem_claim(tc: TheoremCheck) -> tuple[str, str, str, str]:
             "(at the case's gains)", measured, "fails" if bad else "undecided",
             "formation-level certificate (local exponential stability) on graph families: a "
             "refuted graph of the class is a counterexample; none refuted decides nothing")
-
-
-
-def cycle_figure(tc: TheoremCheck) -> Any:
-    """The largest real part of the disagreement's linearisation on the directed cycles
-    against their length (a Figure; ``None`` when no cycle was checked): above zero a cycle is
-    a counterexample."""
-    from matplotlib.figure import Figure
-
-    rows = sorted((r for r in tc.rows if r.family == "directed cycle" and r.abscissa is not None),
-                  key=lambda r: r.n)
-    if not rows:
-        return None
-    fig = Figure(figsize=(6.0, 3.4))
-    ax = fig.add_subplot(111)
-    ax.plot([r.n for r in rows], [float(r.abscissa or 0.0) for r in rows], "o-", color="C0")
-    bad = [r for r in rows if r.status == "refuted"]
-    ax.plot([r.n for r in bad], [float(r.abscissa or 0.0) for r in bad], "o", color="C3",
-            label="refuted (counterexample)")
-    ax.axhline(0.0, color="k", lw=0.8)
-    ax.set_xlabel("directed cycle length N")
-    ax.set_ylabel("largest real part (1/s)")
-    ax.set_title(f"{tc.design}: disagreement modes on directed cycles", fontsize=10)
-    if bad:
-        ax.legend(fontsize=8)
-    fig.tight_layout()
-    return fig

@@ -1,0 +1,373 @@
+"""Compiled closed-loop simulation of the fly-around case (Zhang et al. 2014, issue 14).
+
+:func:`simulate_flyaround` runs a tracking design (default ``zhang2014_flyaround``) on a
+:class:`FlyaroundScenario` (orbits, spacecraft, fly-around reference, thrusters, gains):
+one control sample every ``sample_period`` seconds with the PWM pulses of that sample
+integrated inside it (:mod:`formsync_design.sim.tracking_model`).  The sample step is
+generated once per design and option set, compiled to C through the kernel compiler and
+disk cache of :mod:`formsync_design.sim.kernels`, and folded over chunks of samples
+(``casadi.Function.mapaccum``), so the whole 18 000 s case is a few calls into C.  With
+``allocation="lp"`` the minimum-fuel LP (:class:`~formsync_design.models.allocation.
+MinFuelAllocator`) is solved in Python between a compiled control call and a compiled
+propagation call per sample.
+
+The LQR gain is computed from the design's ``lqr_weights`` on the CW model
+(:func:`~formsync_design.models.orbit.lqr_design`); the initial relative state from the
+Keplerian elements (:func:`~formsync_design.models.orbit.relative_state`); the initial
+attitude is the desired attitude at ``t = 0`` rotated by the 3-2-1 angles
+``attitude0_deg`` (body relative to desired), with the relative rate ``rate0``.
+
+>>> from formsync_design.verify.tracking_case import load_flyaround_case
+>>> sc = load_flyaround_case().scenario          # the paper's case and the case file's gains
+>>> isinstance(sc, FlyaroundScenario), sc.gains["k_p"]
+(True, (807.0,))
+>>> run = simulate_flyaround(sc, FlyaroundOptions(tf=2.0))
+>>> run.t.shape, run.states.shape, round(run.fuel, 4) > 0, str(run.status)
+((10,), (11, 12), True, 'completed')
+
+A state that goes non-finite is a finding, not an error: the run ends at the last finite
+state with the status ``diverged`` and the time (a plant of almost no inertia):
+
+>>> from dataclasses import replace
+>>> bad = simulate_flyaround(replace(sc, inertia=1e-9 * np.eye(3)), FlyaroundOptions(tf=200.0))
+>>> str(bad.status), bad.diverged_time > 0, bool(np.isfinite(bad.states).all())
+('diverged', True, True)
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from formsync_design.errors import InputError
+from formsync_design.models.mrp import mrp_from_matrix
+from formsync_design.models.orbit import (
+    LQRDesign,
+    cw_matrices,
+    elements_to_state,
+    lqr_design,
+    relative_state,
+)
+from formsync_design.models.relative_reference import (
+    desired_attitude,
+    rotation_rT,
+)
+from formsync_design.models.thrusters import (
+    positive_null_vector,
+)
+from formsync_design.sim.tracking_model import (
+    N_THRUSTERS_MAX,
+    OUTPUTS,
+    build_functions,
+    param_layout,
+)
+from formsync_design.sim.tracking_scenario import (
+    FlyaroundOptions,
+    FlyaroundRun,
+    FlyaroundScenario,
+    FlyaroundStatus,
+    euler321,
+)
+from formsync_design.spec.declarations import GainKind, GainRole
+from formsync_design.spec.loader import Spec, load_spec
+from formsync_design.spec.tracking import gain_entry_symbols, tracking_expressions
+
+__all__ = [
+    "simulate_flyaround",
+    "initial_state",
+    "lqr_for",
+    "rotation_vectors",
+]
+
+#: Samples per call of the compiled chunk.
+CHUNK = 500
+
+#: An ``lp`` run compiles its control and propagation functions from this many samples
+#: on (a shorter run is faster in the CasADi virtual machine than with a cold C build).
+LP_COMPILE_MIN_SAMPLES = 5000
+
+
+def lqr_for(spec: Spec, scenario: FlyaroundScenario) -> tuple[LQRDesign, np.ndarray, np.ndarray]:
+    """The LQR design of ``spec``'s weights on the CW model: ``(design, Q, R)``."""
+    ex = tracking_expressions(spec)
+    sub: dict[Any, float] = {}
+    for g in spec.decl.gains:
+        if g.role != GainRole.WEIGHT:
+            continue
+        vals = _gain_values(scenario, g)
+        sub.update(dict(zip(gain_entry_symbols(g), vals)))
+    q = np.array(ex.Q.xreplace(sub).evalf(), dtype=float)
+    r = np.array(ex.R.xreplace(sub).evalf(), dtype=float)
+    a, b = cw_matrices(scenario.mean_motion)
+    return lqr_design(a, b, q, r), q, r
+
+
+def _gain_values(scenario: FlyaroundScenario, g: Any) -> tuple[float, ...]:
+    if g.name not in scenario.gains:
+        raise InputError(f"expected a value for the design's gain {g.name!r}, received gains "
+                         f"{sorted(scenario.gains)}")
+    vals = tuple(float(v) for v in np.atleast_1d(np.asarray(scenario.gains[g.name], float)))
+    width = 3 if g.kind == GainKind.DIAG else 1
+    if len(vals) == 1 and width == 3:
+        vals = vals * 3
+    if len(vals) != width or not all(math.isfinite(v) and v > 0 for v in vals):
+        raise InputError(f"expected {g.name} as {width} positive number(s), received {vals}")
+    return vals
+
+
+def initial_state(scenario: FlyaroundScenario,
+                  reading: str = "corrected") -> tuple[np.ndarray, np.ndarray]:
+    """``(x0[12], R_dr(0) row-major[9])`` of the scenario (module docstring)."""
+    x_rel = relative_state(elements_to_state(scenario.target, scenario.mu),
+                           elements_to_state(scenario.chaser, scenario.mu))
+    n = scenario.mean_motion
+    d0 = desired_attitude(0.0, scenario.reference, n, reading)
+    u0 = scenario.target.argp + scenario.target.nu
+    c, s = math.cos(u0), math.sin(u0)
+    c_ti = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+    c_bd = euler321(scenario.attitude0_deg)
+    c_bi = c_bd @ d0.R_dT @ c_ti
+    sigma0 = mrp_from_matrix(c_bi.T)
+    omega0 = c_bd @ d0.omega_di + scenario.rate0
+    return np.concatenate([x_rel, sigma0, omega0]), d0.R_dr.ravel()
+
+
+class _Kernel:
+    def __init__(self, fns: dict[str, Any], chunk: Any, compiled: bool, seconds: float,
+                 tag: str) -> None:
+        self.fns, self.chunk, self.compiled, self.seconds = fns, chunk, compiled, seconds
+        self.tag = tag  # the disk-cache key material: the design's digest and the options
+        self.ctrl_c: Any = None
+        self.lp_compiled = False
+        self.prop_c: Any = None
+
+
+_KERNELS: dict[tuple[Any, ...], _Kernel] = {}
+
+
+def _laws(spec: Spec) -> dict[str, Any]:
+    ex = tracking_expressions(spec)
+    av, ov = ex.attitude_view, ex.orbit_view
+    ctrl_gains = [g for g in spec.decl.gains if g.role == GainRole.CONTROLLER]
+
+    def bind_torque(sig: Any, w: Any, ws: Any, wd: Any, ad: Any, jh: Any, gv: Any) -> dict:
+        b: dict[Any, Any] = {}
+        for vec, val in ((av.sigma, sig), (av.omega, w), (av.omega_s, ws), (av.w_d, wd),
+                         (av.a_d, ad)):
+            b.update({vec[i]: val[i] for i in range(3)})
+        for i in range(3):
+            for k in range(i, 3):
+                b[av.J[i, k]] = jh[i, k]
+        pos = 0
+        for g in ctrl_gains:
+            for s_ in gain_entry_symbols(g):
+                b[s_] = gv[pos]
+                pos += 1
+        return b
+
+    def bind_orbit(dx: Any, ff: Any, k: Any) -> dict:
+        b: dict[Any, Any] = {ov.dX[i]: dx[i] for i in range(6)}
+        b.update({ov.ff[i]: ff[i] for i in range(3)})
+        b.update({ov.K[i, j]: k[i, j] for i in range(3) for j in range(6)})
+        return b
+
+    ngain = sum(len(gain_entry_symbols(g)) for g in ctrl_gains)
+    return {"torque": ex.torque, "acceleration": ex.acceleration, "bind_torque": bind_torque,
+            "bind_orbit": bind_orbit, "ngain": ngain, "ctrl_gains": ctrl_gains}
+
+
+def _kernel(spec: Spec, opt: FlyaroundOptions) -> _Kernel:
+    from formsync_design.sim.ccompile import compile_enabled
+    from formsync_design.sim.kernels import compile_function
+
+    compile = opt.compile and compile_enabled()
+    key = (spec.key, opt.substeps, opt.sample_period, compile)
+    hit = _KERNELS.get(key)
+    if hit is not None:
+        return hit
+    t0 = time.perf_counter()
+    laws = _laws(spec)
+    fns = build_functions(laws, laws["ngain"], opt.substeps, opt.sample_period)
+    chunk = fns["step"].mapaccum("fa_chunk", CHUNK, 2)
+    compiled = False
+    tag = f"{spec.key}|flyaround|{opt.substeps}|{opt.sample_period!r}"
+    if compile:
+        chunk, compiled = compile_function(chunk, tag)
+    k = _Kernel(fns, chunk, compiled, time.perf_counter() - t0, tag)
+    _KERNELS[key] = k
+    return k
+
+
+def _params(spec: Spec, sc: FlyaroundScenario, opt: FlyaroundOptions,
+            lqr: LQRDesign) -> np.ndarray:
+    laws = _laws(spec)
+    lay = param_layout(laws["ngain"])
+    p = np.zeros(lay["_size"].stop)
+    p[lay["K"]] = lqr.K.T.ravel()  # column-major 3x6
+    gv: list[float] = []
+    for g in laws["ctrl_gains"]:
+        gv.extend(_gain_values(sc, g))
+    p[lay["att_gains"]] = gv
+    j = sc.inertia
+    jh = sc.inertia if sc.law_inertia is None else sc.law_inertia
+    p[lay["J"]] = j.T.ravel()
+    p[lay["Jinv"]] = np.linalg.inv(j).T.ravel()
+    p[lay["Jhat"]] = jh.T.ravel()
+    p[lay["mass"]] = sc.mass
+    p[lay["mass_hat"]] = sc.mass
+    p[lay["thrust"]] = sc.layout.thrust
+    p[lay["min_pulse"]] = opt.min_pulse
+    p[lay["carry"]] = 1.0 if opt.carry else 0.0
+    p[lay["shift"]] = 1.0 if opt.allocation == "pinv-shift" else 0.0
+    nt, m = N_THRUSTERS_MAX, sc.layout.count
+    a = np.zeros((6, nt))
+    a[:, :m] = sc.layout.matrix
+    apinv = np.zeros((nt, 6))
+    apinv[:m] = np.linalg.pinv(sc.layout.matrix)
+    p[lay["Apinv"]] = apinv.T.ravel()
+    p[lay["A"]] = a.T.ravel()
+    z = np.ones(nt)
+    if opt.allocation == "pinv-shift":
+        z[:m] = positive_null_vector(sc.layout)
+    p[lay["null"]] = z
+    r = sc.reference
+    p[lay["ref"]] = [r.a, r.b, r.c, r.phi0, r.theta0, r.p1, r.p2, r.period,
+                     1.0 if opt.reading == "printed" else 0.0]
+    p[lay["RrT"]] = rotation_rT(r).T.ravel()
+    n = sc.mean_motion
+    p[lay["orbit"]] = [sc.mu, sc.target.a, n, sc.target.argp + sc.target.nu]
+    a_cw, _ = cw_matrices(n)
+    p[lay["cw"]] = a_cw[3:, :].T.ravel()
+    p[lay["tol"]] = [1e-9, 1e-12]
+    return p
+
+
+def simulate_flyaround(scenario: FlyaroundScenario,
+                       options: FlyaroundOptions | None = None,
+                       spec: Spec | str | None = None) -> FlyaroundRun:
+    """Simulate the fly-around closed loop (module docstring).
+
+    Parameters
+    ----------
+    scenario : FlyaroundScenario
+        The case (:func:`~formsync_design.verify.tracking_case.load_flyaround_case` reads
+        one from a case file).
+    options : FlyaroundOptions, optional
+    spec : Spec or str, optional
+        A tracking design (default ``zhang2014_flyaround``).
+
+    Returns
+    -------
+    FlyaroundRun
+        A non-finite state is the status ``diverged`` with its time (no exception).
+    """
+    sc = scenario
+    opt = options if options is not None else FlyaroundOptions()
+    sp_ = load_spec(spec if spec is not None else "zhang2014_flyaround")
+    lqr, _, _ = lqr_for(sp_, sc)
+    kern = _kernel(sp_, opt)
+    p = _params(sp_, sc, opt, lqr)
+    x0, rdr0 = initial_state(sc, opt.reading)
+    c0 = np.concatenate([np.zeros(N_THRUSTERS_MAX), rdr0.reshape(3, 3).T.ravel()])
+    nk = opt.samples
+    t = np.arange(nk) * opt.sample_period
+    width = sum(w for _, w in OUTPUTS)
+    out = np.empty((nk, width))
+    states = np.empty((nk + 1, 12))
+    states[0] = x0
+    t0 = time.perf_counter()
+    fallbacks = 0
+    bad: int | None = None  # the first index of ``states`` that is not finite
+    if opt.allocation == "lp":
+        fallbacks, bad = _run_lp(kern, sc, p, x0, c0, t, out, states)
+    else:
+        x, c = x0, c0
+        for k0 in range(0, nk, CHUNK):
+            tt = np.arange(k0, k0 + CHUNK) * opt.sample_period
+            xs, cs, os_ = kern.chunk(x, c, tt[None, :], p)
+            xs, os_ = np.asarray(xs), np.asarray(os_)
+            take = min(CHUNK, nk - k0)
+            states[k0 + 1:k0 + 1 + take] = xs[:, :take].T
+            out[k0:k0 + take] = os_[:, :take].T
+            x, c = xs[:, take - 1], np.asarray(cs)[:, take - 1]
+            rows = np.flatnonzero(~np.isfinite(states[k0 + 1:k0 + 1 + take]).all(axis=1))
+            if rows.size:  # a finding: the run ends at the last finite state
+                bad = k0 + 1 + int(rows[0])
+                break
+    seconds = time.perf_counter() - t0
+    status, tdiv = FlyaroundStatus.COMPLETED, None
+    if bad is not None:
+        # states[bad] (at t_bad) is the first non-finite one: keep the samples before it,
+        # whose states (t_0 .. t_{bad-1}) are all finite
+        status, tdiv = FlyaroundStatus.DIVERGED, float(bad * opt.sample_period)
+        t, out, states = t[:bad - 1], out[:bad - 1], states[:bad]
+    outputs, pos = {}, 0
+    for name, w in OUTPUTS:
+        outputs[name] = out[:, pos:pos + w] if w > 1 else out[:, pos]
+        pos += w
+    return FlyaroundRun(t, states, outputs, lqr, opt, sc, seconds, kern.seconds, fallbacks,
+                        status, tdiv)
+
+
+def _run_lp(kern: _Kernel, sc: FlyaroundScenario, p: np.ndarray, x0: np.ndarray,
+            c0: np.ndarray, t: np.ndarray, out: np.ndarray,
+            states: np.ndarray) -> tuple[int, int | None]:
+    """The per-sample loop of an ``lp`` run (compiled control and propagation): the LP
+    fallbacks and the first index of ``states`` that is not finite (None: all are)."""
+    from formsync_design.models.allocation import MinFuelAllocator
+    from formsync_design.sim.kernels import compile_function
+
+    if kern.ctrl_c is None or (kern.compiled and not kern.lp_compiled
+                               and t.size >= LP_COMPILE_MIN_SAMPLES):
+        ctrl, prop = kern.fns["ctrl"], kern.fns["prop"]
+        kern.lp_compiled = kern.compiled and t.size >= LP_COMPILE_MIN_SAMPLES
+        if kern.lp_compiled:
+            ctrl, _ = compile_function(ctrl, kern.tag + "|ctrl")
+            prop, _ = compile_function(prop, kern.tag + "|prop")
+        kern.ctrl_c, kern.prop_c = ctrl, prop
+    alloc = MinFuelAllocator(sc.layout)
+    m, nt = sc.layout.count, N_THRUSTERS_MAX
+    # zero-copy evaluation (casadi.Function.buffer): the arrays below are the functions'
+    # argument and result memory, updated in place every sample
+    x, c, tk, f = x0.copy(), c0.copy(), np.zeros(1), np.zeros(nt)
+    wr, fa, co, rdr = np.zeros(6), np.zeros(nt), np.zeros(20), np.zeros(9)
+    xn, cn, tau, wp, sw = np.zeros(12), np.zeros(c0.size), np.zeros(nt), np.zeros(6), np.zeros(1)
+    cbuf, ctrig = kern.ctrl_c.buffer()
+    for i, arr in enumerate((x, c, tk, p)):
+        cbuf.set_arg(i, arr.data)
+    for i, arr in enumerate((wr, fa, co, rdr)):
+        cbuf.set_res(i, arr.data)
+    pbuf, ptrig = kern.prop_c.buffer()
+    for i, arr in enumerate((x, c, tk, p, f, rdr)):
+        pbuf.set_arg(i, arr.data)
+    for i, arr in enumerate((xn, cn, tau, wp, sw)):
+        pbuf.set_res(i, arr.data)
+    fb = 0
+    for k in range(t.size):
+        tk[0] = t[k]
+        ctrig()
+        a = alloc.allocate(wr)
+        fb += a.method != "explicit"
+        f[:m] = a.thrusts
+        ptrig()
+        out[k] = np.concatenate([co[0:12], tau, wr, wp, co[18:20], sw, f])
+        x[:] = xn
+        c[:] = cn
+        states[k + 1] = xn
+        if not np.all(np.isfinite(xn)):
+            return fb, k + 1
+    return fb, None
+
+
+def rotation_vectors(sigma: np.ndarray) -> np.ndarray:
+    """Rotation vectors ``4 atan|sigma| sigma/|sigma|`` (rad) of MRPs, ``(K, 3)``.
+
+    >>> rotation_vectors(np.array([[0.0, 0.0, math.tan(0.25)]])).round(12).tolist()
+    [[0.0, 0.0, 1.0]]
+    """
+    n = np.linalg.norm(sigma, axis=1)
+    scale = np.where(n > 0, 4 * np.arctan(n) / np.where(n > 0, n, 1.0), 4.0)
+    return sigma * scale[:, None]

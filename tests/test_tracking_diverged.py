@@ -1,0 +1,101 @@
+"""A fly-around whose state goes non-finite is a finding (status ``diverged`` with its time),
+never an exception; every claim judged on it fails, and ``formsync verify`` exits 1.
+
+The diverging variant is the shipped case with a plant of almost no inertia (the law keeps
+the printed inertia, so its torques spin the plant up without bound).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from formsync_design.cli.main import main
+from formsync_design.resources import case_file
+from formsync_design.sim import tracking as F
+from formsync_design.verify.tracking_case import load_flyaround_case
+from formsync_design.verify.tracking_claims import (
+    METRICS,
+    Verdict,
+    diverged_time,
+    judge,
+    run_metrics,
+)
+
+CASE = load_flyaround_case()
+TINY = replace(CASE.scenario, inertia=1e-3 * np.eye(3), law_inertia=CASE.scenario.inertia)
+SHORT = replace(CASE.options, tf=200.0)
+
+
+@pytest.fixture(scope="module")
+def diverged() -> F.FlyaroundRun:
+    return F.simulate_flyaround(TINY, SHORT, CASE.spec)
+
+
+def test_a_non_finite_state_is_the_status_diverged_with_its_time(diverged) -> None:
+    r = diverged
+    assert r.status == F.FlyaroundStatus.DIVERGED and str(r.status) == "diverged"
+    dt = SHORT.sample_period
+    assert 0 < r.diverged_time < SHORT.tf
+    # the run ends at the last finite state, one sample before the divergence time
+    assert r.states.shape == (r.t.size + 1, 12) and np.isfinite(r.states).all()
+    assert math.isclose(r.diverged_time, (r.t.size + 1) * dt)
+    assert all(v.shape[0] == r.t.size for v in r.outputs.values())
+    assert "diverged at t = " in r.message
+    d = r.to_dict()
+    assert d["status"] == "diverged" and d["diverged_time"] == r.diverged_time
+    # independent of the truncation: the same loop stopped at the last finite state
+    # completes, with the same trajectory; one sample more is not finite
+    upto = F.simulate_flyaround(TINY, replace(SHORT, tf=r.t.size * dt), CASE.spec)
+    assert upto.status == F.FlyaroundStatus.COMPLETED and upto.diverged_time is None
+    assert np.array_equal(upto.states, r.states)
+    more = F.simulate_flyaround(TINY, replace(SHORT, tf=(r.t.size + 1) * dt), CASE.spec)
+    assert more.status == "diverged" and more.diverged_time == r.diverged_time
+
+
+def test_the_lp_allocation_run_diverges_the_same_way(diverged) -> None:
+    r = F.simulate_flyaround(TINY, replace(SHORT, allocation="lp"), CASE.spec)
+    assert r.status == "diverged" and np.isfinite(r.states).all()
+    assert r.states.shape[0] == r.t.size + 1
+    assert math.isclose(r.diverged_time, (r.t.size + 1) * SHORT.sample_period)
+
+
+def test_a_claim_judged_on_a_diverged_run_fails(diverged) -> None:
+    tdiv = diverged_time(diverged)
+    assert tdiv == diverged.diverged_time
+    m = run_metrics(diverged, CASE.steady_from)
+    assert set(m) == set(METRICS) and all(math.isnan(v) for v in m.values())
+    claims = judge(CASE, m, tdiv)
+    assert len(claims) == len(CASE.published) + len(CASE.qualitative) > 0
+    assert all(c.verdict == Verdict.FAILS for c in claims)
+    assert all(f"diverged at t = {tdiv:g} s" in c.rule for c in claims)
+
+
+def test_a_completed_run_measures_every_metric() -> None:
+    run = F.simulate_flyaround(CASE.scenario, replace(CASE.options, tf=160.0), CASE.spec)
+    assert run.status == "completed" and diverged_time(run) is None
+    m = run_metrics(run, 120.0)
+    assert list(m) == list(METRICS) and math.isfinite(m["fuel_kg"])
+
+
+def test_verify_of_a_diverging_case_exits_1_saying_diverged(tmp_path, capsys) -> None:
+    text = case_file("zhang2014_flyaround").read_text()
+    text = text.replace("tf = 18000.0", "tf = 200.0").replace("steady_from = 1000.0",
+                                                               "steady_from = 120.0")
+    text = text[:text.index("[sensitivity]")] + text[text.index("[certificate]"):]
+    old = "inertia = [[3256.0, 0.0, 0.0], [0.0, 2922.0, 0.0], [0.0, 0.0, 3505.0]]"
+    assert old in text
+    p = tmp_path / "div.toml"
+    p.write_text(text.replace(old, "inertia = [[0.001, 0.0, 0.0], [0.0, 0.001, 0.0], "
+                                   "[0.0, 0.0, 0.001]]"))
+    rc = main(["verify", str(p), "--out", str(tmp_path / "o")])
+    out = capsys.readouterr().out
+    assert rc == 1
+    assert "the simulation diverged at t = " in out
+    assert "holds" not in out and out.count("fails") == len(CASE.published) + len(CASE.qualitative)
+    md = (tmp_path / "o" / "div-verification.md").read_text()
+    n = len(CASE.published) + len(CASE.qualitative)
+    assert "**The simulation diverged at t = " in md and f"0 of {n} claims hold." in md
