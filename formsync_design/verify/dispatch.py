@@ -9,9 +9,9 @@ result object, writing nothing:
 ``[case] kind``               result
 ============================  ==============================================================
 ``formation`` (the default)   :class:`~formsync_design.verify.results.VerificationResult`
-``flyaround``                 :class:`~formsync_design.verify.tracking_claims.FlyaroundVerification`
 ``lv2012``                    :class:`~formsync_design.verify.lv2012.CaseOutcome`
 ``engine``                    :class:`~formsync_design.verify.engine.EngineVerification`
+                              (a tracking design's: :class:`~formsync_design.verify.engine_tracking.TrackingVerification`)
 ============================  ==============================================================
 
 Each result has the case's judged claims as ``claims``.  (An ``lv2012`` case that names a
@@ -37,7 +37,6 @@ __all__ = ["RESULT_KINDS", "resolve_case", "verify_case"]
 #: Case kind -> the name of the result class :func:`verify_case` returns for it.
 RESULT_KINDS: dict[str, str] = {
     "formation": "VerificationResult",
-    "flyaround": "FlyaroundVerification",
     "lv2012": "CaseOutcome",
     "engine": "EngineVerification",
 }
@@ -114,10 +113,6 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
             raise InputError(f"expected a formation design for the formation case "
                              f"{display_path(path)}, received {spec.name} (a {kind_of} design)")
         return verify_formation(path, spec=spec, progress=progress)
-    if kind == "flyaround":
-        from formsync_design.verify.tracking import verify_flyaround
-
-        return verify_flyaround(path, spec=spec, progress=progress)
     if kind == "lv2012":
         from formsync_design.verify.lv2012 import analyse_case
 
