@@ -13,6 +13,15 @@ so the closed loop is ``q_i'' = -k_d q_i' - k_p s_i + A_i^{-1} Q_i^T u_di``.
 Assumption (ours, stated in the derivation report): the cancellation form is ours;
 Ren's law acts on body rates with the inertia, and agrees with this one to first order.
 
+One design, two views of the same law (``FORM = "agent"``, with a Lagrangian view):
+``controller(v)`` is the agent form every engine stage runs, written per spacecraft with the
+body rate ``w`` (``q' = E w``, ``w' = Q (q''_des - E' w)``, ``u = J w' + w x J w`` with
+``Q = E^{-1} = 2 (q0 I - q^ + q q^T / q0)`` and ``s_i = sum_j a_ij (q_i - q_j)``), so that
+``q_i'' = -k_d q_i' - k_p s_i``; ``lagrangian_controller(v)`` and ``lyapunov(v)`` are the
+Lagrangian view above, from which the derivation stage derives the Theta_i / Pi families
+(``formsync_design.spec.loader.load_spec``).  With perfect rates both are the same closed
+loop; tests/test_interop.py checks that their linearisations agree.
+
 The Lyapunov candidate is the classic strict one for second-order consensus, with a
 cross term whose weight ``eps`` is a *multiplier*: a parameter of the certificate, not of
 the controller, which the certificate may choose per gain box:
@@ -20,6 +29,9 @@ the controller, which the certificate may choose per gain box:
     V_i = (k_p + eps k_d)/4 sum_j |q_i - q_j|^2 + |q_i'|^2/2 + eps sum_j (q_i - q_j)^T q_i'
 """
 
+import sympy as sp
+
+FORM = "agent"
 NAME = "pd_consensus"
 TITLE = "Quaternion PD consensus with absolute rate damping (Ren 2007), baseline"
 REPRESENTATION = "quaternion"
@@ -34,6 +46,26 @@ SAMPLING = "continuous"
 
 
 def controller(v):
+    """The PD consensus law per spacecraft, in the body rate (module docstring)."""
+    E = v.E(v.q, v.q0)
+    qd = E * v.w
+    q0d = -(v.q.T * v.w)[0, 0] / 2
+    Ed = (q0d * sp.eye(3) + v.hat(qd)) / 2
+    s = sp.zeros(3, 1)
+    for n in v.nbrs:
+        s += n.a * (v.q - n.q)
+    qdd = -v.k_d * qd - v.k_p * s
+    Q = 2 * (v.q0 * sp.eye(3) - v.hat(v.q) + v.q * v.q.T / v.q0)
+    wdot = Q * (qdd - Ed * v.w)
+    return v.J * wdot + v.w.cross(v.J * v.w)
+
+
+def monitors(v):
+    """``q0`` (the law, like controller (4), is undefined at ``q0 = 0``)."""
+    return {"q0": v.q0}
+
+
+def lagrangian_controller(v):
     """u_i = Q_i^{-T} [(B_i - k_d A_i) q_i' - k_p A_i s_i]."""
     return v.Q.I.T * ((v.B - v.k_d * v.A) * v.qd - v.k_p * v.A * v.s)
 

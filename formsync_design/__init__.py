@@ -72,8 +72,7 @@ function of the package selects a matplotlib backend.
 
 from __future__ import annotations
 
-from importlib import import_module
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from formsync_design.errors import (
     ClusterError,
@@ -86,6 +85,7 @@ from formsync_design.errors import (
     SimulationError,
     SolverError,
 )
+from formsync_design.lazy import lazy_attributes
 
 __version__ = "0.1.0"
 
@@ -222,15 +222,4 @@ if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
     from formsync_design.graphs import Graph as Graph, make_graph as make_graph
 
 
-def __getattr__(name: str) -> Any:
-    target = _LAZY.get(name)
-    if target is None:
-        raise AttributeError(f"module 'formsync_design' has no attribute {name!r}")
-    module, attr = target if isinstance(target, tuple) else (target, name)
-    value = getattr(import_module(module), attr)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(__all__)
+__getattr__, __dir__ = lazy_attributes(__name__, _LAZY, globals(), public_only=True)

@@ -82,11 +82,13 @@ def formation_matrices(design: Any, graph: Any, inertias: Any, gains: Mapping[st
 
 
 def _design(design: Any) -> Any:
-    """A design value from a design, a shipped design's name or a design file."""
+    """A design value from a design, a shipped design's name or a design file (the name or
+    file of a design with a Lagrangian view: that view, as every stage taking both forms)."""
     if isinstance(design, (str, Path)):
-        from formsync_design.spec.loader import load_design
+        from formsync_design.spec.loader import lagrangian_view, load_design
 
-        return load_design(design)
+        d = load_design(design)
+        return lagrangian_view(d) or d
     return design
 
 

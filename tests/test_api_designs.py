@@ -18,7 +18,7 @@ from formsync_design.cli.defaults import agent_box
 from formsync_design.resources import design_file
 from formsync_design.verify.defaults import case_source
 
-SHIPPED = ("liang2016", "pd_consensus", "liang2016_agent", "lv2012", "ma_so3", "ma_quat_smc",
+SHIPPED = ("liang2016", "pd_consensus", "agent:liang2016", "lv2012", "ma_so3", "ma_quat_smc",
            "ma_mrp_ft", "selftrigger_mrp", "zhang2014_flyaround")
 FILES = ("file:ma_mrp_ft", "file:lv2012")
 FUNCTIONS = ("derive_conditions", "write_derivation_report", "certify_box", "region_map",
@@ -40,7 +40,12 @@ def _design(key: str, tmp_path: Path) -> tuple[object, object]:
         path.parent.mkdir(exist_ok=True)
         shutil.copy(design_file(name), path)
         return path, fs.load_design(path)
-    return key, fs.load_design(key)
+    if key.startswith("agent:"):  # the agent form of a design with a Lagrangian view, as a value
+        d = fs.load_design(key.split(":", 1)[1])
+        return d, d
+    d = fs.load_design(key)
+    # a name of a design with a Lagrangian view resolves to that view in every function
+    return key, getattr(d, "lagrangian", None) or d
 
 
 def _case(d: object) -> object:
@@ -101,7 +106,7 @@ def _call(fn: str, arg: object, d: object, tmp_path: Path) -> None:
         rep = fs.write_derivation_report(graph, tmp_path / "rep", spec=arg)
         md = Path(rep if isinstance(rep, (str, Path)) else rep.markdown)
         text = md.read_text(encoding="utf-8")
-        want = str(arg)
+        want = arg.name if hasattr(arg, "form") else str(arg)  # a design value: its name
         assert f"--design {want}" in text, text[:400]
         if isinstance(arg, Path):  # the Regenerate line names the file, which resolves
             assert fs.load_design(want).key == d.key  # type: ignore[attr-defined]

@@ -20,7 +20,7 @@ from formsync_design.resources import design_names
 from formsync_design.verify.case import load_case
 from formsync_design.verify.defaults import case_source, cycle_case
 
-DESIGNS = ("liang2016", "pd_consensus", "liang2016_agent", "lv2012", "ma_so3", "ma_quat_smc",
+DESIGNS = ("liang2016", "pd_consensus", "lv2012", "ma_so3", "ma_quat_smc",
            "ma_mrp_ft", "selftrigger_mrp", "zhang2014_flyaround", "bai2008_passivity")
 COMMANDS = ("derive", "certify", "region", "design", "simulate", "montecarlo", "sweep", "verify")
 
@@ -30,7 +30,7 @@ SMALL = {"simulate": ["--tf", "5"], "montecarlo": ["--runs", "2", "--tf", "5"],
          "sweep": ["--resolution", "2", "--workers", "0", "--design-betas", "2", "--no-progress"]}
 
 # one cell per subcommand and one per design stay in the default suite
-FAST = {("derive", "liang2016_agent"), ("certify", "pd_consensus"),
+FAST = {("derive", "lv2012"), ("certify", "pd_consensus"),
         ("certify", "zhang2014_flyaround"), ("certify", "ma_quat_smc"), ("region", "ma_so3"),
         ("design", "lv2012"), ("simulate", "pd_consensus"), ("simulate", "ma_mrp_ft"),
         ("montecarlo", "liang2016"), ("montecarlo", "selftrigger_mrp"),

@@ -56,36 +56,71 @@ def _response(sys, w):
     return np.array([np.atleast_2d(sys(1j * x)) for x in w])
 
 
-def test_lagrangian_export_is_the_agent_form_of_the_same_law():
-    """liang2016 (Lagrangian, state (q, q')) and liang2016_agent (agent, state (q, w), a
-    second implementation of controller (4)) give the same system: equal poles and equal
-    frequency responses d -> q at the same gains and switching realisation."""
-    rng = np.random.default_rng(7)
-    J = [np.diag(rng.uniform(1, 3, 3)) for _ in range(4)]
-    g = {"K_o": 1.6, "K_q": 0.4, "beta": 0.3}
-    lag = to_statespace("liang2016", "ring:4", J, {**g, "K_v": 0.01})
-    agt = to_statespace("liang2016_agent", "ring:4", J, {**g, "k_v": 0.01})
-    assert lag.nstates == agt.nstates == 24 and list(lag.state_labels)[12] == "qd1_1"
-    np.testing.assert_allclose(np.sort_complex(np.asarray(control.poles(lag))),
-                               np.sort_complex(np.asarray(control.poles(agt))), atol=1e-8)
+def _views(name):
+    from formsync_design.spec.loader import load_design, load_spec
+
+    return load_spec(name), load_design(name)
+
+
+def _assert_same_system(lag, agt):
+    assert lag.nstates == agt.nstates
+    key = lambda z: (round(z.real, 6), round(z.imag, 6))  # noqa: E731 (repeated pairs)
+    np.testing.assert_allclose(sorted(np.asarray(control.poles(lag), dtype=complex), key=key),
+                               sorted(np.asarray(control.poles(agt), dtype=complex), key=key),
+                               atol=1e-8)
     w = np.logspace(-3, 2, 40)
     np.testing.assert_allclose(_response(lag, w), _response(agt, w), rtol=1e-8, atol=1e-12)
 
 
+def test_the_two_views_of_liang2016_are_the_same_system():
+    """liang2016's Lagrangian view (state (q, q'), controller (4) in A, B, Q) and its agent
+    form (state (q, w), the law written in the body rate: a second implementation in one
+    design file) give the same system: equal poles and equal frequency responses d -> q at
+    the same gains and switching realisation; a different gain in one view is told apart."""
+    lag_view, agt_view = _views("liang2016")
+    assert lag_view.name == agt_view.name == "liang2016" and agt_view.form == "agent"
+    rng = np.random.default_rng(7)
+    J = [np.diag(rng.uniform(1, 3, 3)) for _ in range(4)]
+    g = {"K_o": 1.6, "K_q": 0.4, "beta": 0.3, "K_v": 0.01}
+    lag = to_statespace(lag_view, "ring:4", J, g)
+    agt = to_statespace(agt_view, "ring:4", J, g)
+    assert lag.nstates == agt.nstates == 24 and list(lag.state_labels)[12] == "qd1_1"
+    _assert_same_system(lag, agt)
+    other = to_statespace(agt_view, "ring:4", J, {**g, "K_q": 0.41})
+    with pytest.raises(AssertionError):  # the check can fail: a view that differs is caught
+        _assert_same_system(lag, other)
+
+
+def test_the_two_views_of_pd_consensus_are_the_same_system():
+    """pd_consensus: its agent form (body rate) and its Lagrangian view give the same
+    poles and frequency responses; a different gain in one view is told apart."""
+    lag_view, agt_view = _views("pd_consensus")
+    rng = np.random.default_rng(11)
+    J = [np.diag(rng.uniform(1, 3, 3)) for _ in range(5)]
+    g = {"k_p": 0.7, "k_d": 1.9}
+    lag = to_statespace(lag_view, "path:5", J, g)
+    _assert_same_system(lag, to_statespace(agt_view, "path:5", J, g))
+    with pytest.raises(AssertionError):
+        _assert_same_system(lag, to_statespace(agt_view, "path:5", J, {**g, "k_d": 1.95}))
+
+
 def test_pd_consensus_poles_are_the_analytic_modes():
     """pd_consensus: q'' = -k_d q' - k_p L q, so the poles are the roots of
-    s^2 + k_d s + k_p lambda_k for every Laplacian eigenvalue, three axes each."""
+    s^2 + k_d s + k_p lambda_k for every Laplacian eigenvalue, three axes each (both views)."""
     from formsync_design.graphs.build import make_graph
 
     kp, kd = 0.7, 1.9
-    sys = to_statespace("pd_consensus", "path:5", [np.eye(3) * 2.5] * 5, {"k_p": kp, "k_d": kd})
     lam = np.linalg.eigvalsh(np.asarray(make_graph("path:5").laplacian, dtype=float))
     want = np.concatenate([np.roots([1, kd, kp * x]) for x in lam for _ in range(3)])
     key = lambda z: (round(z.real, 6), round(z.imag, 6))  # noqa: E731 (repeated pairs)
-    got = sorted(np.asarray(control.poles(sys), dtype=complex), key=key)
-    np.testing.assert_allclose(got, sorted(want.astype(complex), key=key), atol=1e-7)
+    for view in _views("pd_consensus"):
+        sys = to_statespace(view, "path:5", [np.eye(3) * 2.5] * 5, {"k_p": kp, "k_d": kd})
+        got = sorted(np.asarray(control.poles(sys), dtype=complex), key=key)
+        np.testing.assert_allclose(got, sorted(want.astype(complex), key=key), atol=1e-7)
     # the disturbance enters q'' through A^-1 Q^T = J^-1 / 2 at the identity
-    assert sys.B[15, 0] == pytest.approx(1 / (2 * 2.5))
+    lag = to_statespace(_views("pd_consensus")[0], "path:5", [np.eye(3) * 2.5] * 5,
+                        {"k_p": kp, "k_d": kd})
+    assert lag.B[15, 0] == pytest.approx(1 / (2 * 2.5))
 
 
 def test_lagrangian_export_refuses_sgn_missing_gains_and_pinning():
@@ -93,11 +128,12 @@ def test_lagrangian_export_refuses_sgn_missing_gains_and_pinning():
 
     J = [np.eye(3)] * 3
     g = {"K_o": 1.6, "K_q": 0.4, "beta": 0.3, "K_v": 0.01}
+    lag = _views("liang2016")[0]
     with pytest.raises(InputError, match="differentiable"):
-        to_statespace("liang2016", "ring:3", J, g, switch="sgn")
+        to_statespace(lag, "ring:3", J, g, switch="sgn")
     with pytest.raises(InputError, match="missing \\['K_v'\\]"):
-        to_statespace("liang2016", "ring:3", J, {"K_o": 1.6, "K_q": 0.4, "beta": 0.3})
+        to_statespace(lag, "ring:3", J, {"K_o": 1.6, "K_q": 0.4, "beta": 0.3})
     with pytest.raises(InputError, match="no pinning"):
-        to_statespace("liang2016", "ring:3", J, g, pinning=[1, 0, 0])
+        to_statespace(lag, "ring:3", J, g, pinning=[1, 0, 0])
     with pytest.raises(InputError, match="tracking design"):
         to_statespace("zhang2014_flyaround", "ring:3", J, g)

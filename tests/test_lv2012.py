@@ -169,8 +169,8 @@ def test_controller4_agent_form_matches_the_classic_simulator_and_feels_its_gyro
     gr = fs.make_graph("ring:3")
     J = _inertias(rng, 3, 50.0)
     Q, W, _ = _state(rng, 3, 3, 0.6)
-    d = load_design("liang2016_agent")
-    af = AgentFormation(gr, J, Q, W, Gains(K_o=1.6, K_q=0.4, beta=0.3, k_v=0.01))
+    d = load_design("liang2016")  # the agent form of the one design
+    af = AgentFormation(gr, J, Q, W, Gains({"K_o": 1.6, "K_q": 0.4, "beta": 0.3, "K_v": 0.01}))
     opt = AgentOptions(tf=5, output_step=0.1, step=0.01, switch="tanh", phi=0.05)
     ra = simulate_agents(d, af, opt)
     rc = fs.simulate(Formation(gr, J, Q, W, Gains(1.6, 0.4, 0.3, (0.01,) * 3), no_disturbance(3)),

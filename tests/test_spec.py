@@ -208,3 +208,70 @@ def test_cli_binary_spec_exit_2(tmp_path, capsys):
     assert main(["derive", "--graph", "ring:4", "--spec", str(p)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "non-UTF-8" in err
+
+
+# -- one design, two views: an agent design file that also provides its Lagrangian view ----
+
+_DUAL = '''FORM = "agent"
+NAME = "dual"
+GAINS = {"K_o": {}, "K_q": {}, "beta": {}, "K_v": {"role": "switching"}}
+
+
+def controller(v):
+    return -v.K_o * v.w
+'''
+_LAG = '''
+
+def lagrangian_controller(v):
+    return v.Q.I.T * ((v.B - v.K_o * v.A) * v.qd - v.K_q * v.A * v.s
+                      - v.K_v * v.A * v.sw(v.qd + v.beta * v.s))
+'''
+_LYA = '''
+
+def lyapunov(v):
+    return v.qd.dot(v.qd) / 2
+'''
+
+
+def test_a_design_file_gives_its_agent_form_and_its_lagrangian_view(tmp_path):
+    from formsync_design.spec.loader import lagrangian_view, load_design
+
+    p = tmp_path / "dual.py"
+    p.write_text(_DUAL + _LAG + _LYA)
+    d = load_design(p)
+    view = load_spec(p)
+    assert d.form == "agent" and isinstance(view, Spec) and view is d.lagrangian
+    assert lagrangian_view(d) is view and lagrangian_view(view) is view
+    assert view.name == d.name == "dual" and view.key == d.key == hashlib.sha256(
+        p.read_bytes()).hexdigest()
+    # one GAINS table: K_v is the view's switching gain and a controller gain of the agent form
+    assert view.decl.switching == "K_v" and view.gains == ("K_o", "K_q", "beta")
+    assert d.gains == ("K_o", "K_q", "beta", "K_v")
+    assert lagrangian_view(load_design("ma_so3")) is None
+
+
+@pytest.mark.parametrize("body, needle", [
+    (_DUAL + _LAG, "expected a function lyapunov(view) for the design's Lagrangian view"),
+    (_DUAL + "\n\ndef lagrangian_controller(v):\n    return v.A\n" + _LYA,
+     "controller(view): expected a 3x1 matrix expression, received shape (3, 3)"),
+    (_DUAL + _LYA, "GAINS['K_v'].role: expected 'controller' or 'multiplier' in an agent design"),
+])
+def test_a_malformed_lagrangian_view_is_one_line(tmp_path, body, needle):
+    from formsync_design.spec.loader import load_design
+
+    p = tmp_path / "bad_dual.py"
+    p.write_text(body)
+    with pytest.raises(DerivationError) as e:
+        load_design(p)
+    assert needle in str(e.value) and "\n" not in str(e.value)
+
+
+def test_the_shipped_designs_are_one_file_with_both_views():
+    from formsync_design.resources import design_names
+    from formsync_design.spec.loader import load_design
+
+    assert "liang2016_agent" not in design_names()
+    for name in ("liang2016", "pd_consensus"):
+        d = load_design(name)
+        assert d.form == "agent" and load_spec(name) is d.lagrangian
+        assert load_spec(name).controller.__name__ == "lagrangian_controller"

@@ -32,14 +32,16 @@ __all__ = [
 def agent_design_or_none(design_arg: Any, case_arg: Any = None) -> Any:
     """The agent design a command is asked for (``--design``, else the ``--case`` file's
     ``[case] design``), or ``None`` for a Lagrangian design (the command's own path)."""
-    from formsync_design.spec.loader import load_design
+    from formsync_design.spec.loader import agent_design_of, load_design
 
-    if design_arg is not None:
-        d = load_design(design_arg)
-        return d if getattr(d, "form", None) == "agent" else None
+    if design_arg is not None:  # a design with a Lagrangian view: the command's own path
+        return agent_design_of(design_arg)
     if case_arg is None:
         return None
-    from formsync_design.verify.agentcase import case_design_ref  # the verify stage only here
+    from formsync_design.verify.agentcase import (  # the verify stage only here
+        case_design_ref,
+        case_is_agent,
+    )
 
     ref = case_design_ref(_case_path(case_arg))
     if ref is None:
@@ -53,7 +55,7 @@ def agent_design_or_none(design_arg: Any, case_arg: Any = None) -> Any:
         d = load_design(target)
     except InputError:
         return None  # the command's own case loader reports a bad reference
-    return d if getattr(d, "form", None) == "agent" else None
+    return d if getattr(d, "form", None) == "agent" and case_is_agent(path) else None
 
 
 def _case_path(case_arg: Any) -> Path:

@@ -304,7 +304,7 @@ def _flag_defaults(args: argparse.Namespace) -> int | None:
         refuse_tracking,
         refuse_uncertified,
     )
-    from formsync_design.spec.loader import load_design
+    from formsync_design.sweep.designs import load_design
     from formsync_design.verify.defaults import Defaults
 
     design = load_design(args.spec)

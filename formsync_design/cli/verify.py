@@ -91,10 +91,11 @@ def _default_case(design_arg: Any) -> tuple[str, Any]:
     else liang2016 with the design; said on stderr."""
     if design_arg is None:
         return "liang2016", None
-    from formsync_design.spec.loader import load_design
+    from formsync_design.spec.loader import lagrangian_view, load_design
     from formsync_design.verify.defaults import Defaults, case_source
 
     design = load_design(design_arg)
+    design = lagrangian_view(design) or design  # a design with a Lagrangian view: its case
     src = case_source(design)
     defaults = Defaults()
     if src is None:

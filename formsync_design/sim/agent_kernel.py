@@ -519,10 +519,16 @@ def get_agent_kernel(design: AgentDesign, neighbours: tuple[tuple[int, ...], ...
 
 def gain_vector(design: AgentDesign, gains: Any) -> np.ndarray:
     """The controller gains of ``gains`` (a :class:`~formsync_design.sim.formation.Gains`) in
-    kernel order; a gain the design does not declare, or a missing one, is an InputError."""
+    kernel order; a gain the design does not declare, or a missing one, is an InputError.
+
+    A design whose Lagrangian view has the switching gain ``K_v`` takes it, one controller
+    gain of the agent form, from ``gains.K_v`` when it is given there (one value for every
+    spacecraft)."""
     decls = [g for g in design.decl.gains if g.role == GainRole.CONTROLLER]
     names = tuple(g.name for g in decls)
     given = gains.as_dict()
+    if "K_v" in names and "K_v" not in given and len(set(gains.K_v)) == 1:
+        given["K_v"] = gains.K_v[0]
     if set(given) != set(names):
         raise InputError(f"expected the gains {', '.join(names)} of design {design.name}, "
                          f"received {', '.join(given) or 'none'}")

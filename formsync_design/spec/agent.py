@@ -1,8 +1,10 @@
 """Agent designs: a controller written per spacecraft, in any attitude representation.
 
-The *Lagrangian* designs of :mod:`formsync_design.spec.loader` (liang2016, pd_consensus)
-write the torque in the opaque model matrices ``A, B, Q`` of the quaternion-vector
-Lagrangian form.  An **agent design** (module attribute ``FORM = "agent"``) writes the
+A design's *Lagrangian view* (:mod:`formsync_design.spec.loader`) writes the torque in the
+opaque model matrices ``A, B, Q`` of the quaternion-vector Lagrangian form; a design file may
+provide it besides its agent controller (liang2016, pd_consensus: ``lagrangian_controller``
+and ``lyapunov``, see :attr:`AgentDesign.lagrangian`).  An **agent design** (module
+attribute ``FORM = "agent"``) writes the
 torque of spacecraft ``i`` as explicit SymPy expressions in the quantities of its
 representation, its in-neighbours' information on a (directed, weighted) graph, a
 leader's reference, controller states (filters) and the declared gains.  This is the form
@@ -20,7 +22,8 @@ What a design file declares (besides ``NAME``, ``TITLE``)
 ``GAINS``, ``GRAPHS``, ``SAMPLING``
     As for every design (:mod:`formsync_design.spec.declarations`); roles ``controller``
     and ``multiplier`` (an agent design has no separate ``switching`` role: a switching
-    gain is a controller gain).  A diagonal gain is ``diag(g_1, g_2, g_3)`` in the view.
+    gain is a controller gain; a design that also provides a Lagrangian view declares its
+    ``K_vi`` with role ``switching`` for that view, and it is one controller gain here).  A diagonal gain is ``diag(g_1, g_2, g_3)`` in the view.
 ``STATES = {"x": 3, ...}`` (optional)
     Controller states per spacecraft (e.g. a lead filter); ``states(v)`` returns their
     derivatives; ``v.z["x"]`` (3x1) in every function, ``v.nbrs[k].z["x"]`` the
@@ -78,7 +81,7 @@ from __future__ import annotations
 
 import hashlib
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType, ModuleType
 from typing import Any
 
@@ -103,7 +106,7 @@ from formsync_design.spec.agent_view import (
     vee as vee,
 )
 from formsync_design.spec.dag import free_symbols as dag_free_symbols
-from formsync_design.spec.declarations import parse_declarations
+from formsync_design.spec.declarations import GainRole, parse_declarations
 
 __all__ = [
     "AgentDesign",
@@ -148,6 +151,9 @@ class AgentDesign:
     decl: AgentDeclarations
     functions: Mapping[str, Callable[[AgentView], Any]]
     module: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    #: the design's Lagrangian view (a :class:`~formsync_design.spec.loader.Spec`) when its file
+    #: also provides ``lagrangian_controller(view)`` and ``lyapunov(view)``, else ``None``
+    lagrangian: Any = field(default=None, compare=False, repr=False)
 
     form = "agent"
 
@@ -183,6 +189,11 @@ def _parse_agent_declarations(attrs: Mapping[str, Any], where: str) -> AgentDecl
         raise DerivationError(f"{where}: REPRESENTATION: expected one of "
                               f"{list(AGENT_REPRESENTATIONS)} for an agent design, received "
                               f"{base.representation!r}")
+    if base.switching is not None and callable(attrs.get("lagrangian_controller")):
+        # the Lagrangian view's per-spacecraft switching gain is one controller gain here
+        base = replace(base, gains=tuple(replace(g, role=GainRole.CONTROLLER)
+                                         if g.role == GainRole.SWITCHING else g
+                                         for g in base.gains))
     if base.switching is not None:
         raise DerivationError(f"{where}: GAINS[{base.switching!r}].role: expected 'controller' or "
                               "'multiplier' in an agent design (a switching gain is a controller "

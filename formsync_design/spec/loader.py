@@ -1,37 +1,25 @@
-"""Controller and Lyapunov-candidate specifications.
+"""Design files, and the Lagrangian view a design may provide.
 
-A specification is a Python module (the paper's is
-``derivations/liang2016.py``) defining
+A design file (``derivations/NAME.py``) is an agent design (``FORM = "agent"``,
+:mod:`formsync_design.spec.agent`), a Lagrangian design (the historical default form), or an
+agent design that additionally provides its **Lagrangian view** (liang2016, pd_consensus):
 
-``controller(view: ControllerView) -> sympy matrix expression``
-    the body-frame torque ``u_i`` of spacecraft ``i`` as a 3x1 matrix
-    expression in the *opaque* model matrices ``view.A``, ``view.B``,
-    ``view.Q`` (3x3 ``MatrixSymbol``), the vectors ``view.qd`` (``q_i'``) and
-    ``view.s`` (``sum_{j in G_i} (q_i - q_j)``), the scalar gains
-    ``view.K_o``, ``view.K_q``, ``view.beta``, ``view.K_v`` (``K_vi``), and
-    a switching term ``view.sw(arg)`` (sgn, or a smooth substitute chosen at
-    simulation time) that returns a 3x1 symbol and records ``arg``;
+``lagrangian_controller(view: ControllerView)`` (``controller(view)`` in a Lagrangian file)
+    the torque ``u_i`` as a 3x1 expression in the opaque model matrices ``view.A``,
+    ``view.B``, ``view.Q`` (3x3 ``MatrixSymbol``), ``view.qd`` (``q_i'``), ``view.s``
+    (``sum_{j in G_i} (q_i - q_j)``), the declared gains and a switching term
+    ``view.sw(arg)`` (sgn, or a smooth substitute chosen at simulation time);
+``lyapunov(view: LyapunovView)``
+    the term ``V_i`` of ``V = sum_i V_i`` in explicit 3-vectors ``view.qd`` and
+    ``view.edges`` (``q_i - q_j`` for the ``m`` neighbours), ``view.s = sum(view.edges)``.
 
-``lyapunov(view: LyapunovView) -> sympy scalar``
-    the term ``V_i`` of ``V = sum_i V_i`` in explicit 3-vectors
-    ``view.qd`` (``q_i'``) and ``view.edges`` (``q_i - q_j`` for the ``m``
-    neighbours ``j``), with ``view.s = sum(view.edges)`` and the gains.
-
-Optional module attributes: ``NAME`` (short id), ``TITLE`` (one line).
-
-A specification is a *value* (:class:`Spec`): loaded from a file with
-:func:`load_spec`, or built in Python with :meth:`Spec.from_functions`.  Every
-cache that depends on the controller or the Lyapunov candidate (derivations,
-compiled simulation kernels, findings) is keyed by :attr:`Spec.key`, the
-SHA-256 digest of the specification's content, never by a path.
-
-Both functions are validated when the specification is loaded, by calling
-them on the views (cheap): a malformed specification (the file does not
-import, lacks a function, a function raises, returns the wrong shape, uses an
-attribute of the view that does not exist or a symbol the view does not
-provide) is a one-line :class:`~formsync_design.errors.DerivationError`
-naming the file, the function and what was expected, before any command
-creates output.
+:func:`load_design` gives the design (an agent design carries its view as ``.lagrangian``);
+:func:`load_spec` the Lagrangian view (:class:`Spec`, the input of the derive, certify and
+classic simulation stages).  A :class:`Spec` is a value keyed by :attr:`Spec.key`, the SHA-256
+digest of the file's content (or of the functions, :meth:`Spec.from_functions`), never by a
+path.  Every function is validated when the file is loaded, by calling it on the views: a
+malformed file is a one-line :class:`~formsync_design.errors.DerivationError` naming the file,
+the function and what was expected, before any command creates output.
 """
 
 from __future__ import annotations
@@ -58,6 +46,8 @@ from formsync_design.spec.lagrangian_view import ControllerView, LyapunovView
 
 __all__ = [
     "agent_design_of",
+    "lagrangian_view",
+    "LAGRANGIAN_CONTROLLER",
     "Spec",
     "load_spec",
     "load_design",
@@ -443,9 +433,13 @@ def _load_file(p: Path) -> Spec:
     if form not in FORMS:
         raise DerivationError(f"{where}: FORM: expected one of {list(FORMS)}, received {form!r}")
     if form == "agent":
+        from dataclasses import replace
+
         from formsync_design.spec.agent import agent_design_from_module
 
         agent = agent_design_from_module(mod, where, key, p.stem)
+        if LAGRANGIAN_CONTROLLER in mod.__dict__:
+            agent = replace(agent, lagrangian=_lagrangian_view(mod, where, key, p.stem))
         _LOADED[cache_key] = agent  # type: ignore[assignment]
         return agent  # type: ignore[return-value]
     for fn in ("controller", "lyapunov"):
@@ -477,14 +471,54 @@ def _load_file(p: Path) -> Spec:
     return spec
 
 
-def load_spec(spec: Spec | str | Path | None = None) -> Spec:
-    """The Lagrangian design ``spec`` resolves to (see :func:`load_design`); an agent design is
-    a one-line :class:`DerivationError` naming the commands that run it.
+#: The function of an agent design file that gives its Lagrangian view (with ``lyapunov``).
+LAGRANGIAN_CONTROLLER = "lagrangian_controller"
 
-    >>> load_spec("liang2016").name
-    'liang2016'
+
+def _lagrangian_view(mod: ModuleType, where: str, key: str, stem: str) -> Spec:
+    """The Lagrangian view of an agent design file: ``lagrangian_controller(view)`` and
+    ``lyapunov(view)`` on the design's one ``GAINS`` table, validated like a Lagrangian
+    design's (same name, title and content key as the file)."""
+    for fn in (LAGRANGIAN_CONTROLLER, "lyapunov"):
+        if not callable(getattr(mod, fn, None)):
+            got = "none" if not hasattr(mod, fn) else f"a {type(getattr(mod, fn)).__name__}"
+            raise DerivationError(f"{where}: expected a function {fn}(view) for the design's "
+                                  f"Lagrangian view, received {got}")
+    decl = parse_declarations(mod.__dict__, where)
+    ctrl = getattr(mod, LAGRANGIAN_CONTROLLER)
+    validate_spec(ctrl, mod.lyapunov, where, decl)
+    return Spec(name=str(getattr(mod, "NAME", stem)), title=str(getattr(mod, "TITLE", stem)),
+                path=where, controller=ctrl, lyapunov=mod.lyapunov, key=key, source=where,
+                decl=decl)
+
+
+def lagrangian_view(design: Any) -> Spec | None:
+    """The Lagrangian view of a loaded design: a :class:`Spec` itself, an agent design's
+    :attr:`~formsync_design.spec.agent.AgentDesign.lagrangian` (``None`` if it has none).
+
+    >>> lagrangian_view(load_design("liang2016")).controller.__name__
+    'lagrangian_controller'
+    >>> lagrangian_view(load_design("ma_so3")) is None
+    True
+    """
+    if isinstance(design, Spec):
+        return design
+    return getattr(design, "lagrangian", None)
+
+
+def load_spec(spec: Spec | str | Path | None = None) -> Spec:
+    """The Lagrangian view of the design ``spec`` resolves to (see :func:`load_design`): a
+    Lagrangian design itself, or the view an agent design provides; an agent design without
+    one is a one-line :class:`DerivationError` naming the commands that run it.
+
+    >>> load_spec("liang2016").name, load_design("liang2016").form
+    ('liang2016', 'agent')
+    >>> load_spec("liang2016") is load_design("liang2016").lagrangian
+    True
     """
     d = load_design(spec)
+    if lagrangian_view(d) is not None:
+        return lagrangian_view(d)  # type: ignore[return-value]
     if getattr(d, "form", "lagrangian") == "agent":
         raise DerivationError(
             f"{d.path}: FORM: expected a Lagrangian design (controller(view) in A, B, Q) here, "
@@ -502,39 +536,21 @@ AGENT_COMMANDS: tuple[str, ...] = ("formsync derive", "formsync simulate", "form
 
 def load_design(spec: Any = None) -> Any:
     """The design ``spec`` resolves to: a Lagrangian :class:`Spec` or an agent design
-    (:class:`~formsync_design.spec.agent.AgentDesign`, ``FORM = "agent"``).
+    (:class:`~formsync_design.spec.agent.AgentDesign`, with its Lagrangian view if it has one).
 
-    Parameters
-    ----------
-    spec : Spec, AgentDesign, str, Path or None
-        ``None``: the paper's design (``liang2016``); the name of a shipped
-        design (``"pd_consensus"``, see
-        :func:`~formsync_design.resources.design_names`); a path: that file,
-        loaded and validated; a :class:`Spec`: returned unchanged.
-
-    Returns
-    -------
-    Spec
-
-    Raises
-    ------
-    InputError
-        The file does not exist or cannot be read, or ``spec`` is of another type.
-    DerivationError
-        The specification is malformed (one line naming the file, the function
-        and what was expected; see :func:`validate_spec`).
+    ``spec``: ``None`` (the paper's design, ``liang2016``), a shipped design's name (see
+    :func:`~formsync_design.resources.design_names`), a path (that file, loaded and validated)
+    or a loaded design (returned unchanged).  A missing or unreadable file, or another type,
+    is an :class:`InputError`; a malformed design a one-line :class:`DerivationError` naming
+    the file, the function and what was expected (see :func:`validate_spec`).
 
     Examples
     --------
     >>> load_design("pd_consensus").gains
     ('k_p', 'k_d', 'eps')
     >>> spec = load_spec()
-    >>> spec.name
-    'liang2016'
-    >>> load_spec(spec) is spec
-    True
-    >>> load_spec(spec.path).key == spec.key
-    True
+    >>> spec.name, load_spec(spec) is spec, load_spec(spec.path).key == spec.key
+    ('liang2016', True, True)
     >>> load_spec("liang2016") is spec
     True
     """
@@ -563,11 +579,15 @@ def load_design(spec: Any = None) -> Any:
 
 
 def agent_design_of(spec: Any) -> Any:
-    """The agent design ``spec`` resolves to (a loaded design, a shipped name, a file), else
-    ``None`` (a Lagrangian design or the default).
+    """The agent design a stage that takes both forms (simulate, conditions, the derivation
+    report, the Monte-Carlo) runs for ``spec``, else ``None``: that stage's Lagrangian path
+    (a Lagrangian design, the default, or the *name or file* of a design with a Lagrangian
+    view; a loaded agent design is run as given).
 
     >>> agent_design_of("ma_so3").name, agent_design_of("pd_consensus"), agent_design_of(None)
     ('ma_so3', None, None)
+    >>> agent_design_of(load_design("pd_consensus")).name
+    'pd_consensus'
     """
     if spec is None:
         return None
@@ -576,4 +596,4 @@ def agent_design_of(spec: Any) -> Any:
     if getattr(spec, "form", None) is not None or not isinstance(spec, (str, Path)):
         return None
     d = load_design(spec)
-    return d if getattr(d, "form", None) == "agent" else None
+    return d if getattr(d, "form", None) == "agent" and lagrangian_view(d) is None else None

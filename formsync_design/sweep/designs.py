@@ -41,25 +41,31 @@ def load_design(ref: Any = None, base: str | Path = ".") -> Any:
     """The design named by ``ref`` (a :class:`~formsync_design.spec.loader.Spec` or an
     agent design): a design value, a shipped design's name (unless a file of that name
     exists in ``base``), a ``.py`` file (relative to ``base``), or ``None`` / ``""`` for
-    liang2016.
+    liang2016.  A design with a Lagrangian view is swept in that view (the campaign derives
+    its Theta_i / Pi conditions); an agent design without one, in its agent form.
 
     >>> load_design("pd_consensus").name, load_design().name, load_design("ma_so3").form
     ('pd_consensus', 'liang2016', 'agent')
+    >>> type(load_design("pd_consensus")).__name__, type(load_design("ma_so3")).__name__
+    ('Spec', 'AgentDesign')
     """
-    from formsync_design.spec.loader import Spec, load_design as load_any
+    from formsync_design.spec.loader import Spec, lagrangian_view, load_design as load_any
 
     if isinstance(ref, Spec) or getattr(ref, "form", None) == "agent":
-        return ref
+        return lagrangian_view(ref) or ref
     if ref is None or (isinstance(ref, str) and not ref.strip()):
-        return load_any(None)
-    if not isinstance(ref, (str, Path)):
-        return load_any(ref)  # refuses the type (one line)
-    p = Path(ref)
-    if not p.is_absolute():
-        p = Path(base) / p
-    if isinstance(ref, str) and ref.isidentifier() and not p.exists():
-        return load_any(ref)  # a shipped design's name (or a one-line error listing them)
-    return load_any(p)
+        d = load_any(None)
+    elif not isinstance(ref, (str, Path)):
+        d = load_any(ref)  # refuses the type (one line)
+    else:
+        p = Path(ref)
+        if not p.is_absolute():
+            p = Path(base) / p
+        if isinstance(ref, str) and ref.isidentifier() and not p.exists():
+            d = load_any(ref)  # a shipped design's name (or a one-line error listing them)
+        else:
+            d = load_any(p)
+    return lagrangian_view(d) or d
 
 
 def is_default_design(spec: Any) -> bool:

@@ -57,8 +57,8 @@ class SweepSchema:
     def of_design(cls, spec: Any) -> SweepSchema:
         """The schema of a :class:`~formsync_design.spec.loader.Spec` or an agent design.
 
-        >>> from formsync_design.spec.loader import load_design
-        >>> SweepSchema.of_design(load_design("pd_consensus"))
+        >>> from formsync_design.spec.loader import load_design, load_spec
+        >>> SweepSchema.of_design(load_spec("pd_consensus"))
         SweepSchema(box=('k_p', 'k_d'), multipliers=('eps',), switching=None, form='lagrangian')
         >>> SweepSchema.of_design(load_design("ma_so3")).box
         ('K1', 'K2', 'P1', 'P2', 'eps')

@@ -230,15 +230,26 @@ def case_design_ref(path: str | Path) -> str | None:
 
 def case_is_agent(path: str | Path) -> bool:
     """Whether the case file's ``[case] design`` names an agent design (``FORM = "agent"``);
-    ``False`` for a Lagrangian design or a missing file; a design that does not load raises
-    its one-line error.
+    ``False`` for a Lagrangian design, a ``formation`` case (no ``[case] kind``) of a design
+    with a Lagrangian view (it runs that view) or a missing file; a design that does not load
+    raises its one-line error.
 
     >>> from formsync_design.resources import case_file
     >>> case_is_agent(case_file("ma_so3")), case_is_agent(case_file("liang2016"))
     (True, False)
+    >>> case_is_agent(case_file("pd_consensus"))
+    False
     """
     ref = case_design_ref(path)
-    return ref is not None and getattr(_design_of(ref, str(path)), "form", None) == "agent"
+    if ref is None:
+        return False
+    d = _design_of(ref, str(path))
+    if getattr(d, "form", None) != "agent":
+        return False
+    if getattr(d, "lagrangian", None) is None:
+        return True
+    meta = load_toml(Path(path), "case TOML file").get("case", {})
+    return (meta.get("kind", "formation") if isinstance(meta, dict) else "formation") != "formation"
 
 
 def shipped_agent_case(design: Any) -> Path | None:

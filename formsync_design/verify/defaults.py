@@ -19,11 +19,12 @@ design) is a negative finding with its reason (:class:`NotApplicable`, exit stat
 a usage error.
 
 >>> from formsync_design.spec.loader import load_design
->>> src = case_source(load_design("liang2016_agent"))
+>>> src = case_source(load_design("liang2016"))
 >>> src.label, src.role, sorted(src.gains)
-('verification/lv2012.toml', 'comparison', ['K_o', 'K_q', 'beta', 'k_v'])
->>> case_source(load_design("pd_consensus")).label
-'verification/pd_consensus.toml'
+('verification/lv2012.toml', 'comparison', ['K_o', 'K_q', 'K_v', 'beta'])
+>>> from formsync_design.spec.loader import load_spec
+>>> case_source(load_spec("pd_consensus")).label, case_source(load_design("pd_consensus"))
+('verification/pd_consensus.toml', None)
 """
 
 from __future__ import annotations
@@ -118,12 +119,19 @@ def _case_ref(doc: dict) -> str | None:
     return ref if isinstance(ref, str) else None
 
 
+def _formation_case(doc: dict) -> bool:
+    meta = doc.get("case", {})
+    return (meta.get("kind", "formation") if isinstance(meta, dict) else "formation") == "formation"
+
+
 def case_source(design: Any) -> CaseSource | None:
     """The shipped case of ``design`` (module docstring), ``None`` when no case names it.
 
     A case whose ``[case] design`` names the design wins (the case named like the design
     first; a case naming no design is the paper's, liang2016's); else the first case listing
-    it as a comparison design.
+    it as a comparison design.  The agent form of a design is never given a ``formation``
+    case (that kind runs the design's Lagrangian view, :func:`load_spec
+    <formsync_design.spec.loader.load_spec>`).
     """
     from formsync_design.resources import case_file, case_names
     from formsync_design.tomlio import load_toml
@@ -131,6 +139,8 @@ def case_source(design: Any) -> CaseSource | None:
     name = str(getattr(design, "name", design))
     names = sorted(case_names(), key=lambda n: (n != name, n))
     docs = [(case_file(n), load_toml(case_file(n), "case TOML file")) for n in names]
+    if getattr(design, "form", None) == "agent":
+        docs = [(p, d) for p, d in docs if not _formation_case(d)]
     for path, doc in docs:
         ref = _case_ref(doc)
         if ref is None and path.stem == name == "liang2016":

@@ -102,11 +102,12 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
     path = resolve_case(case_path)
     kind = case_kind(load_toml(path, "case TOML file"), display_path(path))
     if kind == "formation":
-        from formsync_design.spec.loader import Spec, load_design
+        from formsync_design.spec.loader import Spec, lagrangian_view, load_design
         from formsync_design.verify.verification import verify_case as verify_formation
 
         if spec is not None and not isinstance(spec, Spec):
             spec = load_design(spec)
+            spec = lagrangian_view(spec) or spec  # a formation case runs the Lagrangian view
         kind_of = ("agent" if getattr(spec, "form", "lagrangian") == "agent"
                    else getattr(getattr(spec, "decl", None), "kind", "formation"))
         if spec is not None and kind_of != "formation":
