@@ -37,7 +37,7 @@ data flows through the stages:
   :class:`AgentOptions`, :func:`simulate_agents` (:class:`AgentResult`), gyro models
   :class:`RateSensors`, :func:`measured_l2_gain`;
 * verification of a published case: :func:`load_case`, :func:`verify_case` (a case of
-  any kind, formation, lv2012 or engine, by file or
+  any kind, formation or engine, by file or
   shipped name; returns that kind's result);
   :func:`load_agent_case` (the case files of agent designs); the verification engine
   (case kind ``engine``: formations, scenarios, Monte-Carlo, metrics and claims declared

@@ -199,8 +199,6 @@ def _fuzz(name: str, text: str, load: Any, loads: Any, tmp: Path, examples: int,
 
 
 def _companions(name: str) -> dict[str, str]:
-    if name.startswith("lv2012"):
-        return {"lv2012_small.toml": (VERIFICATION / "lv2012_small.toml").read_text()}
     return {}
 
 

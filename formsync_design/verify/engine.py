@@ -92,6 +92,7 @@ from formsync_design.verify.enginecase import (
     MetricRow,
     load_engine_case,
 )
+from formsync_design.verify.enginesensors import scenario_inputs
 from formsync_design.verify.kinds import VerifyRequest
 from formsync_design.verify.metrics import MetricContext, MetricValue, format_number, point_gains
 from formsync_design.verify.predicates import evaluate
@@ -172,12 +173,13 @@ class EngineResults:
         return self._scales[scenario]
 
     @staticmethod
-    def _simulate(d: Any, f: Any, opt: Any, rec: dict[str, Any]) -> Any:
+    def _simulate(d: Any, f: Any, opt: Any, rec: dict[str, Any],
+                  inputs: dict[str, Any] | None = None) -> Any:
         from formsync_design.sim.agents import simulate_agents, simulate_agents_sampled
 
         if d.decl.sampling != "continuous":
             return simulate_agents_sampled(d, f, opt, record=rec)
-        return simulate_agents(d, f, opt)
+        return simulate_agents(d, f, opt, **(inputs or {}))  # a gyro model: verify/enginesensors
 
     def options(self, formation: str, scenario: str, draw: int | None = None) -> Any:
         """The simulation options of a run: the scenario's, the Monte-Carlo horizon for a
@@ -235,7 +237,7 @@ class EngineResults:
             self.progress(f"simulate {formation} / {scenario}"
                           + ("" if draw is None else f" / draw {draw + 1}"))
             rec: dict[str, Any] = {}
-            store[skey] = self._simulate(d, f, opt, rec)
+            store[skey] = self._simulate(d, f, opt, rec, scenario_inputs(sc.overrides, f.n))
             self.records[key] = rec
         return store[skey]
 

@@ -41,7 +41,6 @@ __all__ = ["KINDS", "VerifyRequest", "case_kind", "verifier"]
 #: Case kind -> ``"module:function"`` of its verifier.
 KINDS: dict[str, str] = {
     "formation": "formsync_design.verify.formation:verify_formation_case",
-    "lv2012": "formsync_design.verify.lv2012:verify_lv2012",
     "engine": "formsync_design.verify.engine:verify_engine_case",
 }
 
