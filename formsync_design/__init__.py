@@ -37,7 +37,7 @@ data flows through the stages:
   :class:`AgentOptions`, :func:`simulate_agents` (:class:`AgentResult`), gyro models
   :class:`RateSensors`, :func:`measured_l2_gain`;
 * verification of a published case: :func:`load_case`, :func:`verify_case` (a case of
-  any kind, formation, flyaround or engine, by file or
+  any kind, formation or engine, by file or
   shipped name; returns that kind's result);
   :func:`load_agent_case` (the case files of agent designs); the verification engine
   (case kind ``engine``: formations, scenarios, Monte-Carlo, metrics and claims declared
@@ -49,7 +49,7 @@ data flows through the stages:
 * tracking designs (the fly-around of Zhang et al. 2014): :func:`load_flyaround_case`,
   :class:`FlyaroundScenario`, :class:`FlyaroundOptions`, :func:`simulate_flyaround`
   (-> :class:`FlyaroundRun`), :func:`flyaround_figures`, :func:`derive_tracking_attitude`,
-  :func:`attitude_certificate`, :func:`verify_flyaround`;
+  :func:`attitude_certificate` (verified by the engine: ``formsync verify zhang2014_flyaround``);
 * campaigns: :func:`load_campaign`, :func:`run_sweep`;
 * numbers: :func:`parse_number` (the exact-number parser) and
   :func:`json_number` (the JSON number convention);
@@ -189,7 +189,6 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "flyaround_figures": "formsync_design.sim.tracking_figures",
     "derive_tracking_attitude": "formsync_design.derive.tracking",
     "attitude_certificate": "formsync_design.analysis.tracking",
-    "verify_flyaround": "formsync_design.verify.tracking",
     # agent designs: the paths the command line takes (the generic functions route there)
     "certify_agent": "formsync_design.certify.agent",
     "region_agent": "formsync_design.certify.agent",

@@ -19,7 +19,6 @@ DATA = Path(__file__).parent / "data"
 
 #: the module attribute each kind's computation is looked up under
 COMPUTE = {
-    "flyaround": ("formsync_design.verify.tracking", "verify_flyaround"),
     "engine": ("formsync_design.verify.engine", "run_engine"),
 }
 

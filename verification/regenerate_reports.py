@@ -15,8 +15,9 @@ documented commands produce:
   the self-triggered MRP design of seed 001 against its event-triggered and periodic variants
   (an engine case: the variants are scenarios);
 * ``formsync verify zhang2014_flyaround`` -> reports/zhang2014_flyaround-verification.md (+
-  figures): the fly-around case of Zhang et al. 2014 (a tracking design, case kind
-  ``flyaround``), its claims, sensitivity study, allocation comparison and certificates;
+  figures): the fly-around case of Zhang et al. 2014 (a tracking design, an ``engine`` case
+  of the tracking form): its claims, the sensitivity study and the allocation comparison as
+  scenarios, and its certificates;
 * ``formsync verify lv2012`` and ``formsync verify lv2012_small`` ->
   reports/lv2012-verification.md and reports/lv2012_small-verification.md (+ figures): the
   output-feedback design without rate gyros (Lv et al. 2012, reconstructed) on the Liang et al.

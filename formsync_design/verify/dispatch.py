@@ -9,8 +9,8 @@ result object, writing nothing:
 ``[case] kind``               result
 ============================  ==============================================================
 ``formation`` (the default)   :class:`~formsync_design.verify.results.VerificationResult`
-``flyaround``                 :class:`~formsync_design.verify.tracking_claims.FlyaroundVerification`
 ``engine``                    :class:`~formsync_design.verify.engine.EngineVerification`
+                              (a tracking design's: :class:`~formsync_design.verify.engine_tracking.TrackingVerification`)
 ============================  ==============================================================
 
 Each result has the case's judged claims as ``claims``.
@@ -34,7 +34,6 @@ __all__ = ["RESULT_KINDS", "resolve_case", "verify_case"]
 #: Case kind -> the name of the result class :func:`verify_case` returns for it.
 RESULT_KINDS: dict[str, str] = {
     "formation": "VerificationResult",
-    "flyaround": "FlyaroundVerification",
     "engine": "EngineVerification",
 }
 
@@ -111,10 +110,6 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
             raise InputError(f"expected a formation design for the formation case "
                              f"{display_path(path)}, received {spec.name} (a {kind_of} design)")
         return verify_formation(path, spec=spec, progress=progress)
-    if kind == "flyaround":
-        from formsync_design.verify.tracking import verify_flyaround
-
-        return verify_flyaround(path, spec=spec, progress=progress)
     if kind == "engine":
         from formsync_design.verify.engine import run_engine
         from formsync_design.verify.enginecase import load_engine_case

@@ -98,7 +98,7 @@ from formsync_design.verify.metrics import MetricContext, MetricValue, format_nu
 from formsync_design.verify.predicates import evaluate
 
 __all__ = ["EngineResults", "ClaimVerdict", "EngineVerification", "run_engine",
-           "verify_engine_case", "certificate_inputs", "aggregate"]
+           "verify_engine_case", "certificate_inputs", "aggregate", "judge"]
 
 
 def certificate_inputs(case: Any) -> tuple[dict[str, Fraction] | None, str, str, str]:
@@ -431,7 +431,11 @@ def _checked(m: MetricRow, v: Any) -> MetricValue:
 
 def run_engine(case: EngineCase, progress: Callable[[str], None] = lambda s: None
                ) -> EngineVerification:
-    """Compute every metric, certificate and verdict of ``case`` (module docstring)."""
+    """Compute every metric, certificate and verdict of ``case`` (module docstring); the case
+    of another form is run by its form (:mod:`formsync_design.verify.engineform`)."""
+    form = getattr(case, "form", None)
+    if form is not None:
+        return form.run(case, progress)
     res = EngineResults(case, progress)
     certs = []
     for f in case.formations:

@@ -44,6 +44,9 @@ range-checked, :mod:`formsync_design.ranges`; bad input is one line, exit 2)::
     [[claims]]      id, text (the paper's words), source (where in the paper),
                     predicate over metric ids (formsync_design/verify/predicates.py)
 
+A design that is not an agent design (``KIND = "tracking"``) has its own form of these
+tables (:mod:`formsync_design.verify.engineform`, :mod:`formsync_design.verify.engine_tracking`).
+
 Without ``[[formations]]`` the one formation ``case`` is the case's graph; without
 ``[[scenarios]]`` the one scenario ``nominal`` is the base case (list it as a scenario
 without overrides to keep it beside others).  ``cycle:N`` is the directed cycle (spacecraft
@@ -533,11 +536,17 @@ def _claims(data: dict, metrics: tuple[MetricRow, ...], path: str) -> tuple[Clai
 
 
 def parse_engine_case(data: dict, path: str = "<memory>", design: Any = None) -> EngineCase:
-    """Validate a parsed engine case document (module docstring)."""
+    """Validate a parsed engine case document (module docstring); a case whose design is of
+    another form (a tracking design) is that form's case (:mod:`formsync_design.verify.engineform`)."""
     meta = data.get("case", {})
     if not isinstance(meta, dict) or meta.get("kind") != "engine":
         got = meta.get("kind") if isinstance(meta, dict) else meta
         raise InputError(f"expected [case] kind = \"engine\" in {path}, received {got!r:.40}")
+    from formsync_design.verify.engineform import design_form
+
+    other = design_form(data, path, design)
+    if other is not None:  # a design of another form (verify/engineform.py)
+        return other.parse(data, path, design)
     agent = {k: v for k, v in data.items() if k not in ENGINE_TABLES}
     base = parse_agent_case(copy.deepcopy(agent), path, design=design)
     forms = _formations(data, base, path)

@@ -17,6 +17,7 @@ from formsync_design.verify import (  # noqa: F401 (each registers its metrics)
     metrics_sampled,
     metrics_scope,
     metrics_sensors,
+    metrics_tracking,
 )
 
 __all__: list[str] = []
