@@ -180,3 +180,24 @@ def test_metric_value_checks():
     with pytest.raises(InputError):
         MetricValue(1.0, "s", "guess")
     assert MetricValue("certified", "verdict", "certificate").interval() == "certified"
+
+
+def test_a_copied_design_file_registers_its_metric_again_a_different_one_is_refused(tmp_path):
+    """A user's copy of a design file (another path, the same metric text) loads beside the
+    shipped one; a different function under a registered name is refused in one line."""
+    from formsync_design.errors import InputError
+    from formsync_design.verify.metrics import METRICS
+
+    src = ('from formsync_design.verify.metrics import register_metric\n'
+           '@register_metric("test_copied_metric", unit="1", evidence="simulation", doc="d")\n'
+           'def m(ctx):\n    return ctx.value({})\n')
+    try:
+        for folder in ("shipped", "mine"):
+            path = tmp_path / folder / "design.py"
+            exec(compile(src.format(1.0), str(path), "exec"), {})  # noqa: S102 (test code)
+        first = METRICS["test_copied_metric"].fn
+        assert first.__code__.co_filename.endswith("shipped/design.py")  # the first is kept
+        with pytest.raises(InputError, match="registered once"):
+            exec(compile(src.format(2.0), str(tmp_path / "other.py"), "exec"), {})  # noqa: S102
+    finally:
+        METRICS.pop("test_copied_metric", None)
