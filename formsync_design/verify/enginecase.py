@@ -72,6 +72,7 @@ from formsync_design.verify import (  # noqa: F401 (registered)
     metrics_attitude,
     metrics_compare,
     metrics_design,
+    metrics_lagrangian,
     metrics_sampled,
 )
 from formsync_design.verify.agentcase import ENGINE_TABLES, AgentCase, parse_agent_case
