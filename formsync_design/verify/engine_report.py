@@ -277,11 +277,15 @@ def engine_markdown(ver: Any, fig_dir: str, figures: list[str], command: str,
 
 
 def engine_figures(ver: Any) -> dict[str, Any]:
-    """The agent figures of every simulated run, by file stem."""
+    """The agent figures of every simulated run (those of ``[report] figures`` when the
+    case lists them), by file stem."""
     from formsync_design.sim.agent_figures import agent_figures
 
     out = {}
+    only = getattr(ver.case, "report_figures", None)
     for (f, s), r in sorted(ver.results.runs.items()):
+        if only is not None and (f, s) not in only:
+            continue
         tol = ver.case.scenario(s).case.options.angle_tol
         for name, fig in agent_figures(r, tol).items():
             out[f"{f}-{s}-{name}"] = fig

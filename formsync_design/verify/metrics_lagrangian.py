@@ -24,6 +24,9 @@ saturation_end_time           s        simulation   last time a component is at 
 chatter_end_time              s        simulation   last time a torque component reverses 3+
                                                     times within 1 s
 tail_torque_reversals         count    simulation   reversals in the last ``fraction``
+printed_certificate           verdict  certificate  the paper's printed ``Theta_i`` / ``Pi``
+                                                    (``<design>_printed.py``) at the gains
+derivation_finding            verdict  certificate  one paper-versus-derivation verdict
 ============================  =======  ===========  ==========================================
 
 The certificate metrics apply to a design that carries a Lagrangian view
@@ -53,7 +56,7 @@ import numpy as np
 
 from formsync_design.verify.metrics import MetricArg, MetricContext, MetricValue, register_metric
 
-__all__ = ["relative_measures", "relative_convergence_time", "chatter_end_time",
+__all__ = ["relative_measures", "relative_convergence_time", "chatter_end_time", "printed_file",
            "torque_reversals", "lagrangian_graph"]
 
 
@@ -415,3 +418,73 @@ def _kv_required(ctx: MetricContext) -> MetricValue:
                  "spacecraft")
 def _ubar(ctx: MetricContext) -> MetricValue:
     return _one(ctx, _kv_parts(ctx)[2], "ubar")
+
+
+# ------------------------------------------------- the paper's printed conditions
+
+
+def printed_file(design: Any) -> Any:
+    """The file of the paper's printed expressions shipped beside the design's file
+    (``<design>_printed.py``), or ``None``."""
+    from pathlib import Path
+
+    view = _view(design)
+    if view is None or not view.path:
+        return None
+    p = Path(str(view.path)).with_name(f"{view.name}_printed.py")
+    return p if p.is_file() else None
+
+
+def _has_printed(design: Any) -> str | None:
+    why = _has_view(design)
+    if why is not None:
+        return why
+    return None if printed_file(design) is not None else (
+        f"design {design.name} ships no printed expressions ({design.name}_printed.py)")
+
+
+@register_metric("printed_certificate", unit="verdict", evidence="certificate", value="text",
+                 args=(_FAMILY,), applies=_has_printed,
+                 doc="the paper's printed Theta_i and Pi (<design>_printed.py beside the design "
+                 "file) on the formation's graph at the scenario's gains: certified or refuted "
+                 "(exact re-check); undecided: unknown")
+def _printed_certificate(ctx: MetricContext) -> MetricValue:
+    def compute() -> Any:
+        from formsync_design.certify.engine import certify_box
+        from formsync_design.derive.conditions import paper_conditions
+
+        view = _view(ctx.case.design)
+        return certify_box(paper_conditions(lagrangian_graph(ctx.graph), printed_file(ctx.case.design)),
+                           _box(ctx, view))
+
+    gains = tuple(sorted((k, str(v)) for k, v in ctx.case.gains.as_dict().items()))
+    res = ctx.memo(("printed_certificate", ctx.formation, ctx.case.design.name, gains), compute)
+    fams = _families(res, str(ctx.args["family"]))
+    where = f"printed conditions on {lagrangian_graph(ctx.graph).name}"
+    if fams and all(str(fm.status) == "certified" for fm in fams):
+        return ctx.value("certified", f"{where}: exact re-check")
+    if any(str(fm.status) == "refuted" for fm in fams):
+        return ctx.value("refuted", f"{where}: a point of the box violates them (exact)")
+    return ctx.value(None, f"{where}: undecided")
+
+
+@register_metric("derivation_finding", unit="verdict", evidence="certificate", value="text",
+                 args=(MetricArg("key", "text", doc="the finding's key (B-skew, Pi-M, ...)"),),
+                 applies=_has_printed,
+                 doc="the verdict of one paper-versus-derivation finding of the design's "
+                 "Lagrangian view on the formation's graph (symbolic, exact: "
+                 "derive/compare.py)")
+def _derivation_finding(ctx: MetricContext) -> MetricValue:
+    def compute() -> Any:
+        from formsync_design.derive.compare import all_findings
+
+        return all_findings(lagrangian_graph(ctx.graph), _view(ctx.case.design),
+                            printed_file(ctx.case.design))
+
+    found = ctx.memo(("derivation_findings", ctx.formation, ctx.case.design.name), compute)
+    key = str(ctx.args["key"])
+    f = next((x for x in found if x.key == key), None)
+    if f is None:
+        return ctx.value(None, f"no finding {key!r} (the findings: "
+                         f"{', '.join(x.key for x in found)})")
+    return ctx.value(str(f.verdict), str(f.meaning or f.item))
