@@ -137,3 +137,33 @@ def test_lagrangian_metrics_refuse_a_design_without_a_view(tmp_path):
               gains="K1 = 1.15\nK2 = 0.15\nP1 = 0.03\nP2 = 0.03\neps = 0.01")
     with pytest.raises(InputError, match="Lagrangian view"):
         load_engine_case(p)
+
+
+def test_report_derivation_writes_the_committed_derivation_report(tmp_path):
+    """[report] derivation of the pd_consensus case writes the derivation report the classic
+    verifier wrote (reports/pd_consensus-derivation-ring4.*: equal but for --out)."""
+    from pathlib import Path
+
+    from formsync_design.resources import case_file
+    from formsync_design.verify.engine_derivation import write_case_derivation
+
+    case = load_engine_case(case_file("pd_consensus"))
+    assert case.report_derivation == "ring4"
+    rep = write_case_derivation(case, tmp_path)
+    root = Path(__file__).resolve().parents[1] / "reports"
+    for p in (rep.markdown, rep.latex):
+        got = p.read_text().replace(f" --out {tmp_path}", "")
+        assert got == (root / p.name).read_text(), p.name
+
+
+def test_report_keys_are_checked(tmp_path):
+    base = _case(tmp_path, "")
+    text = base.read_text()
+    for extra, words in (('[report]\nderivation = "nope"\n', "report.derivation among"),
+                         ('[report]\nfigures = [["ring4", "x"]]\n', "report.figures")):
+        base.write_text(text + extra + '\n[[metrics]]\nid = "kv"\nmetric = "switching_gain_ratio"\n')
+        with pytest.raises(InputError, match=words):
+            load_engine_case(base)
+    base.write_text(text + '[report]\nfigures = [["ring4", "nominal"]]\n'
+                    '\n[[metrics]]\nid = "kv"\nmetric = "switching_gain_ratio"\n')
+    assert load_engine_case(base).report_figures == (("ring4", "nominal"),)
