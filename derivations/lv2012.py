@@ -46,6 +46,8 @@ from __future__ import annotations
 
 import sympy as sp
 
+from formsync_design.verify.metrics import register_metric
+
 FORM = "agent"
 NAME = "lv2012"
 TITLE = ("Lead-filter output feedback for cooperative attitude regulation without rate gyros "
@@ -199,3 +201,40 @@ def torque_bound(k_p, k_d, a_f, b, degree):
     """``k_p (b_i + sum_j a_ij) + k_d a_f``: a bound of ``|u_i|`` (2-norm, so of every axis)
     valid on the whole state space when ``|x_i(0)| <= 1`` (module docstring)."""
     return k_p * (b + degree) + k_d * a_f
+
+
+def filter_transfer(design):
+    """``(y(s)/e(s) of the first axis as text, whether it is a_f s/(s + a_f) I)``: the lead
+    filter's transfer function from the design's own expressions (reference at identity,
+    ``e = q``; ``x' = A x + B e``, ``y = C x + D e`` by exact Jacobians)."""
+    from formsync_design.spec.agent import agent_expressions
+
+    ex = agent_expressions(design, 0)
+    v = ex["view"]
+    y = virtual_rate(v)
+    xs = list(v.z["x"])
+    at = {v.q0: 1, v.ref.q0: 1, **{s: 0 for s in (*v.ref.q, *v.q, *xs)}}
+    xd = ex["states"]["x"]
+    A, B = xd.jacobian(xs).xreplace(at), xd.jacobian(list(v.q)).xreplace(at)
+    C, D = y.jacobian(xs).xreplace(at), y.jacobian(list(v.q)).xreplace(at)
+    s = sp.Symbol("s")
+    G = sp.simplify(C * (s * sp.eye(3) - A).inv() * B + D)
+    a = design.decl.gain("a_f").symbol
+    want = a * s / (s + a)
+    ok = all(sp.simplify(G[i, j] - (want if i == j else 0)) == 0 for i in range(3)
+             for j in range(3))
+    return str(sp.factor(G[0, 0])), ok
+
+
+def _this_law(design):
+    return None if design.name == NAME else f"design {design.name} is not {NAME}"
+
+
+@register_metric("lead_filter_transfer", unit="verdict", evidence="certificate", value="text",
+                 applies=_this_law,
+                 doc="the lead filter's y(s)/e(s) computed from the design's expressions (exact): "
+                 "a_f s/(s + a_f) on every axis, or what it is instead")
+def _lead_filter(ctx):
+    text, ok = ctx.memo(("lead-filter",), lambda: filter_transfer(ctx.case.design))
+    return ctx.value("a_f s/(s + a_f)" if ok else text,
+                     f"y_1(s)/e_1(s) = {text}; diagonal, off-diagonal zero: {ok}")

@@ -37,7 +37,7 @@ data flows through the stages:
   :class:`AgentOptions`, :func:`simulate_agents` (:class:`AgentResult`), gyro models
   :class:`RateSensors`, :func:`measured_l2_gain`;
 * verification of a published case: :func:`load_case`, :func:`verify_case` (a case of
-  any kind, formation, lv2012, flyaround or engine, by file or
+  any kind, formation or engine, by file or
   shipped name; returns that kind's result);
   :func:`load_agent_case` (the case files of agent designs); the verification engine
   (case kind ``engine``: formations, scenarios, Monte-Carlo, metrics and claims declared
@@ -49,7 +49,7 @@ data flows through the stages:
 * tracking designs (the fly-around of Zhang et al. 2014): :func:`load_flyaround_case`,
   :class:`FlyaroundScenario`, :class:`FlyaroundOptions`, :func:`simulate_flyaround`
   (-> :class:`FlyaroundRun`), :func:`flyaround_figures`, :func:`derive_tracking_attitude`,
-  :func:`attitude_certificate`, :func:`verify_flyaround`;
+  :func:`attitude_certificate` (verified by the engine: ``formsync verify zhang2014_flyaround``);
 * campaigns: :func:`load_campaign`, :func:`run_sweep`;
 * numbers: :func:`parse_number` (the exact-number parser) and
   :func:`json_number` (the JSON number convention);
@@ -72,8 +72,7 @@ function of the package selects a matplotlib backend.
 
 from __future__ import annotations
 
-from importlib import import_module
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from formsync_design.errors import (
     ClusterError,
@@ -86,6 +85,7 @@ from formsync_design.errors import (
     SimulationError,
     SolverError,
 )
+from formsync_design.lazy import lazy_attributes
 
 __version__ = "0.1.0"
 
@@ -189,7 +189,6 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "flyaround_figures": "formsync_design.sim.tracking_figures",
     "derive_tracking_attitude": "formsync_design.derive.tracking",
     "attitude_certificate": "formsync_design.analysis.tracking",
-    "verify_flyaround": "formsync_design.verify.tracking",
     # agent designs: the paths the command line takes (the generic functions route there)
     "certify_agent": "formsync_design.certify.agent",
     "region_agent": "formsync_design.certify.agent",
@@ -223,15 +222,4 @@ if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
     from formsync_design.graphs import Graph as Graph, make_graph as make_graph
 
 
-def __getattr__(name: str) -> Any:
-    target = _LAZY.get(name)
-    if target is None:
-        raise AttributeError(f"module 'formsync_design' has no attribute {name!r}")
-    module, attr = target if isinstance(target, tuple) else (target, name)
-    value = getattr(import_module(module), attr)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(__all__)
+__getattr__, __dir__ = lazy_attributes(__name__, _LAZY, globals(), public_only=True)

@@ -137,12 +137,14 @@ def _load_case_file(path: Path) -> None:
     from formsync_design.verify.agentcase import case_is_agent, load_agent_case
     from formsync_design.verify.case import load_case
     from formsync_design.verify.claims import parse_claims
+    from formsync_design.verify.enginecase import load_engine_case
+    from formsync_design.verify.engineform import design_form
     from formsync_design.verify.kinds import case_kind
-    from formsync_design.verify.tracking_case import load_flyaround_case
 
-    kind = case_kind(load_toml(path, "case TOML file"), str(path))
-    if kind == "flyaround":
-        load_flyaround_case(path)
+    data = load_toml(path, "case TOML file")
+    kind = case_kind(data, str(path))
+    if kind == "engine" and design_form(data, str(path)) is not None:
+        load_engine_case(path)  # a tracking design's engine case
     elif kind != "formation" or case_is_agent(path):
         load_agent_case(path)
     else:
@@ -197,8 +199,6 @@ def _fuzz(name: str, text: str, load: Any, loads: Any, tmp: Path, examples: int,
 
 
 def _companions(name: str) -> dict[str, str]:
-    if name.startswith("lv2012"):
-        return {"lv2012_small.toml": (VERIFICATION / "lv2012_small.toml").read_text()}
     return {}
 
 

@@ -1,4 +1,4 @@
-"""Large-angle scope study (formsync_design.verify.large_angle) against laws whose region of
+"""Large-angle scope study (formsync_design.verify.metrics_scope) against laws whose region of
 convergence is known in closed form."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from formsync_design.graphs import load_graph
 from formsync_design.sim.agents import AgentFormation, AgentOptions
 from formsync_design.sim.formation import Gains
 from formsync_design.spec.agent import agent_design_from_functions
-from formsync_design.verify.large_angle import (
+from formsync_design.verify.metrics_scope import (
     ScopeVerdict,
     large_angle_attitudes,
     scope_study,

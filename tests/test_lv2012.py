@@ -133,9 +133,7 @@ def test_storage_derivative_along_the_compiled_loop(design, small):
 
 
 def test_the_filter_realises_its_transfer_function(design):
-    from formsync_design.verify.lv2012 import _filter_transfer
-
-    text, ok = _filter_transfer(design)
+    text, ok = design.module["filter_transfer"](design)
     assert ok and text == "a_f*s/(a_f + s)"
     # the compiled law's filter derivative is a_f (e - x) (e = vec(q_r^* q)): the closed form
     # x(t) = e (1 - e^{-a_f t}) for a constant e from x(0) = 0, integrated by the kernel
@@ -294,30 +292,14 @@ def test_sensor_and_input_validation(design, small):
     assert np.allclose((off - s.bias).std(axis=0), 2e-3, rtol=0.05)
 
 
-def test_verify_kind_and_case_claims_are_validated(tmp_path):
+def test_the_case_is_an_engine_case_with_the_filter_metric():
     from formsync_design.resources import case_file
     from formsync_design.tomlio import load_toml
+    from formsync_design.verify.enginecase import load_engine_case
     from formsync_design.verify.kinds import case_kind
-    from formsync_design.verify.lv2012 import analyse_case
 
     path = case_file("lv2012")
-    assert case_kind(load_toml(path, "case"), "lv2012.toml") == "lv2012"
-    bad = tmp_path / "bad.toml"
-    text = path.read_text().replace("l2_seed = 4", "l2_seed = 4\nnonsense = 1")
-    bad.write_text(text.replace('small_case = "lv2012_small.toml"', ""))
-    with pytest.raises(InputError, match="unknown \\['nonsense'\\]"):
-        analyse_case(bad)
-
-
-def test_scope_angles_are_validated_before_any_work(tmp_path):
-    from formsync_design.resources import case_file
-    from formsync_design.verify.lv2012 import analyse_case
-
-    path = case_file("lv2012")
-    for bad_value in ("[190]", "[]", '["x"]'):
-        bad = tmp_path / "bad.toml"
-        text = path.read_text().replace("scope_angles = [120, 150, 170, 179, 179.9]",
-                                        f"scope_angles = {bad_value}")
-        bad.write_text(text.replace('small_case = "lv2012_small.toml"', ""))
-        with pytest.raises(InputError, match="scope_angles"):
-            analyse_case(bad)
+    assert case_kind(load_toml(path, "case"), "lv2012.toml") == "engine"
+    case = load_engine_case(path)
+    assert {m.spec.name for m in case.metrics} >= {"lead_filter_transfer", "certified_l2_gain",
+                                                    "measured_l2_gain_max", "large_angle_scope"}

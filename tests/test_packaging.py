@@ -138,8 +138,8 @@ for name in resources.design_names():
     assert callable(spec.controller), name
 from formsync_design.tomlio import load_toml
 from formsync_design.verify.kinds import case_kind
-from formsync_design.verify.tracking_case import load_flyaround_case
-loaders = {{"formation": load_case, "flyaround": load_flyaround_case}}
+from formsync_design.verify.enginecase import load_engine_case
+loaders = {{"formation": load_case, "engine": load_engine_case}}
 for name in resources.case_names():
     path = resources.case_file(name)
     loaders.get(case_kind(load_toml(path), str(path)), load_agent_case)(path)

@@ -58,7 +58,8 @@ def test_variant_controller_is_simulated_not_the_papers():
 def test_inline_spec_simulates_like_the_file():
     from formsync_design.derivations import liang2016 as paper_mod  # shipped specification
 
-    inline = Spec.from_functions(paper_mod.controller, paper_mod.lyapunov, name="inline")
+    inline = Spec.from_functions(paper_mod.lagrangian_controller, paper_mod.lyapunov,
+                                name="inline")  # the file's Lagrangian view
     a = simulate(_formation(), OPT, spec=inline)
     b = simulate(_formation(), OPT)
     assert inline.key != load_spec(None).key  # another content key ...

@@ -1,7 +1,10 @@
-"""The fly-around case file, its claims, the certificates and ``formsync verify`` (issue 14).
+"""The fly-around engine case (the tracking form of the engine), the certificates and
+``formsync verify`` (issues 14 and 23).
 
-* case files: strict validation, one-line errors (exit 2), sensitivity variants;
-* claim judging rules on constructed metrics (both verdicts reachable);
+* case files: strict validation, one-line errors (exit 2), the scenarios' overrides;
+* the claims' predicates on constructed metric values (both verdicts reachable, unknown is
+  undecided);
+* the tracking form on a short case: the metrics against the run measured independently;
 * the attitude certificate: certified for the case's box; every point sampled inside the
   box satisfies the certified Lyapunov inequality numerically (an independent check of the
   vertex argument); an impossible rate bound is not certified; the LQR margins hold;
@@ -28,11 +31,22 @@ from formsync_design.derive.tracking import derive_tracking_attitude
 from formsync_design.errors import InputError
 from formsync_design.models.orbit import MarginStatus
 from formsync_design.resources import case_file
-from formsync_design.verify.tracking_case import apply_variant, load_flyaround_case
-from formsync_design.verify.tracking_claims import Verdict, judge
+from formsync_design.verify.engine import judge, run_engine
+from formsync_design.verify.enginecase import load_engine_case
+from formsync_design.verify.metrics import MetricValue
+from formsync_design.verify.tracking_case import load_flyaround_case
 
 CASE = load_flyaround_case()
 TEXT = case_file("zhang2014_flyaround").read_text()
+#: the base case of the shipped file (everything before its scenarios)
+BASE = TEXT[:TEXT.index("# ------------------------------------------------------------"
+                        "---- scenarios")]
+
+
+def short_case(tf: float, steady: float, rest: str) -> str:
+    """The shipped base case over ``tf`` (steady state from ``steady``) with ``rest``."""
+    return BASE.replace("tf = 18000.0", f"tf = {tf:.1f}").replace(
+        "steady_from = 1000.0", f"steady_from = {steady:.1f}") + rest
 
 
 def _write(tmp_path: Path, text: str) -> Path:
@@ -42,13 +56,18 @@ def _write(tmp_path: Path, text: str) -> Path:
 
 
 @pytest.mark.parametrize("old, new, needle", [
-    ('kind = "flyaround"', 'kind = "formation2"', "expected [case] kind one of"),
+    ('kind = "engine"', 'kind = "formation2"', "expected [case] kind one of"),
     ("mass = 2000.0", "mass = -1.0", "expected spacecraft.mass > 0"),
     ("r_u = 6400.0", "r_u = 6400.0\nk_x = 1.0", "expected gains among the design's"),
-    ('match = "rel:0.10"', 'match = "about"', "expected claims.delta_v.match"),
+    ('predicate = "minp_nominal >= 0.9"', 'predicate = "minp_nominal >="', "predicate"),
     ('allocation = "pinv-shift"', 'allocation = "magic"', "expected simulation.allocation"),
     ("half_size = 1.0", "half_size = 1.0\ncolour = 1", "expected keys among"),
-    ('quantity = "fuel_kg"', 'quantity = "joy"', "expected claims.published.quantity one of"),
+    ('metric = "fuel"', 'metric = "joy"', "expected metrics[18].metric among"),
+    ('metric = "fuel"', 'metric = "peak_torque"', "applies to the tracking design"),
+    ('scenario = "lp"', 'scenario = "nope"', "expected metrics[136].scenario among"),
+    ("{ carry = true }", "{ steady_from = 5.0 }", "expected scenarios[10].simulation keys"),
+    ("{ half_size = 0.75 }", "{ half_size = -0.75 }", "expected thrusters.half_size > 0"),
+    ('name = "r_u-x4"', 'name = "nominal"', "once"),
     ("tf = 18000.0", "tf = 18000.1", "whole number of samples"),
 ])
 def test_bad_case_files_are_one_line_input_errors(tmp_path, old, new, needle):
@@ -59,33 +78,79 @@ def test_bad_case_files_are_one_line_input_errors(tmp_path, old, new, needle):
         assert not (tmp_path / "o").exists()
         return
     with pytest.raises(InputError) as e:
-        load_flyaround_case(p)
+        load_engine_case(p)
     assert needle in str(e.value) and "\n" not in str(e.value)
 
 
-def test_case_values_and_variants():
-    sc = CASE.scenario
+def test_case_values_and_scenarios():
+    case = load_engine_case(case_file("zhang2014_flyaround"))
+    assert type(case).__name__ == "TrackingEngineCase" and case.form.name == "tracking"
+    sc = case.tracking.scenario
     assert sc.layout.count == 16 and sc.gains["K_d"] == (1628.0, 1461.0, 1752.5)
-    assert len(CASE.published) == 6 and len(CASE.qualitative) == 5
-    labels = [v.label for v in CASE.sensitivity]
-    v = CASE.sensitivity[labels.index("plant inertia +10 % (the law keeps the printed J)")]
-    s2, _ = apply_variant(CASE, v)
+    assert len(case.scenarios) == 14 and len(case.claims) == 11
+    s2 = case.scenario("inertia-1.1").case.scenario
     assert np.allclose(s2.inertia, 1.1 * sc.inertia) and np.allclose(s2.law_inertia, sc.inertia)
-    v = CASE.sensitivity[labels.index("minimum pulse 60 ms")]
-    assert apply_variant(CASE, v)[1].min_pulse == 0.06
-    v = CASE.sensitivity[labels.index("layout half-edge 1.5 m")]
-    assert np.isclose(np.abs(apply_variant(CASE, v)[0].layout.positions).max(), 1.5)
+    assert case.scenario("min-pulse-60ms").case.options.min_pulse == 0.06
+    lay = case.scenario("half-edge-1.5").case.scenario.layout
+    assert np.isclose(np.abs(lay.positions).max(), 1.5)
+    assert case.scenario("r_u-x4").case.scenario.gains["r_u"] == (25600.0,)
+    assert case.scenario("lp").case.options.allocation == "lp"
+    # every scenario but its overrides is the base case
+    assert case.scenario("nominal").case.options == case.tracking.options
 
 
-def test_judging_rules():
-    metrics = {c["quantity"]: c["value"] for c in CASE.published}
-    metrics.update({c["quantity"]: c["bound"] for c in CASE.qualitative})
-    assert all(r.verdict == Verdict.HOLDS for r in judge(CASE, metrics))  # on the boundary
-    bad = dict(metrics, rate_error_deg_s=0.04 * 2.01, delta_v_m_s=15.8065 * 0.89,
-               min_pulse_fraction=0.89, pointing_error_deg=1.01, fuel_kg=math.nan)
-    verdicts = {r.id: r.verdict for r in judge(CASE, bad)}
-    assert {k for k, v in verdicts.items() if v == Verdict.FAILS} == {
-        "rate_error", "delta_v", "min_pulse", "pointing", "fuel"}
+def test_claim_predicates():
+    case = load_engine_case(case_file("zhang2014_flyaround"))
+    claims = {c.id: c for c in case.claims}
+
+    def verdict(cid: str, **vals: float | None) -> str:
+        return judge(claims[cid], {k: MetricValue(v, "1", "simulation")
+                                   for k, v in vals.items()}).verdict
+
+    assert verdict("rate_error", rate_nominal=0.04 * 2) == "holds"  # on the boundary
+    assert verdict("rate_error", rate_nominal=0.04 / 2) == "holds"
+    assert verdict("rate_error", rate_nominal=0.04 * 2.01) == "fails"
+    assert verdict("delta_v", dv_nominal=15.8065 * 0.89) == "fails"
+    assert verdict("delta_v", dv_nominal=15.8065 * 1.09) == "holds"
+    assert verdict("min_pulse", minp_nominal=0.89) == "fails"
+    assert verdict("pointing", point_nominal=1.01) == "fails"
+    assert verdict("fuel", fuel_nominal=None) == "undecided"  # a diverged run
+
+
+def test_the_form_measures_a_short_run_as_the_run_itself():
+    """The engine's metrics on a 40 s case against the run simulated and measured here."""
+    from formsync_design.sim.tracking import simulate_flyaround
+
+    rest = "\n".join([
+        '[[scenarios]]', 'name = "base"', '[[scenarios]]', 'name = "clip"',
+        'simulation = { allocation = "pinv-clip" }',
+        '[[metrics]]', 'id = "dv"', 'metric = "delta_v"',
+        '[[metrics]]', 'id = "fuel"', 'metric = "fuel"',
+        '[[metrics]]', 'id = "dv_clip"', 'metric = "delta_v"', 'scenario = "clip"',
+        '[[metrics]]', 'id = "pos"', 'metric = "steady_position_error"',
+        '[[metrics]]', 'id = "gap"', 'metric = "fuel_of_delta_v"', 'delta_v = 1.0',
+        '[[claims]]', 'id = "cheap"', 'text = "little fuel"', 'predicate = "fuel < 100 and dv > 0"',
+        ""])
+    import tempfile
+
+    d = Path(tempfile.mkdtemp())
+    p = d / "short.toml"
+    p.write_text(short_case(40.0, 20.0, rest))
+    ver = run_engine(load_engine_case(p))
+    v = {m.id: val.value for m, val in ver.metrics}
+    runs = {}
+    for sc, key in (("base", "dv"), ("clip", "dv_clip")):
+        c = ver.case.scenario(sc).case
+        runs[sc] = r = simulate_flyaround(c.scenario, c.options, c.spec)
+        # independent: the impulses summed here, over the mass
+        assert math.isclose(v[key], float(r.impulses.sum()) / c.scenario.mass, rel_tol=1e-12)
+    assert v["dv_clip"] != v["dv"]
+    assert math.isclose(v["fuel"], v["dv"] * 2000.0 / 2900.0, rel_tol=1e-12)
+    assert math.isclose(v["gap"], 2000.0 / 2900.0, rel_tol=1e-12)
+    t, x = runs["base"].t, runs["base"].outputs["dX"]
+    assert v["pos"] == float(np.abs(x[t >= 20.0][:, :3]).max())
+    assert [c.verdict for c in ver.claims] == ["holds"] and ver.claims[0].basis == "evidence"
+    assert ver.results.simulated == ["base", "clip"]
 
 
 def test_attitude_certificate_is_sound_inside_its_box():
@@ -143,15 +208,15 @@ def test_verify_refuses_a_bad_out_folder(tmp_path, capsys):
 def test_verify_a_short_case_end_to_end(tmp_path, capsys):
     text = TEXT.replace("tf = 18000.0", "tf = 1200.0").replace("steady_from = 1000.0",
                                                                 "steady_from = 200.0")
-    text = text[:text.index("[sensitivity]")] + (
-        '[sensitivity]\ncases = [{ label = "minimum pulse 60 ms", thrusters = { min_pulse = '
-        '0.06 } }]\n\n' + text[text.index("[certificate]"):])
     p = tmp_path / "short.toml"
     p.write_text(text)
     rc = main(["verify", str(p), "--out", str(tmp_path / "o"), "--format", "json"])
     assert rc == 0
     doc = json.loads(capsys.readouterr().out)
-    assert doc["attitude_certificate"]["status"] == "certified"
+    vals = {m["id"]: m["value"] for m in doc["metrics"]}
+    assert vals["att_box"] == "certified" and vals["vdot"] == "holds"
+    assert vals["fuel_lp"] < vals["fuel_nominal"]
+    assert doc["certificates"][0]["attitude"]["status"] == "certified"
     assert {c["id"] for c in doc["claims"]} >= {"delta_v", "pointing", "min_pulse"}
     md = (tmp_path / "o" / "short-verification.md").read_text()
     assert md.startswith("<!-- formsync verify: case=short.toml -->")

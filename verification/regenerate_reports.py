@@ -18,11 +18,14 @@ documented commands produce:
   the self-triggered MRP design of seed 001 against its event-triggered and periodic variants
   (an engine case: the variants are scenarios);
 * ``formsync verify zhang2014_flyaround`` -> reports/zhang2014_flyaround-verification.md (+
-  figures): the fly-around case of Zhang et al. 2014 (a tracking design, case kind
-  ``flyaround``), its claims, sensitivity study, allocation comparison and certificates;
-* ``formsync verify lv2012`` -> reports/lv2012-verification.md (+ figures): the output-feedback
-  design without rate gyros (Lv et al. 2012, reconstructed) on the Liang et al. case and a
-  three-spacecraft chain, against controller (4) with perfect, noisy and failed gyros;
+  figures): the fly-around case of Zhang et al. 2014 (a tracking design, an ``engine`` case
+  of the tracking form): its claims, the sensitivity study and the allocation comparison as
+  scenarios, and its certificates;
+* ``formsync verify lv2012`` and ``formsync verify lv2012_small`` ->
+  reports/lv2012-verification.md and reports/lv2012_small-verification.md (+ figures): the
+  output-feedback design without rate gyros (Lv et al. 2012, reconstructed) on the Liang et al.
+  case and on a three-spacecraft chain, against controller (4) with perfect, noisy and failed
+  gyros (engine cases: the gyro models and the comparison design are scenarios);
 * ``formsync verify ma_so3`` -> reports/ma_so3-verification.md (+ figures): the SO(3)
   sliding-mode design of seed paper 002 against its comparison methods (at their literal
   gains and at equal peak torque) and Liang et al.'s controller, its derivation and its
@@ -109,6 +112,7 @@ def main() -> int:
         ["verify", "selftrigger_mrp"],
         ["verify", "zhang2014_flyaround"],
         ["verify", "lv2012"],
+        ["verify", "lv2012_small"],
         ["verify", "ma_so3"],
         ["verify", "bai2008_passivity"],
         ["sweep", "--campaign", "verification/sweep_atlas6.toml", "--out", "reports/sweep-atlas6",

@@ -29,6 +29,7 @@ __all__ = [
     "agent_box",
     "gains_text",
     "agent_criterion",
+    "undisturbed_convergence",
     "lagrangian_defaults",
     "lagrangian_graph",
     "lagrangian_point_box",
@@ -158,15 +159,15 @@ def agent_box(design: Any, gains: Any, case: Any, defaults: Defaults | None, *,
 
 def agent_criterion(case: Any, opt: Any, disturbance: Any) -> tuple[str, Any]:
     """``(the criterion in words, the disturbance model to run)`` of an agent run of ``case``
-    with options ``opt``: the case's ``angle_tol``/``rate_tol``; a case of kind ``lv2012``
-    judges convergence on the undisturbed loop (its claim 'asymptotically stable without
-    external disturbance'; under disturbance it claims ultimate boundedness), so its runs are
-    undisturbed unless ``--disturbance`` is given."""
+    with options ``opt``: the case's ``angle_tol``/``rate_tol``; a case that judges convergence
+    on the undisturbed loop (:func:`undisturbed_convergence`: e.g. lv2012's claim
+    'asymptotically stable without external disturbance'; under disturbance it claims ultimate
+    boundedness) has its runs undisturbed unless ``--disturbance`` is given."""
     ref = " and error to the reference" if case.reference is not None else ""
     text = (f"attitude disagreement{ref} <= {opt.angle_tol:g} deg and rate error <= "
             f"{opt.rate_tol:g} rad/s from some time to tf = {opt.tf:g} s")
     src = case_label(case)
-    if case.kind == "lv2012":
+    if undisturbed_convergence(case):
         if disturbance is None:
             return (f"{text}, without disturbance (the criterion of {src}: its convergence claim "
                     "is judged on the undisturbed loop; under its disturbance the design is "
@@ -176,6 +177,33 @@ def agent_criterion(case: Any, opt: Any, disturbance: Any) -> tuple[str, Any]:
                 "convergence claim is judged on the undisturbed loop: a bounded error above "
                 "them counts as not converged)", disturbance)
     return f"{text} (the criterion of {src})", disturbance
+
+
+def undisturbed_convergence(case: Any) -> bool:
+    """Whether an engine case judges its design's convergence on the undisturbed loop: its
+    base case has a disturbance and every ``convergence_time`` metric of a scenario running
+    the base design reads one with ``disturbance = {model = "none"}`` (at least one).
+
+    >>> from formsync_design.resources import case_file
+    >>> from formsync_design.verify.agentcase import load_agent_case
+    >>> [undisturbed_convergence(load_agent_case(case_file(n))) for n in ("lv2012", "ma_so3")]
+    [True, False]
+    """
+    from formsync_design.tomlio import load_toml
+
+    if case.kind != "engine" or not case.path or case.path == "<memory>":
+        return False
+    data = load_toml(case.path, "case TOML file")
+    if str(dict(data.get("disturbance", {})).get("model", "none")) == "none":
+        return False
+    rows = [r for r in data.get("scenarios", []) if isinstance(r, dict)]
+    scen = {str(r.get("name")): r for r in rows}
+    first = str(rows[0].get("name")) if rows else "nominal"
+    read = [scen.get(str(m.get("scenario", first)), {}) for m in data.get("metrics", [])
+            if isinstance(m, dict) and m.get("metric") == "convergence_time"]
+    own = [r for r in read if "design" not in r]
+    return bool(own) and all(
+        str(dict(r.get("disturbance", {})).get("model", "")) == "none" for r in own)
 
 
 def case_label(case: Any) -> str:

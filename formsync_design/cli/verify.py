@@ -28,14 +28,12 @@ the case file's [case] spec, else the paper's; the derivation and every
 simulation use it.
 
 The case file's [case] kind picks the verifier: "formation" (the default,
-above) or "flyaround" (a tracking design: zhang2014_flyaround simulates the
-18 000 s fly-around with PWM inside every 0.2 s sample, judges the published
-numbers and claims, runs the sensitivity study and the pseudo-inverse / LP
-allocation comparison, and certifies the LQR and the attitude law;
-format: formsync_design/verify/tracking_case.py), or "engine" (any agent
-design: the case declares formations, scenarios, Monte-Carlo draws, metrics
-from the registry and claims as predicates over them; format and semantics:
-formsync_design/verify/enginecase.py, docs/engine.md).
+above) or "engine" (any agent design: the case declares formations,
+scenarios, Monte-Carlo draws, metrics from the registry and claims as
+predicates over them; format and semantics: formsync_design/verify/enginecase.py,
+docs/engine.md; a tracking design such as zhang2014_flyaround has its own
+form of the tables: formsync_design/verify/engine_tracking.py, its scenarios
+the sensitivity study and the pseudo-inverse / LP allocation comparison).
 
 Writes <out>/<CASE file stem>-verification.md, its figures under
 <out>/figures/<CASE file stem>-verification/, and the derivation report it

@@ -12,8 +12,9 @@ True
 
 from __future__ import annotations
 
-from importlib import import_module
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from formsync_design.lazy import lazy_attributes
 
 if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
     from formsync_design.verify.agentcase import (
@@ -48,14 +49,4 @@ __all__ = ["AgentCase", "load_agent_case", "Case", "load_case", "Measurement", "
            "Verdict", "judge", "VerificationResult", "verify_case"]
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'formsync_design.verify' has no attribute {name!r}")
-    value = getattr(import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_attributes(__name__, _LAZY, globals())

@@ -23,8 +23,11 @@ a usage error.
 >>> src.label, src.role, sorted(src.gains)
 ('verification/lv2012.toml', 'comparison', ['K_o', 'K_q', 'K_v', 'beta'])
 >>> from formsync_design.spec.loader import load_spec
->>> case_source(load_spec("pd_consensus")).label, case_source(load_design("pd_consensus"))
-('verification/pd_consensus.toml', None)
+>>> case_source(load_spec("pd_consensus")).label    # its Lagrangian view: its own case
+'verification/pd_consensus.toml'
+>>> src = case_source(load_design("pd_consensus"))  # its agent form: ma_so3's baseline scenario
+>>> src.label, src.role, src.gains
+('verification/ma_so3.toml', 'comparison', {'k_p': 0.4, 'k_d': 1.6})
 """
 
 from __future__ import annotations

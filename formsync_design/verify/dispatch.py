@@ -9,14 +9,11 @@ result object, writing nothing:
 ``[case] kind``               result
 ============================  ==============================================================
 ``formation`` (the default)   :class:`~formsync_design.verify.results.VerificationResult`
-``flyaround``                 :class:`~formsync_design.verify.tracking_claims.FlyaroundVerification`
-``lv2012``                    :class:`~formsync_design.verify.lv2012.CaseOutcome`
 ``engine``                    :class:`~formsync_design.verify.engine.EngineVerification`
+                              (a tracking design's: :class:`~formsync_design.verify.engine_tracking.TrackingVerification`)
 ============================  ==============================================================
 
-Each result has the case's judged claims as ``claims``.  (An ``lv2012`` case that names a
-``[claims] small_case`` file gets that file verified beside it by ``formsync verify``; from
-Python, verify it by its own path.)
+Each result has the case's judged claims as ``claims``.
 
 >>> from formsync_design.verify.kinds import KINDS
 >>> sorted(RESULT_KINDS) == sorted(KINDS)
@@ -37,8 +34,6 @@ __all__ = ["RESULT_KINDS", "resolve_case", "verify_case"]
 #: Case kind -> the name of the result class :func:`verify_case` returns for it.
 RESULT_KINDS: dict[str, str] = {
     "formation": "VerificationResult",
-    "flyaround": "FlyaroundVerification",
-    "lv2012": "CaseOutcome",
     "engine": "EngineVerification",
 }
 
@@ -94,8 +89,8 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
     Examples
     --------
     >>> res = verify_case("lv2012_small")  # doctest: +SKIP
-    >>> type(res).__name__, all(c.verdict == "holds" for c in res.claims)  # doctest: +SKIP
-    ('CaseOutcome', True)
+    >>> type(res).__name__, sorted({c.verdict for c in res.claims})  # doctest: +SKIP
+    ('EngineVerification', ['holds', 'undecided'])
     """
     from formsync_design.tomlio import load_toml
     from formsync_design.verify.output import display_path
@@ -115,14 +110,6 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
             raise InputError(f"expected a formation design for the formation case "
                              f"{display_path(path)}, received {spec.name} (a {kind_of} design)")
         return verify_formation(path, spec=spec, progress=progress)
-    if kind == "flyaround":
-        from formsync_design.verify.tracking import verify_flyaround
-
-        return verify_flyaround(path, spec=spec, progress=progress)
-    if kind == "lv2012":
-        from formsync_design.verify.lv2012 import analyse_case
-
-        return analyse_case(path, design=spec, progress=progress)
     if kind == "engine":
         from formsync_design.verify.engine import run_engine
         from formsync_design.verify.enginecase import load_engine_case

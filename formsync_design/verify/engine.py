@@ -92,12 +92,13 @@ from formsync_design.verify.enginecase import (
     MetricRow,
     load_engine_case,
 )
+from formsync_design.verify.enginesensors import scenario_inputs
 from formsync_design.verify.kinds import VerifyRequest
 from formsync_design.verify.metrics import MetricContext, MetricValue, format_number, point_gains
 from formsync_design.verify.predicates import evaluate
 
 __all__ = ["EngineResults", "ClaimVerdict", "EngineVerification", "run_engine",
-           "verify_engine_case", "certificate_inputs", "aggregate"]
+           "verify_engine_case", "certificate_inputs", "aggregate", "judge"]
 
 
 def certificate_inputs(case: Any) -> tuple[dict[str, Fraction] | None, str, str, str]:
@@ -172,12 +173,13 @@ class EngineResults:
         return self._scales[scenario]
 
     @staticmethod
-    def _simulate(d: Any, f: Any, opt: Any, rec: dict[str, Any]) -> Any:
+    def _simulate(d: Any, f: Any, opt: Any, rec: dict[str, Any],
+                  inputs: dict[str, Any] | None = None) -> Any:
         from formsync_design.sim.agents import simulate_agents, simulate_agents_sampled
 
         if d.decl.sampling != "continuous":
             return simulate_agents_sampled(d, f, opt, record=rec)
-        return simulate_agents(d, f, opt)
+        return simulate_agents(d, f, opt, **(inputs or {}))  # a gyro model: verify/enginesensors
 
     def options(self, formation: str, scenario: str, draw: int | None = None) -> Any:
         """The simulation options of a run: the scenario's, the Monte-Carlo horizon for a
@@ -235,7 +237,7 @@ class EngineResults:
             self.progress(f"simulate {formation} / {scenario}"
                           + ("" if draw is None else f" / draw {draw + 1}"))
             rec: dict[str, Any] = {}
-            store[skey] = self._simulate(d, f, opt, rec)
+            store[skey] = self._simulate(d, f, opt, rec, scenario_inputs(sc.overrides, f.n))
             self.records[key] = rec
         return store[skey]
 
@@ -429,7 +431,11 @@ def _checked(m: MetricRow, v: Any) -> MetricValue:
 
 def run_engine(case: EngineCase, progress: Callable[[str], None] = lambda s: None
                ) -> EngineVerification:
-    """Compute every metric, certificate and verdict of ``case`` (module docstring)."""
+    """Compute every metric, certificate and verdict of ``case`` (module docstring); the case
+    of another form is run by its form (:mod:`formsync_design.verify.engineform`)."""
+    form = getattr(case, "form", None)
+    if form is not None:
+        return form.run(case, progress)
     res = EngineResults(case, progress)
     certs = []
     for f in case.formations:

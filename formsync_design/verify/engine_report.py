@@ -235,12 +235,17 @@ def engine_markdown(ver: Any, fig_dir: str, figures: list[str], command: str,
         L.append(f"- source: {_cell(b.source)}")
     L += ["", "## Assumptions", ""]
     L += [f"- {_cell(a)}" for a in b.assumptions] or ["- none stated"]
-    L += ["", "## Scenarios and the convergence criterion", "",
-          "Converged: from some time to the end of the run, the largest pairwise attitude angle "
-          "(and, with a leader, the largest angle to the reference) stays within angle_tol and "
-          "the rate error within rate_tol.", ""]
-    L += _scenario_rows(case)
-    L += [""] + _certificate_section(ver) + _evidence_scopes(ver) + _runs_section(ver)
+    form = getattr(case, "form", None)  # another form's sections (verify/engineform.py)
+    if form is not None:
+        L += [""] + form.scenario_section(case) + [""] + form.certificate_section(ver)
+        L += form.evidence_section(ver) + form.runs_section(ver)
+    else:
+        L += ["", "## Scenarios and the convergence criterion", "",
+              "Converged: from some time to the end of the run, the largest pairwise attitude "
+              "angle (and, with a leader, the largest angle to the reference) stays within "
+              "angle_tol and the rate error within rate_tol.", ""]
+        L += _scenario_rows(case)
+        L += [""] + _certificate_section(ver) + _evidence_scopes(ver) + _runs_section(ver)
     L += ["## Metrics", "",
           "| id | metric | formation | scenario | arguments | value | unit | evidence | detail |",
           "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
@@ -278,8 +283,12 @@ def engine_markdown(ver: Any, fig_dir: str, figures: list[str], command: str,
 
 def engine_figures(ver: Any) -> dict[str, Any]:
     """The agent figures of every simulated run (those of ``[report] figures`` when the
-    case lists them), by file stem."""
+    case lists them), by file stem (another form's: its own)."""
     from formsync_design.sim.agent_figures import agent_figures
+
+    form = getattr(ver.case, "form", None)
+    if form is not None:
+        return form.figures(ver)
 
     out = {}
     only = getattr(ver.case, "report_figures", None)
@@ -295,9 +304,27 @@ def engine_figures(ver: Any) -> dict[str, Any]:
 def engine_json(ver: Any, command: str) -> dict[str, Any]:
     """The verification as one JSON document (numbers by :func:`json_number`)."""
     case = ver.case
+    form = getattr(case, "form", None)
+    head = {"case": case.base.name, "design": case.base.design.name, "digest": case.digest,
+            "command": command, "assumptions": list(case.base.assumptions)}
+    return head | (_agent_tables(ver) if form is None else form.json_tables(ver)) | {
+        "metrics": [{"id": m.id, "metric": m.spec.name, "formation": m.formation,
+                     "scenario": m.scenario, "args": dict(m.args),
+                     "montecarlo": m.aggregate, **v.to_dict()}
+                    for m, v in ver.metrics],
+        "claims": [{"id": c.claim.id, "text": c.claim.text, "source": c.claim.source,
+                    "predicate": c.claim.predicate, "verdict": c.verdict,
+                    "evidence": list(c.evidence), "basis": c.basis,
+                    "deciding": list(c.deciding), "values": dict(c.values),
+                    "scope": list(c.scope)}
+                   for c in ver.claims],
+        "all_hold": ver.all_hold,
+    }
+
+
+def _agent_tables(ver: Any) -> dict[str, Any]:
+    case = ver.case
     return {
-        "case": case.base.name, "design": case.base.design.name, "digest": case.digest,
-        "command": command, "assumptions": list(case.base.assumptions),
         "formations": [{"name": f.name, "graph": f.graph.name, "n": f.graph.n,
                         "source": f.source} for f in case.formations],
         "scenarios": [{"name": s.name, "overrides": s.overrides,
@@ -312,17 +339,6 @@ def engine_json(ver: Any, command: str) -> dict[str, Any]:
                                 "spectral_abscissa": None if c.evidence.get("spectral_abscissa") is None
                                 else json_number(float(c.evidence["spectral_abscissa"]))})}
                          for f, s, c in ver.certificates],
-        "metrics": [{"id": m.id, "metric": m.spec.name, "formation": m.formation,
-                     "scenario": m.scenario, "args": dict(m.args),
-                     "montecarlo": m.aggregate, **v.to_dict()}
-                    for m, v in ver.metrics],
-        "claims": [{"id": c.claim.id, "text": c.claim.text, "source": c.claim.source,
-                    "predicate": c.claim.predicate, "verdict": c.verdict,
-                    "evidence": list(c.evidence), "basis": c.basis,
-                    "deciding": list(c.deciding), "values": dict(c.values),
-                    "scope": list(c.scope)}
-                   for c in ver.claims],
-        "all_hold": ver.all_hold,
     }
 
 

@@ -48,6 +48,9 @@ range-checked, :mod:`formsync_design.ranges`; bad input is one line, exit 2)::
     [[claims]]      id, text (the paper's words), source (where in the paper),
                     predicate over metric ids (formsync_design/verify/predicates.py)
 
+A design that is not an agent design (``KIND = "tracking"``) has its own form of these
+tables (:mod:`formsync_design.verify.engineform`, :mod:`formsync_design.verify.engine_tracking`).
+
 Without ``[[formations]]`` the one formation ``case`` is the case's graph; without
 ``[[scenarios]]`` the one scenario ``nominal`` is the base case (list it as a scenario
 without overrides to keep it beside others).  ``cycle:N`` is the directed cycle (spacecraft
@@ -72,13 +75,7 @@ from typing import Any
 from formsync_design.errors import InputError
 from formsync_design.ranges import check_range
 from formsync_design.tomlio import load_toml
-from formsync_design.verify import (  # noqa: F401 (registered)
-    metrics_attitude,
-    metrics_compare,
-    metrics_design,
-    metrics_lagrangian,
-    metrics_sampled,
-)
+from formsync_design.verify import metric_modules  # noqa: F401 (registers the metrics)
 from formsync_design.verify.agentcase import ENGINE_TABLES, AgentCase, parse_agent_case
 from formsync_design.verify.case import case_path
 from formsync_design.verify.enginekeys import (
@@ -88,13 +85,12 @@ from formsync_design.verify.enginekeys import (
     parse_montecarlo,
     torque_matching,
 )
+from formsync_design.verify.enginesensors import scenario_leader, scenario_sensors
 from formsync_design.verify.metrics import METRICS, MetricSpec, check_metric_args, point_gains
 from formsync_design.verify.predicates import KEYWORDS, Node, parse_predicate
 
 __all__ = ["FormationSpec", "ScenarioSpec", "MetricRow",
            "ClaimRow", "EngineCase", "load_engine_case", "parse_engine_case", "directed_cycle"]
-
-#: The tables an engine case adds to the agent case layout.
 
 _ID = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,39}")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,39}")
@@ -102,7 +98,7 @@ _TEXT_MAX = 4000
 _KEYS = {
     "formations": {"name", "graph", "arcs", "n", "pinning", "certify", "initial", "tf"},
     "scenarios": {"name", "description", "design", "gains", "simulation", "disturbance",
-                  "sampling", "period_matching", "torque_matching"},
+                  "sampling", "period_matching", "torque_matching", "sensors", "leader"},
     "families": {"box"},
     "report": {"runs", "derivation", "figures"},
     "claims": {"id", "text", "source", "predicate"},
@@ -350,7 +346,7 @@ def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[Sce
         desc = _text(row, "description", where, required=False)
         merged = copy.deepcopy(agent)
         over: dict[str, Any] = {}
-        other = _other_design(row, where, merged, over)
+        other = _other_design(row, where, merged, over) | scenario_leader(row, where, merged, over)
         for table in ("gains", "simulation", "disturbance"):
             if table not in row:
                 continue
@@ -364,6 +360,7 @@ def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[Sce
                 merged[table] = {**merged.get(table, {}), **t}
         case = parse_agent_case(merged, path, design=None if other else base.design)
         design, match = _sampling(row, where, case, over)
+        over.update(scenario_sensors(row, where, case))  # a gyro model: verify/enginesensors
         torque = torque_matching(row, where, case, over)
         out.append(ScenarioSpec(name, desc, case, over, design, match, torque))
     names = [s.name for s in out]
@@ -378,9 +375,8 @@ def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[Sce
 
 
 def _other_design(row: dict, where: str, merged: dict, over: dict[str, Any]) -> bool:
-    """Whether a scenario row runs another design (``design = "NAME" | "file.py"``): it then
-    names that design in the merged case (resolved like ``[case] design``, relative to the
-    case file) and must give that design's ``gains`` table whole."""
+    """Whether a scenario row runs another design (``design = "NAME" | "file.py"``): it then names
+    that design in the merged case (resolved like ``[case] design``) with its ``gains`` whole."""
     if "design" not in row:
         return False
     ref = row["design"]
@@ -546,11 +542,17 @@ def _claims(data: dict, metrics: tuple[MetricRow, ...], path: str) -> tuple[Clai
 
 
 def parse_engine_case(data: dict, path: str = "<memory>", design: Any = None) -> EngineCase:
-    """Validate a parsed engine case document (module docstring)."""
+    """Validate a parsed engine case document (module docstring); a case whose design is of
+    another form (a tracking design) is that form's case (:mod:`formsync_design.verify.engineform`)."""
     meta = data.get("case", {})
     if not isinstance(meta, dict) or meta.get("kind") != "engine":
         got = meta.get("kind") if isinstance(meta, dict) else meta
         raise InputError(f"expected [case] kind = \"engine\" in {path}, received {got!r:.40}")
+    from formsync_design.verify.engineform import design_form
+
+    other = design_form(data, path, design)
+    if other is not None:  # a design of another form (verify/engineform.py)
+        return other.parse(data, path, design)
     agent = {k: v for k, v in data.items() if k not in ENGINE_TABLES}
     base = parse_agent_case(copy.deepcopy(agent), path, design=design)
     forms = _formations(data, base, path)

@@ -4,9 +4,9 @@
 verifier registered for that kind.  ``"formation"`` (the default, when the key is absent)
 is the classic formation case of :mod:`formsync_design.verify.verification`: spacecraft,
 gains of a quaternion design, candidate topologies and a ``[claims]`` table.  A design
-whose verification has another shape (a single spacecraft flying around a target, a
-comparison of controllers on a digraph) registers its
-own kind here, implemented by a module of the library with a function::
+whose verification has another shape registers its own kind here (the ``engine`` kind
+verifies every agent design, and a tracking design through its form:
+:mod:`formsync_design.verify.engineform`), implemented by a module of the library with a function::
 
     verify_kind(request: VerifyRequest) -> int      # the exit status
 
@@ -41,8 +41,6 @@ __all__ = ["KINDS", "VerifyRequest", "case_kind", "verifier"]
 #: Case kind -> ``"module:function"`` of its verifier.
 KINDS: dict[str, str] = {
     "formation": "formsync_design.verify.formation:verify_formation_case",
-    "flyaround": "formsync_design.verify.tracking:verify_flyaround_case",
-    "lv2012": "formsync_design.verify.lv2012:verify_lv2012",
     "engine": "formsync_design.verify.engine:verify_engine_case",
 }
 

@@ -1,8 +1,13 @@
-"""Fly-around case files (``[case] kind = "flyaround"``), read and validated strictly.
+"""The base case of a fly-around engine case (a tracking design), read and validated strictly.
 
-Layout (``verification/zhang2014_flyaround.toml`` is the paper's case)::
+An engine case (``[case] kind = "engine"``, :mod:`formsync_design.verify.enginecase`) whose
+design is a tracking design (``KIND = "tracking"``) has this base case; its
+``[[scenarios]]``, ``[[metrics]]``, ``[[claims]]`` are read by
+:mod:`formsync_design.verify.engine_tracking` (a scenario's overrides: :func:`parse_variant`,
+:func:`apply_variant`).  Layout (``verification/zhang2014_flyaround.toml`` is the paper's
+case)::
 
-    [case]          name, kind = "flyaround", design (a shipped tracking design or a .py
+    [case]          name, kind = "engine", design (a shipped tracking design or a .py
                     file relative to the case file), title, source, assumptions = [...]
     [target]        a (m), e, i_deg, u_deg (argument of latitude), optional raan_deg
     [chaser]        the same
@@ -14,12 +19,6 @@ Layout (``verification/zhang2014_flyaround.toml`` is the paper's case)::
                     exhaust_velocity (m/s)
     [gains]         the design's gains (a diagonal gain: one number or [x, y, z])
     [simulation]    tf, sample_period, substeps, allocation, carry, reading, steady_from
-    [claims]        [[claims.published]] (id, text, quantity, value, match = "rel:R" |
-                    "factor:F", why) and [[claims.qualitative]] (id, text, quantity,
-                    op = "<=" | ">=", bound, why); quantities of
-                    :data:`formsync_design.verify.tracking_claims.QUANTITIES`
-    [sensitivity]   cases = [{label, gains = {...}, thrusters = {...}, simulation = {...},
-                    spacecraft = {inertia_scale = s}}, ...]
     [certificate]   K_d_scale, k_p_scale, inertia_scale = [lo, hi], rate_margin
 
 Unknown tables or keys, wrong types, values out of range and gains the design does not
@@ -50,9 +49,9 @@ from formsync_design.sim.tracking_scenario import ALLOCATIONS, FlyaroundOptions,
 from formsync_design.spec.declarations import GainKind
 from formsync_design.spec.loader import Spec, load_spec
 from formsync_design.tomlio import load_toml
-from formsync_design.verify.tracking_claims import QUANTITIES
 
-__all__ = ["FlyaroundCase", "Variant", "load_flyaround_case", "apply_variant", "LAYOUTS"]
+__all__ = ["FlyaroundCase", "Variant", "load_flyaround_case", "parse_flyaround_case",
+           "parse_variant", "apply_variant", "LAYOUTS", "ENGINE_TABLES"]
 
 #: Thruster layouts a case may name.
 LAYOUTS = ("cube-pairs",)
@@ -68,18 +67,17 @@ _TABLES: dict[str, set[str] | None] = {
     "gains": None,
     "simulation": {"tf", "sample_period", "substeps", "allocation", "carry", "reading",
                    "steady_from"},
-    "claims": {"published", "qualitative"},
-    "sensitivity": {"cases"},
     "certificate": {"K_d_scale", "k_p_scale", "inertia_scale", "rate_margin"},
 }
-_PUBLISHED = {"id", "text", "quantity", "value", "match", "why"}
-_QUALITATIVE = {"id", "text", "quantity", "op", "bound", "why"}
-_VARIANT = {"label", "gains", "thrusters", "simulation", "spacecraft"}
+#: The tables of the engine case (read by :mod:`formsync_design.verify.engine_tracking`).
+ENGINE_TABLES = ("scenarios", "metrics", "claims", "report")
+_VARIANT = ("gains", "thrusters", "simulation", "spacecraft")
 
 
 @dataclass(frozen=True)
 class Variant:
-    """One sensitivity run: the case with some entries replaced."""
+    """A scenario's overrides: the case with some entries replaced (``label``: the
+    scenario's name)."""
 
     label: str
     gains: dict = field(default_factory=dict)
@@ -104,9 +102,6 @@ class FlyaroundCase:
     thrusters : dict
         The ``[thrusters]`` table (layout parameters).
     assumptions : tuple of str
-    published, qualitative : tuple of dict
-        The claims (validated).
-    sensitivity : tuple of Variant
     certificate : dict
     digest : str
         sha256 of the case file.
@@ -122,9 +117,6 @@ class FlyaroundCase:
     steady_from: float
     thrusters: dict
     assumptions: tuple[str, ...]
-    published: tuple[dict, ...]
-    qualitative: tuple[dict, ...]
-    sensitivity: tuple[Variant, ...]
     certificate: dict
     digest: str = ""
 
@@ -243,78 +235,23 @@ def _options(sim: dict, thr: dict, where: str) -> FlyaroundOptions:
         raise InputError(f"{where}: {e}") from None
 
 
-def _claims(t: dict, where: str) -> tuple[tuple[dict, ...], tuple[dict, ...]]:
-
-    out: list[list[dict]] = [[], []]
-    seen: set[str] = set()
-    for k, (key, keys) in enumerate((("published", _PUBLISHED), ("qualitative", _QUALITATIVE))):
-        items = t.get(key, [])
-        if not isinstance(items, list):
-            raise InputError(f"expected [[claims.{key}]] entries in {where}, received "
-                             f"{type(items).__name__}")
-        for c in items:
-            if not isinstance(c, dict) or set(c) != keys:
-                got = sorted(c) if isinstance(c, dict) else type(c).__name__
-                raise InputError(f"expected claims.{key} entries with keys {sorted(keys)} in "
-                                 f"{where}, received {got}")
-            for field_ in ("id", "quantity", "op", "match"):
-                if field_ in c and not isinstance(c[field_], str):
-                    raise InputError(f"expected a string claims.{key}.{field_} in {where}, "
-                                     f"received {repr(c[field_])[:60]}")
-            if c["id"] in seen:
-                raise InputError(f"expected unique claim ids in {where}, received {c['id']!r} "
-                                 "twice")
-            seen.add(c["id"])
-            if c["quantity"] not in QUANTITIES:
-                raise InputError(f"expected claims.{key}.quantity one of {sorted(QUANTITIES)} "
-                                 f"in {where}, received {c['quantity']!r}")
-            c = dict(c)
-            if key == "published":
-                c["value"] = parse_real(c["value"], f"claims.{c['id']}.value")
-                kind, _, tol = str(c["match"]).partition(":")
-                if kind not in ("rel", "factor"):
-                    raise InputError(f"expected claims.{c['id']}.match 'rel:R' or 'factor:F' "
-                                     f"in {where}, received {c['match']!r}")
-                tv = parse_real(tol, f"claims.{c['id']}.match")
-                if (kind == "rel" and not 0 < tv < 1) or (kind == "factor" and tv <= 1):
-                    raise InputError(f"expected claims.{c['id']}.match rel in (0, 1) or "
-                                     f"factor > 1 in {where}, received {c['match']!r}")
-                c["match_kind"], c["match_tol"] = kind, tv
-            else:
-                if c["op"] not in ("<=", ">="):
-                    raise InputError(f"expected claims.{c['id']}.op '<=' or '>=' in {where}, "
-                                     f"received {c['op']!r}")
-                c["bound"] = parse_real(c["bound"], f"claims.{c['id']}.bound")
-            out[k].append(c)
-    return tuple(out[0]), tuple(out[1])
-
-
-def _variants(t: dict, spec: Spec, where: str) -> tuple[Variant, ...]:
-    cases = t.get("cases", [])
-    if not isinstance(cases, list):
-        raise InputError(f"expected sensitivity.cases a list in {where}, received "
-                         f"{type(cases).__name__}")
-    out = []
-    for v in cases:
-        if not isinstance(v, dict) or "label" not in v or not set(v) <= _VARIANT:
-            raise InputError(f"expected sensitivity cases with a label and keys among "
-                             f"{sorted(_VARIANT)} in {where}, received {v!r}"[:300])
-        for part in ("gains", "thrusters", "simulation", "spacecraft"):
-            sub = v.get(part, {})
-            if not isinstance(sub, dict):
-                raise InputError(f"expected sensitivity {part} a table in {where}, received "
-                                 f"{sub!r}")
-            allowed = ({g.name for g in spec.decl.gains} if part == "gains"
-                       else {"inertia_scale"} if part == "spacecraft" else _TABLES[part])
-            assert allowed is not None
-            bad = sorted(set(sub) - allowed)
-            if bad:
-                raise InputError(f"expected sensitivity {part} keys among {sorted(allowed)} in "
-                                 f"{where}, received {bad}")
-        out.append(Variant(str(v["label"]), dict(v.get("gains", {})),
-                           dict(v.get("thrusters", {})), dict(v.get("simulation", {})),
-                           dict(v.get("spacecraft", {}))))
-    return tuple(out)
+def parse_variant(row: dict, spec: Spec, where: str, label: str) -> Variant:
+    """A scenario row's overrides (``gains``, ``thrusters``, ``simulation``, ``spacecraft =
+    {inertia_scale}``), their keys checked (their values: :func:`apply_variant`)."""
+    for part in _VARIANT:
+        sub = row.get(part, {})
+        if not isinstance(sub, dict):
+            raise InputError(f"expected {where}.{part} as a table, received {sub!r:.60}")
+        allowed = ({g.name for g in spec.decl.gains} if part == "gains"
+                   else {"inertia_scale"} if part == "spacecraft" else _TABLES[part])
+        assert allowed is not None
+        bad = sorted(set(sub) - allowed - ({"steady_from"} if part == "simulation" else set()))
+        if bad or (part == "simulation" and "steady_from" in sub):
+            raise InputError(f"expected {where}.{part} keys among "
+                             f"{sorted(allowed - {'steady_from'})}, received "
+                             f"{bad or ['steady_from']}")
+    return Variant(label, dict(row.get("gains", {})), dict(row.get("thrusters", {})),
+                   dict(row.get("simulation", {})), dict(row.get("spacecraft", {})))
 
 
 def _certificate(t: dict, where: str) -> dict:
@@ -336,27 +273,39 @@ def _certificate(t: dict, where: str) -> dict:
     return out
 
 
-def load_flyaround_case(path: str | Path | None = None) -> FlyaroundCase:
-    """Read and validate a fly-around case (default: the shipped ``zhang2014_flyaround``)."""
+def load_flyaround_case(path: str | Path | None = None, design: Any = None) -> FlyaroundCase:
+    """Read and validate the base case of a fly-around case file (default: the shipped
+    ``zhang2014_flyaround``; ``design``: overrides ``[case] design``)."""
     from formsync_design.resources import case_file
 
     p = Path(path) if path is not None else case_file("zhang2014_flyaround")
-    data = load_toml(p, "case TOML file")
-    where = str(p)
-    unknown = sorted(set(data) - set(_TABLES))
-    if unknown:
-        raise InputError(f"expected tables among {sorted(_TABLES)} in {where}, received "
-                         f"{unknown}")
-    meta = _table(data, "case", where)
-    if meta.get("kind") != "flyaround":
-        raise InputError(f"expected [case] kind = 'flyaround' in {where}, received "
-                         f"{meta.get('kind')!r}")
-    design = meta.get("design", "zhang2014_flyaround")
-    if not isinstance(design, str) or not design:
+    return replace(parse_flyaround_case(load_toml(p, "case TOML file"), str(p), design),
+                   digest=hashlib.sha256(p.read_bytes()).hexdigest())
+
+
+def _design_ref(meta: dict, where: str, design: Any) -> str:
+    if design is not None:
+        return str(getattr(design, "path", design))
+    ref = meta.get("design", "zhang2014_flyaround")
+    if not isinstance(ref, str) or not ref:
         raise InputError(f"expected case.design a design name or file in {where}, received "
-                         f"{design!r}")
-    if not design.isidentifier():
-        design = str((p.parent / design).resolve())
+                         f"{ref!r}")
+    return ref if ref.isidentifier() else str((Path(where).parent / ref).resolve())
+
+
+def parse_flyaround_case(data: dict, where: str = "<memory>", design: Any = None
+                         ) -> FlyaroundCase:
+    """Validate a parsed fly-around case document's base case (module docstring; the engine
+    tables are left to :mod:`formsync_design.verify.engine_tracking`)."""
+    unknown = sorted(set(data) - set(_TABLES) - set(ENGINE_TABLES))
+    if unknown:
+        raise InputError(f"expected tables among {sorted(set(_TABLES) | set(ENGINE_TABLES))} "
+                         f"in {where}, received {unknown}")
+    meta = _table(data, "case", where)
+    if meta.get("kind") != "engine":
+        raise InputError(f"expected [case] kind = 'engine' in {where}, received "
+                         f"{meta.get('kind')!r}")
+    design = _design_ref(meta, where, design)
     spec = load_spec(design)
     if spec.decl.kind != "tracking":
         raise InputError(f"expected case.design a tracking design in {where}, received "
@@ -396,20 +345,17 @@ def load_flyaround_case(path: str | Path | None = None) -> FlyaroundCase:
     assumptions = meta.get("assumptions", [])
     if not (isinstance(assumptions, list) and all(isinstance(a, str) for a in assumptions)):
         raise InputError(f"expected case.assumptions a list of strings in {where}")
-    pub, qual = _claims(_table(data, "claims", where, required=False), where)
     return FlyaroundCase(
-        name=str(meta.get("name", p.stem)), title=str(meta.get("title", p.stem)),
+        name=str(meta.get("name", Path(where).stem)), title=str(meta.get("title", Path(where).stem)),
         source=str(meta.get("source", "")), path=where, design=design, scenario=scenario,
         options=options, steady_from=steady, thrusters=dict(thr),
-        assumptions=tuple(assumptions), published=pub, qualitative=qual,
-        sensitivity=_variants(_table(data, "sensitivity", where, required=False), spec, where),
-        certificate=_certificate(_table(data, "certificate", where, required=False), where),
-        digest=hashlib.sha256(p.read_bytes()).hexdigest())
+        assumptions=tuple(assumptions),
+        certificate=_certificate(_table(data, "certificate", where, required=False), where))
 
 
 def apply_variant(case: FlyaroundCase, v: Variant) -> tuple[FlyaroundScenario, FlyaroundOptions]:
-    """The scenario and options of a sensitivity run."""
-    where = f"{case.path} (sensitivity {v.label!r})"
+    """The scenario and options of the case under a scenario's overrides."""
+    where = f"{case.path} (scenario {v.label!r})"
     sc = case.scenario
     if v.gains:
         gains = dict(sc.gains)

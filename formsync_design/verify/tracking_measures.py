@@ -1,11 +1,8 @@
-"""The measurements of a fly-around run, the judging of its claims and the verification's
-result (:class:`FlyaroundVerification`), for :mod:`formsync_design.verify.tracking`.
+"""The measurements of a fly-around run (a tracking design's), for the metrics of
+:mod:`formsync_design.verify.metrics_tracking`.
 
-Judging rules (every verdict computed in the run)
---------------------------------------------------
-* a published number ``P`` with ``match = "rel:R"`` holds when ``|ours - P| <= R P``;
-  with ``match = "factor:F"`` when ``P/F <= ours <= F P``;
-* a qualitative claim holds when its quantity satisfies ``op bound``;
+Rules (every number computed from the run)
+------------------------------------------
 * the steady state is ``t >= steady_from``; per-axis maxima (the attitude error is the
   rotation-vector component ``4 atan|sigma| sigma_k/|sigma|``, the rate error
   ``omega_sd,k``);
@@ -19,34 +16,23 @@ Judging rules (every verdict computed in the run)
 * ``pointing_error_deg``: the angle between the body ``x`` axis and the line of sight to
   the target (``-rho``) at ``t >= 100 s``;
 * a run whose state went non-finite (status ``diverged``) has no steady state: every
-  quantity is nan and every claim judged on it fails, its rule naming the divergence time;
-  ``formsync verify`` then exits 1 (a negative finding) and says ``diverged at t = ...``.
+  quantity is nan (the metrics have no value and the claims that read them are undecided).
 """
 
 from __future__ import annotations
 
-import enum
 import math
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from formsync_design.gains import json_number
 from formsync_design.sim.tracking import rotation_vectors
 
-__all__ = ["QUANTITIES", "METRICS", "MIN_PULSE_AFTER", "Verdict", "diverged_time", "ClaimResult",
-           "FlyaroundVerification", "judge", "run_metrics", "pointing_errors", "plane_normal"]
+__all__ = ["METRICS", "MIN_PULSE_AFTER", "diverged_time", "run_metrics", "pointing_errors",
+           "plane_normal"]
 
 #: Time after which the paper says the pulses are mostly minimum pulses (s).
 MIN_PULSE_AFTER = 100.0
-
-
-class Verdict(enum.StrEnum):
-    """A claim's verdict."""
-
-    HOLDS = "holds"
-    FAILS = "fails"
 
 
 def _mrp_matrices(sigma: np.ndarray) -> np.ndarray:
@@ -103,8 +89,7 @@ def diverged_time(run: Any) -> float | None:
 
 
 def run_metrics(run: Any, steady_from: float) -> dict[str, float]:
-    """Every quantity of :data:`QUANTITIES` and the report's further numbers for a run
-    (:data:`METRICS`; all nan for a diverged run)."""
+    """Every measurement of :data:`METRICS` for a run (all nan for a diverged run)."""
     if diverged_time(run) is not None:
         return dict.fromkeys(METRICS, math.nan)
     o = run.outputs
@@ -147,7 +132,6 @@ def run_metrics(run: Any, steady_from: float) -> dict[str, float]:
         "final_radius_error_m": float(np.max(np.abs(r[last] - sc.reference.a))),
         "transition_overshoot_deg": overshoot,
         "pointing_error_deg": _max(point[after]),
-        # further numbers of the report
         "delta_v_net_m_s": run.delta_v_net,
         "pulses_after_100s": float(n_fired),
         "final_elevation_deg": float(elev[-1]),
@@ -160,107 +144,3 @@ def run_metrics(run: Any, steady_from: float) -> dict[str, float]:
         "saturated_samples": float(saturated),
         "fallback_frames": float(np.sum(o["frame_status"] != 0)),
     }
-
-
-#: Quantity name -> (unit, description): what a claim may judge.
-QUANTITIES: dict[str, tuple[str, str]] = {
-    "rate_error_deg_s": ("deg/s", "steady-state max per-axis attitude-rate error"),
-    "attitude_error_deg": ("deg", "steady-state max per-axis attitude error"),
-    "velocity_error_m_s": ("m/s", "steady-state max per-axis relative-velocity error"),
-    "position_error_m": ("m", "steady-state max per-axis relative-position error"),
-    "delta_v_m_s": ("m/s", "total thruster impulse / mass"),
-    "fuel_kg": ("kg", "total thruster impulse / exhaust velocity"),
-    "min_pulse_fraction": ("", "share of the pulses after 100 s that are minimum pulses"),
-    "final_plane_error_deg": ("deg", "tilt of the last period's plane minus alpha_rT"),
-    "final_radius_error_m": ("m", "max ||rho| - a| over the last period"),
-    "transition_overshoot_deg": ("deg", "largest rise of the elevation above the plane"),
-    "pointing_error_deg": ("deg", "max sensor-axis pointing error after 100 s"),
-}
-
-
-@dataclass(frozen=True)
-class ClaimResult:
-    """One judged claim."""
-
-    id: str
-    text: str
-    quantity: str
-    ours: float
-    verdict: Verdict
-    rule: str
-    paper: float | None = None
-    why: str = ""
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"id": self.id, "text": self.text, "quantity": self.quantity,
-                "ours": json_number(self.ours), "paper": json_number(self.paper)
-                if self.paper is not None else None, "rule": self.rule,
-                "verdict": str(self.verdict), "why": self.why}
-
-
-def judge(case: Any, metrics: dict[str, float], diverged: float | None = None) -> list[ClaimResult]:
-    """The claims of ``case`` judged on ``metrics`` (module docstring); ``diverged``: the
-    time the run went non-finite, which fails every claim."""
-    if diverged is not None:
-        note = f"the run diverged at t = {diverged:g} s (non-finite state)"
-        return [ClaimResult(c["id"], c["text"], c["quantity"], math.nan, Verdict.FAILS, note,
-                            c["value"], c["why"]) for c in case.published] + [
-                ClaimResult(c["id"], c["text"], c["quantity"], math.nan, Verdict.FAILS, note, None,
-                            c["why"]) for c in case.qualitative]
-    out = []
-    for c in case.published:
-        v = metrics[c["quantity"]]
-        p, tol = c["value"], c["match_tol"]
-        if c["match_kind"] == "rel":
-            ok, rule = abs(v - p) <= tol * abs(p), f"within {tol:.0%} of the paper's"
-        else:
-            ok, rule = p / tol <= v <= p * tol, f"within a factor {tol:g} of the paper's"
-        out.append(ClaimResult(c["id"], c["text"], c["quantity"], v,
-                               Verdict.HOLDS if ok else Verdict.FAILS, rule, p, c["why"]))
-    for c in case.qualitative:
-        v = metrics[c["quantity"]]
-        ok = bool(v <= c["bound"]) if c["op"] == "<=" else bool(v >= c["bound"])
-        out.append(ClaimResult(c["id"], c["text"], c["quantity"], v,
-                               Verdict.HOLDS if ok and math.isfinite(v) else Verdict.FAILS,
-                               f"{c['op']} {c['bound']:g}", None, c["why"]))
-    return out
-
-
-@dataclass(frozen=True)
-class FlyaroundVerification:
-    """Everything a fly-around verification computed (for the report and JSON)."""
-
-    case: Any
-    run: Any
-    metrics: dict
-    claims: list
-    sensitivity: list  # (label, metrics, options, scenario)
-    allocation: dict  # name -> metrics (pinv-shift = base, pinv-clip, lp)
-    lp_check: dict
-    orbit_cert: Any
-    attitude_cert: Any
-    derivation: Any
-    findings: dict
-    series: dict = field(default_factory=dict)  # name -> (t, values): figure data of other runs
-
-    @property
-    def all_hold(self) -> bool:
-        return all(c.verdict == Verdict.HOLDS for c in self.claims)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "case": self.case.name, "digest": self.case.digest,
-            "claims": [c.to_dict() for c in self.claims],
-            "metrics": {k: json_number(v) for k, v in self.metrics.items()},
-            "sensitivity": [{"label": s[0], **{k: json_number(v) for k, v in s[1].items()}}
-                            for s in self.sensitivity],
-            "allocation": {k: {q: json_number(v) for q, v in m.items()}
-                           for k, m in self.allocation.items()},
-            "lp_check": {k: json_number(v) for k, v in self.lp_check.items()},
-            "orbit_certificate": self.orbit_cert.to_dict(),
-            "attitude_certificate": self.attitude_cert.to_dict(),
-            "derivation": self.derivation.to_dict(),
-            "findings": {k: json_number(v) if isinstance(v, float) else v
-                         for k, v in self.findings.items()},
-            "all_hold": self.all_hold,
-        }

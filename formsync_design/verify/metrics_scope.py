@@ -1,4 +1,4 @@
-"""Global or local? Seeded simulations of an agent formation from large initial attitudes.
+"""Global or local? A metric from seeded runs started at large initial attitudes.
 
 A certificate on the linearisation at the commanded attitude (an L2 gain, exponential
 stability) is a **local** statement.  Whether the nonlinear formation converges from far away
@@ -8,9 +8,12 @@ is a separate question that a finite set of simulations can only give evidence o
 scalar part ``q0``, since a law written in ``vec(q)`` distinguishes ``q`` from ``-q``) and
 records for each run whether it converged within the horizon and its final error.
 
-The verdict is computed from the runs: ``local`` when some run does not converge (a
-counterexample to global convergence, replayable from its seed and angle), else
-``no-counterexample`` (evidence, never a proof of global convergence).
+The metric ``large_angle_scope`` (text, evidence simulation) is the verdict computed from
+the runs: ``local`` when some run does not converge (a counterexample to global
+convergence, replayable from its seed and angle), else ``no-counterexample`` (evidence,
+never a proof of global convergence); the runs are in its detail.  Arguments: ``angles``
+(degrees in [0, 180], comma-separated), ``signs`` (``both``, ``+``, ``-``), ``seed`` (run
+``k`` draws its axes from ``seed + k``), ``tf`` (0: the scenario's horizon).
 """
 
 from __future__ import annotations
@@ -23,9 +26,10 @@ from typing import Any
 import numpy as np
 
 from formsync_design.errors import InputError
+from formsync_design.verify.metrics import MetricArg, MetricContext, MetricValue, register_metric
 
 __all__ = ["ScopeVerdict", "LargeAngleRun", "ScopeStudy", "large_angle_attitudes",
-           "scope_study"]
+           "scope_study", "parse_angles"]
 
 
 class ScopeVerdict(enum.StrEnum):
@@ -143,3 +147,49 @@ def scope_study(design: Any, formation: Any, options: Any, angles: list[float],
                                       final_disagreement_deg=float(r.attitude_error[-1])))
             k += 1
     return ScopeStudy(runs=tuple(runs), tf=float(opt.tf))
+
+
+def parse_angles(text: str, where: str) -> list[float]:
+    """Comma-separated degrees in [0, 180].
+
+    >>> parse_angles("120, 179.9", "metrics[1].angles")
+    [120.0, 179.9]
+    """
+    out = []
+    for part in str(text).split(","):
+        try:
+            a = float(part)
+        except ValueError:
+            a = math.nan
+        if not 0 <= a <= 180:
+            raise InputError(f"expected {where} as comma-separated degrees in [0, 180], "
+                             f"received {text!r:.60}")
+        out.append(a)
+    return out
+
+
+_SIGNS = {"both": (1, -1), "+": (1,), "-": (-1,)}
+
+
+@register_metric("large_angle_scope", unit="verdict", evidence="simulation", value="text",
+                 args=(MetricArg("angles", "text", "120,150,170,179,179.9",
+                                 doc="initial rotation angles, deg"),
+                       MetricArg("signs", "text", "both", choices=tuple(_SIGNS)),
+                       MetricArg("seed", "int", 0, minimum=0),
+                       MetricArg("tf", "number", 0.0, quantity="horizon", minimum=0,
+                                 doc="the runs' horizon (0: the scenario's)")),
+                 doc="global or local: local when a run from rest at a large initial attitude "
+                 "(each spacecraft about its own seeded axis, both signs of q0) does not "
+                 "converge, else no-counterexample (evidence, not proof); the runs in the detail")
+def _scope(ctx: MetricContext) -> MetricValue:
+    a = ctx.args
+    angles = parse_angles(a["angles"], "large_angle_scope.angles")
+    tf = float(a["tf"]) or None
+    key = ("scope", *ctx.key(), a["angles"], a["signs"], a["seed"], tf)
+    st = ctx.memo(key, lambda: scope_study(ctx.case.design, ctx.initial(), ctx.options(), angles,
+                                           _SIGNS[str(a["signs"])], seed=int(a["seed"]), tf=tf))
+    runs = "; ".join(f"seed {r.seed} {r.angle_deg:g} deg q0 {'+' if r.q0_sign > 0 else '-'}: "
+                     + (f"converged at {r.convergence_time:g} s" if r.converged
+                        else f"not converged, final error {r.final_error_deg:.3g} deg")
+                     for r in st.runs)
+    return ctx.value(str(st.verdict), f"{st.summary}; {runs}")
