@@ -15,7 +15,14 @@ from formsync_design.verify.case import default_case_path, load_case, parse_case
 
 @pytest.fixture(scope="module")
 def raw():
-    return tomllib.loads(default_case_path().read_text())
+    """The paper's case in the formation layout (the engine case file without its engine
+    tables, its design key and the agent kernel's integrator keys)."""
+    d = tomllib.loads(default_case_path().read_text())
+    out = {k: d[k] for k in ("case", "gains", "orbit", "disturbance", "simulation", "spacecraft")}
+    out["case"] = {k: v for k, v in d["case"].items() if k not in ("kind", "design")}
+    out["simulation"] = {k: v for k, v in d["simulation"].items()
+                         if k not in ("integrator", "rtol", "atol")}
+    return out
 
 
 def test_paper_case_transcription():
@@ -163,7 +170,7 @@ def test_case_spec_is_resolved_against_the_case_file(raw, tmp_path):
     assert c.spec == str(tmp_path / "sub" / "d.py")
     with pytest.raises(InputError, match="case.spec"):
         parse_case(_mutate(raw, lambda d: d["case"].update(spec="nope.py")), str(tmp_path / "c.toml"))
-    assert load_case().spec is None
+    assert load_case().spec == "liang2016"
     assert load_case().digest == hashlib.sha256(default_case_path().read_bytes()).hexdigest()
     assert load_toml(default_case_path())["case"]["name"] == "liang2016"
 
@@ -171,3 +178,15 @@ def test_case_spec_is_resolved_against_the_case_file(raw, tmp_path):
 def test_unlimited_torque_word(raw):
     c = parse_case(_mutate(raw, lambda d: d["simulation"].update(torque_limit="unlimited")))
     assert c.options.torque_limit is None
+
+
+def test_an_engine_case_file_is_read_in_the_formation_layout(raw):
+    """The paper's engine case (verification/liang2016.toml) gives the formation readers the
+    same case as its formation-layout tables: the engine tables and the agent kernel's
+    integrator keys are not theirs."""
+    full = load_case()
+    alone = parse_case(raw)
+    assert full.options == alone.options and full.options.integrator == "auto"
+    assert full.gains == alone.gains and full.claims == {}
+    assert np.array_equal(full.inertias, alone.inertias)
+    assert np.array_equal(full.attitudes, alone.attitudes)

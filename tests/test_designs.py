@@ -311,14 +311,17 @@ def test_pd_simulation_matches_the_linear_closed_loop_exactly():
 # --------------------------------------------------------------------------- verification
 def test_verify_pd_case_judges_every_claim_by_computation():
     from formsync_design.resources import case_file
-    from formsync_design.verify.verification import verify_case
+    from formsync_design.verify.engine import run_engine
+    from formsync_design.verify.enginecase import load_engine_case
 
-    res = verify_case(case_file("pd_consensus"))
-    assert res.spec_name == PD and res.kv_used == () and res.derivation_verdicts == ()
-    assert {t.paper_status for t in res.topologies} == {"n/a"}
-    for t in res.topologies:  # every claim measured on a run of this design
-        assert t.derived_status == "certified" and t.sim["status"] == "converged"
-    assert {c.spec.key: str(c.verdict) for c in res.claims}["rates_to_zero"] == "holds"
+    case = load_engine_case(case_file("pd_consensus"))
+    ver = run_engine(case)
+    v = {row.id: val for row, val in ver.metrics}
+    assert case.base.design.name == PD
+    for f in ("ring4", "path4", "star4", "complete4"):  # every claim measured on this design
+        assert v[f"theta_{f}"].value == "certified" and v[f"pi_{f}"].value == "certified"
+        assert isinstance(v[f"t_{f}"].value, float) and v[f"t_{f}"].bound == "exact"
+    assert {c.claim.id: c.verdict for c in ver.claims}["rates_to_zero"] == "holds"
 
 
 def test_case_gains_follow_the_design(tmp_path):
@@ -335,8 +338,8 @@ def test_case_gains_follow_the_design(tmp_path):
     bad.write_text(text.replace("\nk_d = 1.6\n", "\n"))
     with pytest.raises(InputError, match="expected gains.k_d"):
         load_case(bad)
-    kv_claim = text + '\n[claims.items.kv]\ntext = "x"\npaper = "y"\nquantity = "kv_ratio"\nop = ">="\nvalue = 1\n'
-    bad.write_text(kv_claim)
+    kv_metric = text + '\n[[metrics]]\nid = "kv"\nmetric = "switching_gain_ratio"\n'
+    bad.write_text(kv_metric)
     r = _formsync("verify", str(bad), "--out", str(tmp_path / "o"))
     assert r.returncode == 2 and "no switching gain" in r.stderr
 

@@ -40,7 +40,10 @@ DOCUMENTED = {"engine": Path(__file__).resolve().parent.parent / "docs" / "engin
 
 def test_every_kind_has_a_result_and_a_shipped_case() -> None:
     assert set(dispatch.RESULT_KINDS) == set(KINDS)
-    assert set(_shipped_kinds()) == set(KINDS)
+    # the classic formation kind has no shipped case since liang2016 and pd_consensus run on
+    # the engine (issue 23: it is to be deleted); its test case is still of its kind
+    assert set(_shipped_kinds()) == set(KINDS) - {"formation"}
+    assert case_kind(load_toml(DATA / "case_short_horizon.toml", "case"), "test") == "formation"
     for kind, path in DOCUMENTED.items():
         assert case_kind(load_toml(path, "case"), str(path)) == kind
     assert fs.verify_case is dispatch.verify_case

@@ -6,11 +6,14 @@ Each report is written by the same code its documented command runs, with that
 command printed inside the report, so the output is byte-identical to what the
 documented commands produce:
 
-* ``formsync verify liang2016``  -> reports/liang2016-verification.md (+ figures) and
-  the derivation report it links to, reports/liang2016-derivation-ring8.{md,tex}
-  (the same files ``formsync derive`` writes);
+* ``formsync verify liang2016``  -> reports/liang2016-verification.md (+ figures) and,
+  by its ``[report] derivation``, the derivation report of the design's Lagrangian view,
+  reports/liang2016-derivation-ring8.{md,tex} (the same files ``formsync derive`` writes): an
+  engine case, the candidate topologies are formations, the saturation and sensitivity
+  studies scenarios;
 * ``formsync verify pd_consensus`` -> reports/pd_consensus-verification.md (+ figures) and
-  reports/pd_consensus-derivation-ring4.{md,tex}: the PD consensus baseline design end to end;
+  reports/pd_consensus-derivation-ring4.{md,tex}: the PD consensus baseline design end to end
+  (an engine case, as liang2016);
 * ``formsync verify selftrigger_mrp`` -> reports/selftrigger_mrp-verification.md (+ figures):
   the self-triggered MRP design of seed 001 against its event-triggered and periodic variants
   (an engine case: the variants are scenarios);

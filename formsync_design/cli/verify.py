@@ -15,9 +15,11 @@ _HELP = """\
 Verify a published design: re-derive the conditions, certify the published
 gains with the derived and with the printed conditions, simulate the nonlinear
 formation on every candidate topology, judge each published claim (holds /
-fails / depends on topology / undecided, when neither the simulated horizon
-nor the certificate decides it), and run the sensitivity study (boundary
-layer against accuracy and chattering, torque limit against convergence).
+fails / undecided, when neither the simulated horizon nor the certificate
+decides it; a classic formation case also says "depends on topology"), and run
+the sensitivity study (boundary layer against accuracy and chattering, torque
+limit against convergence).  The shipped cases are engine cases
+(docs/engine.md).
 
 CASE is a case name (liang2016 = verification/liang2016.toml) or a TOML file
 with a [claims] table (format: formsync_design/verify/verification.py; judging

@@ -230,8 +230,8 @@ def case_design_ref(path: str | Path) -> str | None:
 
 def case_is_agent(path: str | Path) -> bool:
     """Whether the case file's ``[case] design`` names an agent design (``FORM = "agent"``);
-    ``False`` for a Lagrangian design, a ``formation`` case (no ``[case] kind``) of a design
-    with a Lagrangian view (it runs that view) or a missing file; a design that does not load
+    ``False`` for a Lagrangian design, a ``formation`` or ``engine`` case of a design with a
+    Lagrangian view (the Lagrangian readers run that view) or a missing file; a design that does not load
     raises its one-line error.
 
     >>> from formsync_design.resources import case_file
@@ -249,7 +249,9 @@ def case_is_agent(path: str | Path) -> bool:
     if getattr(d, "lagrangian", None) is None:
         return True
     meta = load_toml(Path(path), "case TOML file").get("case", {})
-    return (meta.get("kind", "formation") if isinstance(meta, dict) else "formation") != "formation"
+    kind = meta.get("kind", "formation") if isinstance(meta, dict) else "formation"
+    # an engine case of such a design is the paper's case too: the Lagrangian readers keep it
+    return kind not in ("formation", "engine")
 
 
 def shipped_agent_case(design: Any) -> Path | None:

@@ -23,6 +23,15 @@ A case file holds everything physical about a formation run.  Layout
     [claims]        the published claims (format and judging rules in
                     :mod:`formsync_design.verify.claims`; kept, not read here)
 
+An engine case file (``[case] kind = "engine"``: :mod:`formsync_design.verify.enginecase`,
+e.g. ``verification/liang2016.toml``) is read too: its engine tables (``[[formations]]``,
+``[[scenarios]]``, ``[montecarlo]``, ``[families]``, ``[report]``, ``[[metrics]]``,
+``[[claims]]``) are the engine's and are not read here, nor are the agent kernel's
+``[simulation]`` keys (``integrator``, ``rtol``, ``atol``, ``step``, ``period``,
+``angle_tol``, ``rate_tol``): the formation simulator keeps its own integrator and
+tolerances (``SimOptions``: compiled DOPRI5 at rtol 1e-8 / atol 1e-12, ``q_tol`` 1e-4,
+``omega_tol`` 1e-5).
+
 Unreadable files (missing, binary, non-UTF-8, TOML syntax errors), unknown
 tables or keys, wrong types, non-unit quaternions, ``q0 <= 0``,
 non-SPD inertias and size mismatches raise :class:`InputError`.
@@ -73,6 +82,12 @@ _TABLES = {
 }
 
 _SIM_KEYS = {"boundary_layer": "phi"}
+
+#: The engine's tables and the agent kernel's [simulation] keys of an engine case file.
+_ENGINE_TABLES = frozenset({"formations", "scenarios", "montecarlo", "families", "report",
+                            "metrics", "claims"})
+_AGENT_SIM_KEYS = frozenset({"integrator", "rtol", "atol", "step", "period", "angle_tol",
+                             "rate_tol"})
 
 
 def default_case_path() -> Path:
@@ -321,11 +336,18 @@ def check_case_tables(data: dict, tables: dict[str, set[str] | None], path: str)
 
 def parse_case(data: dict, path: str = "<memory>") -> Case:
     """Validate a parsed TOML document (see module docstring)."""
-    check_case_tables(data, _TABLES, path)
     meta = data.get("case", {})
-    if meta.get("kind", "formation") != "formation":
-        raise InputError(f"expected a formation case ([case] kind = \"formation\") in {path}, "
-                         f"received kind {meta.get('kind')!r} (formsync verify dispatches it)")
+    kind = meta.get("kind", "formation") if isinstance(meta, dict) else "formation"
+    if kind == "engine":  # the engine's tables and the agent kernel's keys: module docstring
+        data = {k: v for k, v in data.items() if k not in _ENGINE_TABLES}
+        sim0 = data.get("simulation", {})
+        if isinstance(sim0, dict):
+            data["simulation"] = {k: v for k, v in sim0.items() if k not in _AGENT_SIM_KEYS}
+    check_case_tables(data, _TABLES, path)
+    if kind not in ("formation", "engine"):
+        raise InputError(f"expected a formation case ([case] kind = \"formation\" or "
+                         f"\"engine\") in {path}, received kind {meta.get('kind')!r} "
+                         "(formsync verify dispatches it)")
     sc = data.get("spacecraft")
     if not sc:
         raise InputError(f"expected at least two [[spacecraft]] tables in {path}, received none")

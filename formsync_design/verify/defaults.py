@@ -19,15 +19,16 @@ design) is a negative finding with its reason (:class:`NotApplicable`, exit stat
 a usage error.
 
 >>> from formsync_design.spec.loader import load_design
->>> src = case_source(load_design("liang2016"))
->>> src.label, src.role, sorted(src.gains)
-('verification/lv2012.toml', 'comparison', ['K_o', 'K_q', 'K_v', 'beta'])
+>>> src = case_source(load_design("liang2016"))  # its engine case names it: its own case
+>>> src.label, src.role
+('verification/liang2016.toml', 'design')
 >>> from formsync_design.spec.loader import load_spec
 >>> case_source(load_spec("pd_consensus")).label    # its Lagrangian view: its own case
 'verification/pd_consensus.toml'
->>> src = case_source(load_design("pd_consensus"))  # its agent form: ma_so3's baseline scenario
->>> src.label, src.role, src.gains
-('verification/ma_so3.toml', 'comparison', {'k_p': 0.4, 'k_d': 1.6})
+>>> case_source(load_design("pd_consensus")).label  # its agent form: the same engine case
+'verification/pd_consensus.toml'
+>>> case_source(load_design("ma_quat_smc")).role    # a comparison design: ma_so3's scenario
+'comparison'
 """
 
 from __future__ import annotations

@@ -470,6 +470,10 @@ def verify_engine_case(req: VerifyRequest) -> int:
     case = load_engine_case(req.path, design=req.design)
     ver = run_engine(case, req.progress)
     req.progress("write report")
+    if case.report_derivation is not None:
+        from formsync_design.verify.engine_derivation import write_case_derivation
+
+        write_case_derivation(case, req.out)
     md, figs = write_engine_report(ver, req.out, req.path.stem, req.command())
     if req.format == "json":
         sys.stdout.write(json.dumps(engine_json(ver, req.command()), indent=2) + "\n")

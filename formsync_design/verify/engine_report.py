@@ -282,7 +282,8 @@ def engine_markdown(ver: Any, fig_dir: str, figures: list[str], command: str,
 
 
 def engine_figures(ver: Any) -> dict[str, Any]:
-    """The agent figures of every simulated run, by file stem (another form's: its own)."""
+    """The agent figures of every simulated run (those of ``[report] figures`` when the
+    case lists them), by file stem (another form's: its own)."""
     from formsync_design.sim.agent_figures import agent_figures
 
     form = getattr(ver.case, "form", None)
@@ -290,7 +291,10 @@ def engine_figures(ver: Any) -> dict[str, Any]:
         return form.figures(ver)
 
     out = {}
+    only = getattr(ver.case, "report_figures", None)
     for (f, s), r in sorted(ver.results.runs.items()):
+        if only is not None and (f, s) not in only:
+            continue
         tol = ver.case.scenario(s).case.options.angle_tol
         for name, fig in agent_figures(r, tol).items():
             out[f"{f}-{s}-{name}"] = fig

@@ -35,7 +35,11 @@ range-checked, :mod:`formsync_design.ranges`; bad input is one line, exit 2)::
     [families]      box = {gain = "lo:hi" | number, ...}: every controller gain, the box over
                     which the design's own certificate families (conditions(c)) are decided
                     by the metrics family_certificate and family_margin
-    [report]        runs = true: the report lists every simulated run (and Monte-Carlo draw)
+    [report]        runs = true: the report lists every simulated run (and Monte-Carlo draw);
+                    derivation = "FORMATION": the derivation report of the design's
+                    Lagrangian view on that formation's graph is written beside it
+                    (verify/engine_derivation.py); figures = [["FORMATION", "SCENARIO"],
+                    ...]: the runs whose figures the report shows (default: every run)
     [[metrics]]     id, metric (a name of the registry, formsync_design/verify/metrics.py),
                     formation, scenario (default the first of each), the metric's arguments;
                     montecarlo = "max" | "min" | "mean" (a simulation metric measured on every
@@ -96,7 +100,7 @@ _KEYS = {
     "scenarios": {"name", "description", "design", "gains", "simulation", "disturbance",
                   "sampling", "period_matching", "torque_matching", "sensors", "leader"},
     "families": {"box"},
-    "report": {"runs"},
+    "report": {"runs", "derivation", "figures"},
     "claims": {"id", "text", "source", "predicate"},
 }
 
@@ -184,6 +188,8 @@ class EngineCase:
     digest: str = ""
     families_box: dict[str, str] | None = None
     report_runs: bool = False
+    report_derivation: str | None = None
+    report_figures: tuple[tuple[str, str], ...] | None = None
 
     def formation(self, name: str) -> FormationSpec:
         return next(f for f in self.formations if f.name == name)
@@ -565,8 +571,28 @@ def parse_engine_case(data: dict, path: str = "<memory>", design: Any = None) ->
     runs = rep.get("runs", False)
     if not isinstance(runs, bool):
         raise InputError(f"expected report.runs = true or false, received {runs!r:.30}")
+    der = rep.get("derivation")
+    if der is not None:
+        from formsync_design.spec.loader import lagrangian_view
+
+        if not isinstance(der, str) or der not in [f.name for f in forms]:
+            raise InputError(f"expected report.derivation among the formations "
+                             f"{[f.name for f in forms]}, received {der!r:.60}")
+        if lagrangian_view(base.design) is None:
+            raise InputError(f"expected a design with a Lagrangian view for report.derivation, "
+                             f"received {base.design.name} (none)")
+    figs = rep.get("figures")
+    pairs: tuple[tuple[str, str], ...] | None = None
+    if figs is not None:
+        fn, sn = [f.name for f in forms], [s.name for s in scens]
+        if not isinstance(figs, list) or not all(
+                isinstance(x, list) and len(x) == 2 and x[0] in fn and x[1] in sn for x in figs):
+            raise InputError(f"expected report.figures = [[formation, scenario], ...] with "
+                             f"formations among {fn} and scenarios among {sn}, received "
+                             f"{figs!r:.80}")
+        pairs = tuple((str(x[0]), str(x[1])) for x in figs)
     return EngineCase(path, base, forms, scens, mc, metrics, claims, families_box=fam,
-                      report_runs=runs)
+                      report_runs=runs, report_derivation=der, report_figures=pairs)
 
 
 def load_engine_case(path: str | Path, design: Any = None) -> EngineCase:

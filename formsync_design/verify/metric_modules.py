@@ -14,6 +14,7 @@ from formsync_design.verify import (  # noqa: F401 (each registers its metrics)
     metrics_compare,
     metrics_design,
     metrics_l2,
+    metrics_lagrangian,
     metrics_sampled,
     metrics_scope,
     metrics_sensors,
