@@ -83,6 +83,9 @@ class TrackingEngineCase:
     metrics: tuple[MetricRow, ...]
     claims: tuple[ClaimRow, ...]
     digest: str = ""
+    #: a tracking case writes no derivation report of a Lagrangian view (the engine's
+    #: ``[report] derivation`` of agent cases)
+    report_derivation: str | None = None
 
     @property
     def form(self) -> TrackingForm:
