@@ -36,13 +36,11 @@ data flows through the stages:
   :func:`monte_carlo`; agent designs: :class:`AgentFormation`, :class:`Reference`,
   :class:`AgentOptions`, :func:`simulate_agents` (:class:`AgentResult`), gyro models
   :class:`RateSensors`, :func:`measured_l2_gain`;
-* verification of a published case: :func:`load_case`, :func:`verify_case` (a case of
-  any kind, formation or engine, by file or
-  shipped name; returns that kind's result);
-  :func:`load_agent_case` (the case files of agent designs); the verification engine
-  (case kind ``engine``: formations, scenarios, Monte-Carlo, metrics and claims declared
-  in the case file): :func:`load_engine_case`, :func:`run_engine` (->
-  :class:`EngineVerification`), :func:`register_metric` (the metric registry, -> a
+* verification of a published case: :func:`verify_case` (a case file or a shipped case's
+  name, -> :class:`EngineVerification`); :func:`load_case` and :func:`load_agent_case`
+  (the simulation case layouts a case file's base case is read with); the verification
+  engine (formations, scenarios, Monte-Carlo, metrics and claims declared in the case
+  file): :func:`load_engine_case`, :func:`run_engine` (-> :class:`EngineVerification`), :func:`register_metric` (the metric registry, -> a
   :class:`MetricValue`); sampled designs: :func:`sampling_variant`, :func:`rule_variant`
   (a design under another sampling rule: an engine scenario's ``sampling``),
   :func:`interevent_bound` (the certified inter-event lower bound of a self-trigger rule);
@@ -169,7 +167,6 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     # verification of a published case
     "Case": "formsync_design.verify",
     "load_case": "formsync_design.verify",
-    "VerificationResult": "formsync_design.verify",
     "verify_case": "formsync_design.verify.dispatch",
     "load_agent_case": "formsync_design.verify",
     "load_engine_case": "formsync_design.verify.enginecase",

@@ -3,8 +3,8 @@
 Every result a notebook cell shows (:class:`~formsync_design.sim.result.SimResult`,
 :class:`~formsync_design.sim.agents.AgentResult`, the Monte-Carlo results, a
 :class:`~formsync_design.certify.subdivision.RegionMap`, a
-:class:`~formsync_design.certify.results.CertificationResult`, a
-:class:`~formsync_design.verify.results.VerificationResult`) has
+:class:`~formsync_design.certify.results.CertificationResult`, an
+:class:`~formsync_design.verify.engine.EngineVerification`) has
 
 * ``to_pandas()``: a :class:`pandas.DataFrame` of its time series (a simulation: one row per
   output time) or of its table (one row per run, box, family or claim), whose columns hold
@@ -24,7 +24,7 @@ The ``to_pandas()`` columns of each type:
 * :class:`AgentMonteCarloResult`: One row per run (the columns of ``runs.csv``)
 * :class:`RegionMap`: One row per box of the subdivision (``<gain>_lo``, ``<gain>_hi``, ``status``, ``family``, ``reason``)
 * :class:`CertificationResult`: One row per matrix family (``family``, ``size``, ``status``, bounds of its smallest eigenvalue)
-* :class:`VerificationResult`: One row per claim (``key``, ``claim``, ``verdict``, ``reason``, the verdict per topology)
+* :class:`EngineVerification` (and a tracking case's :class:`TrackingVerification`): One row per claim (``id``, ``claim``, ``verdict``, ``basis``, ``source``, ``predicate``, ``deciding`` metrics, ``scope``)
 
 >>> from formsync_design.certify import certify_box
 >>> from formsync_design.derive import derive_conditions
@@ -189,23 +189,21 @@ def _cert_frame(c: Any) -> list[dict[str, Any]]:
 def _verification(v: Any) -> tuple[str, list[tuple[str, str]]]:
     counts: dict[str, int] = {}
     for c in v.claims:
-        counts[str(c.verdict)] = counts.get(str(c.verdict), 0) + 1
-    return "Verification", [
-        ("status", "every claim holds" if v.all_hold else "not every claim holds"),
-        ("case", f"{v.case_name} ({v.case_path})"), ("design", v.spec_name),
-        ("claims", ", ".join(f"{k} {n}" for k, n in sorted(counts.items()))),
-        ("topologies", ", ".join(t.graph for t in v.topologies)),
-    ]
+        counts[c.verdict] = counts.get(c.verdict, 0) + 1
+    base = v.case.base
+    rows = [("status", "every claim holds" if v.all_hold else "not every claim holds"),
+            ("case", f"{base.name} ({v.case.path})"), ("design", base.design.name),
+            ("claims", ", ".join(f"{k} {n}" for k, n in sorted(counts.items())))]
+    formations = getattr(v.case, "formations", ())
+    if formations:
+        rows.append(("formations", ", ".join(f"{f.name} ({f.graph.name})" for f in formations)))
+    return "Verification", rows
 
 
 def _verification_frame(v: Any) -> list[dict[str, Any]]:
-    rows = []
-    for c in v.claims:
-        row = {"key": c.spec.key, "claim": c.spec.text, "verdict": str(c.verdict),
-               "reason": c.reason}
-        row.update({f"verdict_{g}": str(x) for g, x in c.verdicts.items()})
-        rows.append(row)
-    return rows
+    return [{"id": c.claim.id, "claim": c.claim.text, "verdict": c.verdict, "basis": c.basis,
+             "source": c.claim.source, "predicate": c.claim.predicate,
+             "deciding": ", ".join(c.deciding), "scope": "; ".join(c.scope)} for c in v.claims]
 
 
 _VIEWS: dict[str, tuple[Any, Any]] = {
@@ -215,7 +213,8 @@ _VIEWS: dict[str, tuple[Any, Any]] = {
     "AgentMonteCarloResult": (_agent_mc, _runs_frame),
     "RegionMap": (_region, _region_frame),
     "CertificationResult": (_cert, _cert_frame),
-    "VerificationResult": (_verification, _verification_frame),
+    "EngineVerification": (_verification, _verification_frame),
+    "TrackingVerification": (_verification, _verification_frame),
 }
 
 

@@ -206,18 +206,21 @@ fig
 # %% [markdown]
 # ## 5. Verify a published case
 #
-# A case file states a design's parameters and its claims; `verify_case`
-# re-derives, certifies and simulates them and judges every claim on every
-# candidate topology.  Here a small three-spacecraft case, written inline to
-# show the format (the paper's is `verification/liang2016.toml`, run by
-# `formsync verify liang2016`).
+# A case file states a design's parameters, the formations (graphs) and scenarios it is
+# verified on, the metrics to measure (named measurements from one registry) and the paper's
+# claims as predicates over them; `verify_case` computes every metric (simulations are
+# evidence, certificates proof) and judges every claim.  Here a small three-spacecraft case,
+# written inline to show the format (the paper's is `verification/liang2016.toml`, run by
+# `formsync verify liang2016`; the schema is `docs/engine.md`).
 
 # %%
 CASE = """
 [case]
+kind = "engine"
 name = "small3"
 title = "three spacecraft from the paper's Table 1"
 source = "tutorial"
+design = "liang2016"
 graph = "ring:3"
 assumptions = ["a tutorial case"]
 
@@ -237,6 +240,7 @@ model = "paper"
 tf = 80.0
 switch = "sat"
 boundary_layer = 0.01
+output_step = 0.1
 
 [[spacecraft]]
 inertia = [[50, 0, 4], [0, 55, 0], [4, 0, 60]]
@@ -253,36 +257,59 @@ inertia = [[53, 0.4, 0], [0.4, 54, 0.8], [0, 0.8, 58]]
 rate = [-0.026, 0.022, -0.013]
 q = [-0.2, 0.1, -0.1]
 
-[claims]
-topologies = ["ring:3", "path:3"]
-topology_note = "both connected graphs on three spacecraft"
-saturation_torque_limit = 2.0
-tail_fraction = 0.25
-phi_sweep = [0.01, 0.1]
-torque_limit_sweep = [0, 2]
+[[formations]]
+name = "ring3"
 
-[claims.items.convergence]
-text = "converges within 60 s"
-paper = "tutorial"
-quantity = "convergence_time"
-op = "<="
-value = 60.0
+[[formations]]
+name = "path3"
+graph = "path:3"
 
-[claims.items.pi_pd]
-text = "Pi positive definite"
-paper = "tutorial"
-quantity = "pi_pd"
-op = "=="
-value = 1
+[[metrics]]
+id = "t_ring3"
+metric = "relative_convergence_time"
+formation = "ring3"
+q_tol = 1e-4
+omega_tol = 1e-5
+
+[[metrics]]
+id = "t_path3"
+metric = "relative_convergence_time"
+formation = "path3"
+q_tol = 1e-4
+omega_tol = 1e-5
+
+[[metrics]]
+id = "pi_ring3"
+metric = "lagrangian_certificate"
+formation = "ring3"
+family = "Pi"
+
+[[metrics]]
+id = "pi_path3"
+metric = "lagrangian_certificate"
+formation = "path3"
+family = "Pi"
+
+[[claims]]
+id = "convergence"
+text = "converges within 60 s on both connected graphs"
+source = "tutorial"
+predicate = "t_ring3 <= 60 and t_path3 <= 60"
+
+[[claims]]
+id = "pi_pd"
+text = "Pi positive definite on both connected graphs"
+source = "tutorial"
+predicate = 'pi_ring3 == "certified" and pi_path3 == "certified"'
 """
 case_path = Path(tempfile.mkdtemp()) / "small3.toml"
 case_path.write_text(CASE, encoding="utf-8")
 verification = fs.verify_case(case_path)
 for claim in verification.claims:
-    print(f"{claim.verdict!s:20} {claim.spec.text}")
+    print(f"{claim.verdict:10} [{claim.basis}] {claim.claim.text}")
 
 # %%
-verification.to_pandas()[["claim", "verdict"]]  # the same as a table: one row per claim
+verification.to_pandas()[["claim", "verdict", "basis"]]  # the same as a table: one row per claim
 
 # %% [markdown]
 # ## 6. An agent design: a law on SO(3) over a directed weighted graph

@@ -57,11 +57,16 @@ def test_paper_disturbance_magnitude():
     np.testing.assert_allclose(f.disturbance.bound(), 1.2 * f.disturbance.harmonic[:, 0, 0])
 
 
-def test_claims_table_is_kept(raw):
+def test_a_claims_table_of_a_simulation_case_is_refused_not_dropped(raw):
+    # nothing reads claims outside an engine case: a [claims] table would be silently ignored
     d = dict(raw)
     d["claims"] = {"convergence": {"paper": 100.0}}
-    c = parse_case(d)
-    assert c.claims == {"convergence": {"paper": 100.0}}
+    with pytest.raises(InputError, match=r"received unknown \[claims\]"):
+        parse_case(d)
+    # an engine case's [[claims]] are the engine's, not read by the simulation case reader
+    d["case"] = {**d.get("case", {}), "kind": "engine"}
+    d["claims"] = [{"id": "c", "text": "t", "predicate": "x < 1"}]
+    assert parse_case(d).n == parse_case(dict(raw)).n
 
 
 def _mutate(raw, fn):
@@ -187,6 +192,6 @@ def test_an_engine_case_file_is_read_in_the_formation_layout(raw):
     full = load_case()
     alone = parse_case(raw)
     assert full.options == alone.options and full.options.integrator == "auto"
-    assert full.gains == alone.gains and full.claims == {}
+    assert full.gains == alone.gains
     assert np.array_equal(full.inertias, alone.inertias)
     assert np.array_equal(full.attitudes, alone.attitudes)

@@ -123,15 +123,31 @@ def test_agent_options_name_the_step_limit() -> None:
     assert MAX_AGENT_STEPS == 10**9
 
 
-def test_a_claim_judged_on_a_diverged_run_fails() -> None:
-    from formsync_design.verify.claims import ClaimSpec, Outcome, Verdict, judge, measure_run
+@pytest.mark.parametrize("metric", ["relative_convergence_time", "tail_q_m",
+                                    "saturation_end_time", "chatter_end_time"])
+def test_a_claim_over_a_diverged_run_is_never_decided_by_it(metric: str) -> None:
+    """A diverged run's measurement is unknown (it says why), so a claim over it is
+    undecided in either direction: a run that did not finish proves nothing."""
+    from formsync_design.verify import metrics_lagrangian  # noqa: F401 (registers them)
+    from formsync_design.verify.engine import judge
+    from formsync_design.verify.enginecase import ClaimRow
+    from formsync_design.verify.metrics import METRICS, MetricContext, check_metric_args
+    from formsync_design.verify.predicates import parse_predicate
 
-    r = NS(status="diverged", message=lambda: "diverged at t = 3 s")
-    m = measure_run(r, 0.2)
-    assert {v.outcome for v in m.values()} == {Outcome.DIVERGED}
-    for op in ("<=", ">="):  # either direction: a run that did not finish proves nothing
-        c = ClaimSpec("sat", "saturates briefly", "p", "saturation_end_time", op, 10.0)
-        assert judge(c, m["convergence_time"]) is Verdict.FAILS
+    t = np.arange(0.0, 3.01, 0.5)
+    run = NS(status="diverged", message=lambda: "diverged at t = 3 s", t=t,
+             torques=np.zeros((t.size, 2, 3)), quaternions=np.tile([0, 0, 0, 1.0], (t.size, 2, 1)),
+             rates=np.zeros((t.size, 2, 3)))
+    results = NS(run=lambda formation, scenario, draw=None: run, memo=lambda key, f: f())
+    spec = METRICS[metric]
+    args = {"q_tol": 1e-4, "omega_tol": 1e-5} if "q_tol" in {a.name for a in spec.args} else {}
+    ctx = MetricContext(NS(options=NS(torque_limit=1.0)), "f", "s", spec, results,
+                        check_metric_args(spec, args, "metrics[1]"))
+    v = spec.fn(ctx)
+    assert v.value is None and "diverged" in v.detail
+    for op in ("<=", ">="):
+        claim = ClaimRow("c", "t", "p", f"m {op} 10", parse_predicate(f"m {op} 10", {"m": "number"}))
+        assert judge(claim, {"m": v}).verdict == "undecided"
 
 
 def test_lagrangian_diverged_result_message_and_summary() -> None:

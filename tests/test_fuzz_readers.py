@@ -136,20 +136,13 @@ def _load_case_file(path: Path) -> None:
     from formsync_design.tomlio import load_toml
     from formsync_design.verify.agentcase import case_is_agent, load_agent_case
     from formsync_design.verify.case import load_case
-    from formsync_design.verify.claims import parse_claims
     from formsync_design.verify.enginecase import load_engine_case
     from formsync_design.verify.engineform import design_form
-    from formsync_design.verify.kinds import case_kind
 
     data = load_toml(path, "case TOML file")
-    kind = case_kind(data, str(path))
-    if kind == "engine" and design_form(data, str(path)) is not None:
-        load_engine_case(path)  # a tracking design's engine case
-    elif kind != "formation" or case_is_agent(path):
-        load_agent_case(path)
-    else:
-        case = load_case(path)
-        parse_claims(case.claims, str(path))
+    load_engine_case(path)  # formsync verify
+    if design_form(data, str(path)) is None:  # the base case, as the other commands read it
+        (load_agent_case if case_is_agent(path) else load_case)(path)
 
 
 def _load_campaign_file(path: Path) -> None:

@@ -101,6 +101,11 @@ def test_relative_convergence_time_and_chattering():
     assert relative_convergence_time(t, np.zeros_like(t), qm[::-1], 0.5, 1.0) is None
     tt = np.arange(0, 10, 0.1)
     assert chatter_end_time(tt, np.exp(-tt)[:, None]) is None
+    # a torque that reverses at every sample up to 6 s, then decays: chattering ends by 6 s
+    t20 = np.arange(0.0, 20.0, 0.1)
+    chat = np.where(t20 < 6, (-1.0) ** np.arange(t20.size), 0.01 * np.exp(-t20))
+    end = chatter_end_time(t20, chat[:, None])
+    assert end is not None and 5.5 <= end < 6.0
 
 
 def test_lagrangian_certificates_and_switching_gain(tmp_path):

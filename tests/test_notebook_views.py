@@ -103,9 +103,12 @@ def test_certificate_and_region_views() -> None:
 def test_verification_view_has_one_row_per_claim() -> None:
     v = fs.verify_case(DATA / "case_short_horizon.toml")
     df = v.to_pandas()
-    assert list(df["key"]) == [c.spec.key for c in v.claims]
-    assert list(df["verdict"]) == [str(c.verdict) for c in v.claims]
-    _check_views(v, "every claim holds" if v.all_hold else "not every claim holds")
+    assert list(df["id"]) == [c.claim.id for c in v.claims] == ["convergence", "accuracy", "late"]
+    assert list(df["verdict"]) == [c.verdict for c in v.claims]
+    assert list(df["verdict"]) == ["undecided", "undecided", "holds"]
+    assert list(df["predicate"]) == [c.claim.predicate for c in v.claims]
+    _check_views(v, "not every claim holds")
+    assert "short3" in v._repr_html_() and "ring:3" in v._repr_markdown_()
 
 
 def test_to_pandas_without_pandas_says_how_to_install_it(agent_run: tuple,

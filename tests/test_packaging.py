@@ -122,7 +122,6 @@ from formsync_design.spec.loader import load_design, load_spec
 from formsync_design.tomlio import load_toml
 from formsync_design.verify.agentcase import load_agent_case
 from formsync_design.verify.case import load_case
-from formsync_design.verify.kinds import case_kind
 lib = Path({lib!r})
 assert Path(formsync_design.__file__).resolve().is_relative_to(lib.resolve()), formsync_design.__file__
 paths = resources.check_installation()
@@ -136,13 +135,9 @@ from formsync_design.verify.agentcase import load_agent_case
 for name in resources.design_names():
     spec = load_design(resources.design_file(name))
     assert callable(spec.controller), name
-from formsync_design.tomlio import load_toml
-from formsync_design.verify.kinds import case_kind
 from formsync_design.verify.enginecase import load_engine_case
-loaders = {{"formation": load_case, "engine": load_engine_case}}
 for name in resources.case_names():
-    path = resources.case_file(name)
-    loaders.get(case_kind(load_toml(path), str(path)), load_agent_case)(path)
+    load_engine_case(resources.case_file(name))
 print("default-spec", Path(str(load_spec(None).path)).name)
 """
 

@@ -1,8 +1,8 @@
 """Case files of agent designs (TOML, read with :func:`formsync_design.tomlio.load_toml`).
 
-One case layout for every agent design (:mod:`formsync_design.spec.agent`); a paper's case
-kind (``[case] kind``, :mod:`formsync_design.verify.kinds`) reads it with
-:func:`load_agent_case` and adds its own ``[claims]``::
+One case layout for every agent design (:mod:`formsync_design.spec.agent`): the base case
+of an engine case (:mod:`formsync_design.verify.enginecase`, which adds the engine's tables),
+read by the agent commands with :func:`load_agent_case`::
 
     [case]          name, title, source, kind, design = "NAME" | "file.py" (required),
                     assumptions = ["...", ...],
@@ -22,7 +22,6 @@ kind (``[case] kind``, :mod:`formsync_design.verify.kinds`) reads it with
                     quaternion = [q1, q2, q3, q0] (unit, any sign), euler_deg = [phi, theta,
                     psi] (3-2-1: R = Rz(psi) Ry(theta) Rx(phi), body to inertial);
                     optional states = {name = [...]} (initial controller states)
-    [claims]        free-form (kept for the case kind's verifier)
 
 Bad input is a one-line :class:`~formsync_design.errors.InputError` naming the table and key.
 
@@ -54,7 +53,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -95,7 +94,6 @@ _TABLES: dict[str, set[str] | None] = {
     "simulation": {"tf", "output_step", "step", "integrator", "switch", "boundary_layer",
                    "torque_limit", "angle_tol", "rate_tol", "rtol", "atol", "period"},
     "spacecraft": {"inertia", "rate", "q", "quaternion", "euler_deg", "states", "name"},
-    "claims": None,
 }
 
 
@@ -128,7 +126,7 @@ class AgentCase:
     graph_input : the graph specification (a string, or the ``[graph]`` table)
     inertias (N, 3, 3); attitudes (N, 4); rates (N, 3); states : dict name -> (N, k)
     gains : Gains; reference : Reference or None; orbit : Orbit; disturbance : dict
-    options : AgentOptions; assumptions : tuple of str; claims : dict
+    options : AgentOptions; assumptions : tuple of str
     digest : sha256 of the file's bytes
     """
 
@@ -150,7 +148,6 @@ class AgentCase:
     disturbance: dict
     options: AgentOptions
     assumptions: tuple[str, ...] = ()
-    claims: dict = field(default_factory=dict)
     digest: str = ""
 
     @property
@@ -230,9 +227,9 @@ def case_design_ref(path: str | Path) -> str | None:
 
 def case_is_agent(path: str | Path) -> bool:
     """Whether the case file's ``[case] design`` names an agent design (``FORM = "agent"``);
-    ``False`` for a Lagrangian design, a ``formation`` or ``engine`` case of a design with a
-    Lagrangian view (the Lagrangian readers run that view) or a missing file; a design that does not load
-    raises its one-line error.
+    ``False`` for a Lagrangian design, a case of a design with a Lagrangian view (the
+    Lagrangian readers run that view) or a missing file; a design that does not load raises
+    its one-line error.
 
     >>> from formsync_design.resources import case_file
     >>> case_is_agent(case_file("ma_so3")), case_is_agent(case_file("liang2016"))
@@ -246,12 +243,8 @@ def case_is_agent(path: str | Path) -> bool:
     d = _design_of(ref, str(path))
     if getattr(d, "form", None) != "agent":
         return False
-    if getattr(d, "lagrangian", None) is None:
-        return True
-    meta = load_toml(Path(path), "case TOML file").get("case", {})
-    kind = meta.get("kind", "formation") if isinstance(meta, dict) else "formation"
-    # an engine case of such a design is the paper's case too: the Lagrangian readers keep it
-    return kind not in ("formation", "engine")
+    # a case of a design with a Lagrangian view is the paper's case: the Lagrangian readers keep it
+    return getattr(d, "lagrangian", None) is None
 
 
 def shipped_agent_case(design: Any) -> Path | None:
@@ -438,7 +431,7 @@ def parse_agent_case(data: dict, path: str = "<memory>", design: Any = None) -> 
         states={k: np.array(v) for k, v in state_rows.items()}, gains=Gains(gvals),
         reference=reference, orbit=case_orbit(data.get("orbit", {})),
         disturbance=dict(data.get("disturbance", {"model": "none"})), options=options,
-        assumptions=tuple(assumptions), claims=dict(data.get("claims", {})),
+        assumptions=tuple(assumptions),
     )
     case.formation()  # full validation (graph size, inertias, reference vs design, gains)
     return case

@@ -20,8 +20,6 @@ A case file holds everything physical about a formation run.  Layout
     [[spacecraft]]  one table per spacecraft: inertia = 3x3 (kg m^2), rate = [3] (rad/s),
                     and either q = [q1, q2, q3] (then q0 = +sqrt(1 - |q|^2)) or
                     quaternion = [q1, q2, q3, q0] (unit, q0 > 0)
-    [claims]        the published claims (format and judging rules in
-                    :mod:`formsync_design.verify.claims`; kept, not read here)
 
 An engine case file (``[case] kind = "engine"``: :mod:`formsync_design.verify.enginecase`,
 e.g. ``verification/liang2016.toml``) is read too: its engine tables (``[[formations]]``,
@@ -41,7 +39,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -78,7 +76,6 @@ _TABLES = {
         "step", "output_step", "rtol", "atol", "q_tol", "omega_tol", "q0_floor",
     },
     "spacecraft": {"inertia", "rate", "q", "quaternion", "name"},
-    "claims": None,  # free-form, owned by the verification
 }
 
 _SIM_KEYS = {"boundary_layer": "phi"}
@@ -110,7 +107,6 @@ class Case:
     disturbance : dict - the ``[disturbance]`` table (``model`` etc.)
     options : SimOptions - the ``[simulation]`` table over the defaults
     assumptions : tuple of str
-    claims : dict - the raw ``[claims]`` table (empty when absent)
     spec : str or None - the specification file named by ``[case] spec`` (resolved
         against the case file's folder), None for the paper's
     digest : str - sha256 of the case file's bytes ("" for a case built in memory)
@@ -129,7 +125,6 @@ class Case:
     disturbance: dict
     options: SimOptions
     assumptions: tuple[str, ...] = ()
-    claims: dict = field(default_factory=dict)
     spec: str | None = None
     digest: str = ""
 
@@ -241,7 +236,7 @@ def case_path(text: str, path: str) -> str:
     return str(Path(path).parent / text)
 
 
-#: The case files' value checks, public for the other case kinds (one line on bad input).
+#: The case files' value checks, public for the other case readers (one line on bad input).
 case_number = _num
 case_numbers = _numlist
 case_matrix = _matrix
@@ -337,17 +332,16 @@ def check_case_tables(data: dict, tables: dict[str, set[str] | None], path: str)
 def parse_case(data: dict, path: str = "<memory>") -> Case:
     """Validate a parsed TOML document (see module docstring)."""
     meta = data.get("case", {})
-    kind = meta.get("kind", "formation") if isinstance(meta, dict) else "formation"
+    kind = meta.get("kind") if isinstance(meta, dict) else None
     if kind == "engine":  # the engine's tables and the agent kernel's keys: module docstring
         data = {k: v for k, v in data.items() if k not in _ENGINE_TABLES}
         sim0 = data.get("simulation", {})
         if isinstance(sim0, dict):
             data["simulation"] = {k: v for k, v in sim0.items() if k not in _AGENT_SIM_KEYS}
     check_case_tables(data, _TABLES, path)
-    if kind not in ("formation", "engine"):
-        raise InputError(f"expected a formation case ([case] kind = \"formation\" or "
-                         f"\"engine\") in {path}, received kind {meta.get('kind')!r} "
-                         "(formsync verify dispatches it)")
+    if kind not in (None, "engine"):
+        raise InputError(f"expected [case] kind = \"engine\" (a verification case) or no kind "
+                         f"(a simulation case) in {path}, received kind {kind!r}")
     sc = data.get("spacecraft")
     if not sc:
         raise InputError(f"expected at least two [[spacecraft]] tables in {path}, received none")
@@ -441,7 +435,6 @@ def parse_case(data: dict, path: str = "<memory>") -> Case:
         disturbance=dist,
         options=options,
         assumptions=tuple(assumptions),
-        claims=dict(data.get("claims", {})),
         spec=spec,
     )
     # full validation (SPD inertias, graph size, disturbance table) through Formation

@@ -4,9 +4,9 @@ Every ``formsync`` subcommand runs on a shipped design with no other option.  Th
 the graph, the convergence criterion and the horizon then come from the design's **shipped
 case**: the case file under ``verification/`` whose ``[case] design`` names the design (the
 case named like the design first), else the case that lists the design as a **comparison
-design** (``[claims] comparison_design`` with ``comparison_gains``, or an engine case's
-``[[scenarios]]`` row with ``design`` and ``gains``, the first one without
-``torque_matching``), with the comparison's gains and simulation settings.  A gain no case gives takes the design's declared default range.
+design** (a ``[[scenarios]]`` row with ``design`` and ``gains``, the first one without
+``torque_matching``), with the comparison's gains and simulation settings.  A gain no case
+gives takes the design's declared default range.
 Every default is said in one line (:class:`Defaults`), printed by the command on stderr.
 
 A graph of another size than the case's **resizes** the case: spacecraft ``i`` takes the
@@ -123,19 +123,12 @@ def _case_ref(doc: dict) -> str | None:
     return ref if isinstance(ref, str) else None
 
 
-def _formation_case(doc: dict) -> bool:
-    meta = doc.get("case", {})
-    return (meta.get("kind", "formation") if isinstance(meta, dict) else "formation") == "formation"
-
-
 def case_source(design: Any) -> CaseSource | None:
     """The shipped case of ``design`` (module docstring), ``None`` when no case names it.
 
     A case whose ``[case] design`` names the design wins (the case named like the design
     first; a case naming no design is the paper's, liang2016's); else the first case listing
-    it as a comparison design.  The agent form of a design is never given a ``formation``
-    case (that kind runs the design's Lagrangian view, :func:`load_spec
-    <formsync_design.spec.loader.load_spec>`).
+    it as a comparison design (a scenario's ``design``).
     """
     from formsync_design.resources import case_file, case_names
     from formsync_design.tomlio import load_toml
@@ -143,22 +136,12 @@ def case_source(design: Any) -> CaseSource | None:
     name = str(getattr(design, "name", design))
     names = sorted(case_names(), key=lambda n: (n != name, n))
     docs = [(case_file(n), load_toml(case_file(n), "case TOML file")) for n in names]
-    if getattr(design, "form", None) == "agent":
-        docs = [(p, d) for p, d in docs if not _formation_case(d)]
     for path, doc in docs:
         ref = _case_ref(doc)
         if ref is None and path.stem == name == "liang2016":
             return CaseSource(path, "design")
         if ref is not None and (ref == name or Path(ref).stem == name):
             return CaseSource(path, "design")
-    for path, doc in docs:
-        claims = doc.get("claims", {})
-        if not isinstance(claims, dict):
-            continue
-        if claims.get("comparison_design") == name:
-            sim = {k: claims[f"comparison_{k}"] for k in ("tf", "step", "switch", "phi")
-                   if f"comparison_{k}" in claims}
-            return CaseSource(path, "comparison", dict(claims.get("comparison_gains", {})), sim)
     for path, doc in docs:
         rows = doc.get("scenarios", [])
         for row in (rows if isinstance(rows, list) else ()):

@@ -1,23 +1,11 @@
-"""Verify a case of any kind from Python: :func:`verify_case` (``fs.verify_case``).
+"""Verify a case from Python: :func:`verify_case` (``fs.verify_case``).
 
-``formsync verify CASE`` hands a case to the verifier of its ``[case] kind``
-(:mod:`formsync_design.verify.kinds`), which computes every verdict and writes the
-report.  :func:`verify_case` dispatches on the same kind and returns the computation's
-result object, writing nothing:
-
-============================  ==============================================================
-``[case] kind``               result
-============================  ==============================================================
-``formation`` (the default)   :class:`~formsync_design.verify.results.VerificationResult`
-``engine``                    :class:`~formsync_design.verify.engine.EngineVerification`
-                              (a tracking design's: :class:`~formsync_design.verify.engine_tracking.TrackingVerification`)
-============================  ==============================================================
-
-Each result has the case's judged claims as ``claims``.
-
->>> from formsync_design.verify.kinds import KINDS
->>> sorted(RESULT_KINDS) == sorted(KINDS)
-True
+``formsync verify CASE`` runs the verification engine on the case file
+(:mod:`formsync_design.verify.engine`), which computes every verdict and writes the
+report.  :func:`verify_case` runs the same computation and returns its result, writing
+nothing: an :class:`~formsync_design.verify.engine.EngineVerification` (a tracking
+design's: :class:`~formsync_design.verify.engine_tracking.TrackingVerification`), its
+judged claims as ``claims``.
 """
 
 from __future__ import annotations
@@ -27,15 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from formsync_design.errors import InputError
-from formsync_design.verify.kinds import case_kind
 
-__all__ = ["RESULT_KINDS", "resolve_case", "verify_case"]
-
-#: Case kind -> the name of the result class :func:`verify_case` returns for it.
-RESULT_KINDS: dict[str, str] = {
-    "formation": "VerificationResult",
-    "engine": "EngineVerification",
-}
+__all__ = ["resolve_case", "verify_case"]
 
 
 def resolve_case(case: str | Path | None) -> Path:
@@ -68,7 +49,7 @@ def resolve_case(case: str | Path | None) -> Path:
 
 def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
                 progress: Callable[[str], None] | None = None) -> Any:
-    """Verify a case file of any kind; return that kind's result (module docstring).
+    """Verify a case file; return the engine's result (module docstring).
 
     Parameters
     ----------
@@ -83,8 +64,8 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
     Raises
     ------
     InputError
-        An unknown case name, a missing file, a case of an unknown kind, a formation case
-        given an agent design, or anything the kind's verifier refuses.
+        An unknown case name, a missing file, or anything the case reader refuses
+        (:mod:`formsync_design.verify.enginecase`).
 
     Examples
     --------
@@ -92,28 +73,8 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
     >>> type(res).__name__, sorted({c.verdict for c in res.claims})  # doctest: +SKIP
     ('EngineVerification', ['holds', 'undecided'])
     """
-    from formsync_design.tomlio import load_toml
-    from formsync_design.verify.output import display_path
+    from formsync_design.verify.engine import run_engine
+    from formsync_design.verify.enginecase import load_engine_case
 
     path = resolve_case(case_path)
-    kind = case_kind(load_toml(path, "case TOML file"), display_path(path))
-    if kind == "formation":
-        from formsync_design.spec.loader import Spec, lagrangian_view, load_design
-        from formsync_design.verify.verification import verify_case as verify_formation
-
-        if spec is not None and not isinstance(spec, Spec):
-            spec = load_design(spec)
-            spec = lagrangian_view(spec) or spec  # a formation case runs the Lagrangian view
-        kind_of = ("agent" if getattr(spec, "form", "lagrangian") == "agent"
-                   else getattr(getattr(spec, "decl", None), "kind", "formation"))
-        if spec is not None and kind_of != "formation":
-            raise InputError(f"expected a formation design for the formation case "
-                             f"{display_path(path)}, received {spec.name} (a {kind_of} design)")
-        return verify_formation(path, spec=spec, progress=progress)
-    if kind == "engine":
-        from formsync_design.verify.engine import run_engine
-        from formsync_design.verify.enginecase import load_engine_case
-
-        return run_engine(load_engine_case(path, design=spec), progress or (lambda s: None))
-    raise InputError(f"expected [case] kind one of {sorted(RESULT_KINDS)} in "  # pragma: no cover
-                     f"{display_path(path)}, received {kind!r}")
+    return run_engine(load_engine_case(path, design=spec), progress or (lambda s: None))

@@ -1,6 +1,6 @@
 """The verification engine: an ``engine`` case in, every verdict computed, one report out.
 
-``formsync verify CASE`` with ``[case] kind = "engine"`` (:mod:`formsync_design.verify.kinds`)
+``formsync verify CASE`` (:mod:`formsync_design.verify.request`)
 reads the case (:mod:`formsync_design.verify.enginecase`), computes each ``[[metrics]]``
 row with the registered metric (:mod:`formsync_design.verify.metrics`), judges each
 ``[[claims]]`` predicate (:mod:`formsync_design.verify.predicates`) and writes the report
@@ -86,6 +86,7 @@ from typing import Any
 
 import numpy as np
 
+from formsync_design.notebook import NotebookViews
 from formsync_design.verify.enginecase import (
     ClaimRow,
     EngineCase,
@@ -93,9 +94,9 @@ from formsync_design.verify.enginecase import (
     load_engine_case,
 )
 from formsync_design.verify.enginesensors import scenario_inputs
-from formsync_design.verify.kinds import VerifyRequest
 from formsync_design.verify.metrics import MetricContext, MetricValue, format_number, point_gains
 from formsync_design.verify.predicates import evaluate
+from formsync_design.verify.request import VerifyRequest
 
 __all__ = ["EngineResults", "ClaimVerdict", "EngineVerification", "run_engine",
            "verify_engine_case", "certificate_inputs", "aggregate", "judge"]
@@ -340,7 +341,7 @@ class ClaimVerdict:
 
 
 @dataclass(frozen=True)
-class EngineVerification:
+class EngineVerification(NotebookViews):
     """The verification of an engine case: the ``metrics`` (row, value), the ``claims``
     (:class:`ClaimVerdict`), the certificate of every formation x scenario, and the
     cached ``results`` (runs and batches, for the figures)."""
@@ -462,7 +463,7 @@ def run_engine(case: EngineCase, progress: Callable[[str], None] = lambda s: Non
 
 
 def verify_engine_case(req: VerifyRequest) -> int:
-    """``formsync verify`` of an ``engine`` case (exit status: :mod:`formsync_design.verify.kinds`)."""
+    """``formsync verify`` of an ``engine`` case (exit status: :mod:`formsync_design.verify.request`)."""
     import json
 
     from formsync_design.verify.engine_report import engine_json, write_engine_report

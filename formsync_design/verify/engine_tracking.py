@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from formsync_design.errors import InputError
+from formsync_design.notebook import NotebookViews
 from formsync_design.verify import metrics_tracking  # noqa: F401 (registered)
 from formsync_design.verify.enginecase import ClaimRow, MetricRow
 from formsync_design.verify.metrics import METRICS, MetricContext, check_metric_args
@@ -283,7 +284,7 @@ def _series(run: Any, every: int = 50) -> dict[str, tuple[np.ndarray, np.ndarray
 
 
 @dataclass(frozen=True)
-class TrackingVerification:
+class TrackingVerification(NotebookViews):
     """The verification of a tracking case (the fields the engine's writer reads: ``case``,
     ``metrics``, ``claims``, ``results``)."""
 
