@@ -58,6 +58,7 @@ __all__ = [
     "principal_angles",
     "simulate_agents_sampled",
     "assemble_result",
+    "observe_grid",
 ]
 
 
@@ -511,6 +512,21 @@ def simulate_agents_sampled(design: AgentDesign, formation: AgentFormation, opt:
                            "hybrid-dop853", torques=run.torques, sampled=run.hybrid)
 
 
+def observe_grid(kern: Any, X: np.ndarray, t: np.ndarray, p: np.ndarray,
+                 ext: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The kernel's ``observe`` (torques, monitors) at every output time in one call: the
+    CasADi function mapped over the ``K`` samples (columns), each evaluated as one call of
+    it would be; ``(K, 3 N)`` torques and ``(K, monitors)``."""
+    K = X.shape[0]
+    fn = kern.observe.map(K)
+    args = [X.T, np.asarray(t, float).reshape(1, K), np.tile(np.asarray(p, float).reshape(-1, 1), (1, K))]
+    if ext is not None:
+        args.append(np.asarray(ext, float).T)
+    u, m = fn(*args)
+    return (np.asarray(u, float).reshape(kern.observe.size1_out(0), K).T,
+            np.asarray(m, float).reshape(kern.observe.size1_out(1), K).T)
+
+
 def assemble_result(design: AgentDesign, f: AgentFormation, opt: AgentOptions, kern: Any, p: np.ndarray,
             t: np.ndarray, X: np.ndarray, integrator: str, *, torques: np.ndarray | None = None,
             sampled: Any = None, ext: np.ndarray | None = None) -> AgentResult:
@@ -523,15 +539,10 @@ def assemble_result(design: AgentDesign, f: AgentFormation, opt: AgentOptions, k
     W = X[:, 4 * n: 7 * n].reshape(X.shape[0], n, 3)
     Z = X[:, 7 * n: 7 * n + nz * n].reshape(X.shape[0], n, nz)
     R = X[:, 7 * n + nz * n: 7 * n + nz * n + 4] if design.decl.leader else None
-    obs_u, obs_m = [], []
-    for k in range(X.shape[0]):
-        xk = X[k] if X.shape[1] == kern.nx else np.concatenate([X[k], R[k] if R is not None else []])
-        u, m = kern.observe(xk, t[k], p) if ext is None else kern.observe(xk, t[k], p, ext[k])
-        obs_u.append(np.asarray(u).ravel())
-        obs_m.append(np.asarray(m).ravel())
-    U = np.asarray(obs_u).reshape(-1, n, 3) if torques is None else torques
+    U_obs, Mv = observe_grid(kern, X if X.shape[1] == kern.nx or R is None
+                             else np.concatenate([X, R], axis=1), t, p, ext)
+    U = U_obs.reshape(-1, n, 3) if torques is None else torques
     mons: dict[str, np.ndarray] = {}
-    Mv = np.asarray(obs_m)
     names = kern.monitors
     for j, name in enumerate(names):
         mons[name] = Mv[:, j::len(names)] if names else Mv
