@@ -110,7 +110,10 @@ def _switch(expr: Any, switch: str, phi: sp.Symbol) -> Any:
     if switch == "sgn":
         return replace_function(expr, sgn, sp.sign)
     if switch == "sat":
-        return replace_function(expr, sgn, lambda a: sp.Max(-1, sp.Min(1, a / phi)))
+        # unevaluated: SymPy's Min/Max search their arguments for redundant ones (slow on
+        # a large argument) and would find none here
+        return replace_function(expr, sgn, lambda a: sp.Max(-1, sp.Min(1, a / phi, evaluate=False),
+                                                            evaluate=False))
     if switch == "tanh":
         return replace_function(expr, sgn, lambda a: sp.tanh(a / phi))
     raise InputError(f"expected a switch in ['sgn', 'sat', 'tanh'], received {switch!r}")
