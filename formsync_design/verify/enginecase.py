@@ -346,7 +346,8 @@ def _scenarios(data: dict, agent: dict, base: AgentCase, path: str) -> tuple[Sce
         desc = _text(row, "description", where, required=False)
         merged = copy.deepcopy(agent)
         over: dict[str, Any] = {}
-        other = _other_design(row, where, merged, over) | scenario_leader(row, where, merged, over)
+        other = _other_design(row, where, merged, over)
+        scenario_leader(row, where, merged, over)  # leader = false: the reference dropped
         for table in ("gains", "simulation", "disturbance"):
             if table not in row:
                 continue

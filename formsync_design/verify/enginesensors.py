@@ -82,18 +82,17 @@ def scenario_sensors(row: dict[str, Any], where: str, case: Any) -> dict[str, An
 
 
 def scenario_leader(row: dict[str, Any], where: str, merged: dict[str, Any],
-                    over: dict[str, Any]) -> bool:
-    """Apply a row's ``leader = false`` to its ``merged`` tables (module docstring); whether
-    the row changed the design's setting (always ``False``: the design is not replaced)."""
+                    over: dict[str, Any]) -> None:
+    """Apply a row's ``leader = false`` to its ``merged`` tables (module docstring): the
+    base case's ``[reference]`` is dropped (the design itself is not replaced)."""
     if "leader" not in row:
-        return False
+        return
     v = row["leader"]
     if v is not False:
         raise InputError(f"expected {where}.leader = false (the runs have no leader), received "
                          f"{v!r:.40}")
     merged.pop("reference", None)
     over["leader"] = False
-    return False
 
 
 def rate_sensors(spec: dict[str, Any], n: int) -> Any:
