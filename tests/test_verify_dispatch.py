@@ -60,9 +60,9 @@ def test_bad_cases_are_refused_with_one_line() -> None:
         fs.verify_case(DATA / "missing.toml")
     with pytest.raises(InputError, match='expected \\[case\\] kind = "engine"'):
         fs.verify_case(DATA / "case_with_spec.toml")  # a simulation case, not a verification case
-    with pytest.raises(InputError) as e:  # a Lagrangian-only design cannot run the engine case
-        fs.verify_case(DATA / "case_short_horizon.toml", spec=DATA / "case_spec_fast.py")
-    assert "\n" not in str(e.value)
+    with pytest.raises(InputError) as e:  # a tracking design cannot run a formation's case
+        fs.verify_case(DATA / "case_short_horizon.toml", spec="zhang2014_flyaround")
+    assert "\n" not in str(e.value)  # read in the tracking form: its tables are missing
 
 
 @pytest.mark.slow

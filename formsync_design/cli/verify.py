@@ -23,7 +23,8 @@ formsync_design/verify/enginecase.py.
 
 CASE is a shipped case's name (liang2016 = verification/liang2016.toml) or a
 case TOML file ([case] kind = "engine").  --design replaces the case file's
-[case] design (a shipped design's name or a design .py file).
+[case] design (a shipped design's name or a design .py file; a Lagrangian
+design file runs in its agent form, its own Theta_i/Pi conditions certified).
 
 Writes <out>/<CASE file stem>-verification.md, its figures under
 <out>/figures/<CASE file stem>-verification/, and the derivation report it
