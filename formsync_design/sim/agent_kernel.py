@@ -357,6 +357,15 @@ class AgentKernel:
     compile_seconds: float = 0.0
     laws: dict[int, AgentLaw] = field(default_factory=dict)
     measured: bool = False
+    mapped: dict[int, ca.Function] = field(default_factory=dict)
+
+    def observe_map(self, samples: int) -> ca.Function:
+        """``observe`` mapped over ``samples`` columns (built once per count and kept: runs
+        on one output grid share it)."""
+        fn = self.mapped.get(samples)
+        if fn is None:
+            fn = self.mapped[samples] = self.observe.map(samples)
+        return fn
 
 
 def _normalise(x: Any, n: int, leader_at: int | None) -> Any:

@@ -518,8 +518,10 @@ def observe_grid(kern: Any, X: np.ndarray, t: np.ndarray, p: np.ndarray,
     CasADi function mapped over the ``K`` samples (columns), each evaluated as one call of
     it would be; ``(K, 3 N)`` torques and ``(K, monitors)``."""
     K = X.shape[0]
-    fn = kern.observe.map(K)
-    args = [X.T, np.asarray(t, float).reshape(1, K), np.tile(np.asarray(p, float).reshape(-1, 1), (1, K))]
+    fn = kern.observe_map(K)
+    # the parameter vector is one column, which the mapped function repeats for every sample
+    # (a tiled (P, K) copy cost more to convert than the evaluations themselves)
+    args = [X.T, np.asarray(t, float).reshape(1, K), np.asarray(p, float).reshape(-1, 1)]
     if ext is not None:
         args.append(np.asarray(ext, float).T)
     u, m = fn(*args)
