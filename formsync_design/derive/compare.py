@@ -149,6 +149,27 @@ def _exact_zero(x: sp.Expr) -> bool:
     return bool(sp.simplify(v) == 0)
 
 
+def _identically_zero(entries: Any) -> bool:
+    """Is every entry (a rational function of its symbols with rational coefficients)
+    identically zero?  Each is brought to the canonical form of the field of rational
+    functions over QQ (expanded numerator over expanded denominator, common factors
+    cancelled), which is zero exactly when the expression is: the same decision as
+    ``sp.expand(x) == 0``, at about half its cost on the model's entries.
+
+    >>> a, b = sp.symbols("a b")
+    >>> _identically_zero([(a + b)**2 - a**2 - 2*a*b - b**2, 1/a - b/(a*b)])
+    True
+    >>> _identically_zero([(a + b)**2 - a**2 - b**2])
+    False
+    """
+    entries = list(entries)
+    gens = sorted(set().union(*(sp.sympify(x).free_symbols for x in entries)), key=str)
+    if not gens:
+        return all(sp.sympify(x) == 0 for x in entries)
+    K = sp.field(gens, sp.QQ)[0]
+    return all(K.from_expr(x) == 0 for x in entries)
+
+
 def _identity_residual(vec: Any, m: AttitudeModel) -> list[sp.Expr]:
     """Entries of ``vec`` expanded and reduced on the unit sphere (zero iff an identity)."""
     return [reduce_unit(sp.expand(x), m.q, m.q0) for x in vec]
@@ -293,7 +314,7 @@ def _model_findings(pr: ModuleType) -> tuple[Finding, ...]:
 
     # 6. Euler-Lagrange structure
     Adot = m.A.applyfunc(m.time_derivative)
-    zero = all(sp.expand(x) == 0 for x in (Adot - m.B - m.B.T))
+    zero = _identically_zero(Adot - m.B - m.B.T)
     out.append(Finding(
         key="A-dot-minus-2B", meaning=MEANINGS["A-dot-minus-2B"],
         item="$\\dot{\\mathbf{A}} - 2\\mathbf{B}$ skew-symmetric (standard Euler-Lagrange property)",

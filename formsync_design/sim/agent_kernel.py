@@ -358,6 +358,22 @@ class AgentKernel:
     laws: dict[int, AgentLaw] = field(default_factory=dict)
     measured: bool = False
     mapped: dict[int, ca.Function] = field(default_factory=dict)
+    integrators: dict[tuple[Any, ...], ca.Function] = field(default_factory=dict)
+
+    def cvodes(self, grid: np.ndarray, rtol: float, atol: float) -> ca.Function:
+        """CasADi's CVODES over ``rhs`` from ``t = 0`` to the output times ``grid``
+        (``x0``, ``p`` -> ``xf`` at every time), built once per grid and tolerances and kept:
+        the runs of a verification on one formation share it."""
+        key = (np.asarray(grid, dtype=float).tobytes(), float(rtol), float(atol))
+        fn = self.integrators.get(key)
+        if fn is None:
+            xs, ts = ca.SX.sym("x", self.nx), ca.SX.sym("t")
+            ps = ca.SX.sym("p", self.layout["_size"].stop)
+            ode = {"x": xs, "t": ts, "p": ps, "ode": self.rhs(xs, ts, ps)}
+            fn = self.integrators[key] = ca.integrator(
+                "agents", "cvodes", ode, 0.0, [float(v) for v in grid],
+                {"reltol": rtol, "abstol": atol, "max_num_steps": 10**7})
+        return fn
 
     def observe_map(self, samples: int) -> ca.Function:
         """``observe`` mapped over ``samples`` columns (built once per count and kept: runs

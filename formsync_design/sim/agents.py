@@ -480,13 +480,7 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
                                    f"ends at t = {float(t[-1]):g} s): try a smaller step or a "
                                    "boundary layer")
     else:
-        import casadi as ca
-
-        xs, ts = ca.SX.sym("x", kern.nx), ca.SX.sym("t")
-        ps = ca.SX.sym("p", p.size)
-        ode = {"x": xs, "t": ts, "p": ps, "ode": kern.rhs(xs, ts, ps)}
-        integ = ca.integrator("agents", "cvodes", ode, 0.0, t[1:].tolist(),
-                              {"reltol": opt.rtol, "abstol": opt.atol, "max_num_steps": 10**7})
+        integ = kern.cvodes(t[1:], opt.rtol, opt.atol)
         try:
             sol = integ(x0=x0, p=p)
         except RuntimeError as e:
