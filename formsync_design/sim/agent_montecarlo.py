@@ -99,7 +99,7 @@ def run_agent_montecarlo(design: Any, base: AgentFormation, box: GainBox,
         cert, reason = str(res.status), res.reason
     runs = []
     t0 = time.perf_counter()
-    for k, seed in enumerate(settings.run_seeds()):
+    for seed in settings.run_seeds():
         f = agent_run_formation(design, base, box, settings, seed)
         r = simulate_agents(design, f, options)
         runs.append(MonteCarloRun(
@@ -112,8 +112,8 @@ def run_agent_montecarlo(design: Any, base: AgentFormation, box: GainBox,
             min_interevent=None if r.min_interevent is None
             else float(np.nanmin(r.min_interevent)),
             diverged_time=r.diverged_time))
-        if progress is not None:
-            progress(k + 1)
+        if progress is not None:  # the runs finished since the last call, as the batch path
+            progress(1)
     wall = time.perf_counter() - t0
     ct = np.array([r.convergence_time for r in runs if r.convergence_time is not None])
     ct_stats = (

@@ -333,8 +333,9 @@ def run_montecarlo(
         ``AgentFormation``, ``options`` ``AgentOptions``); its result is a
         :class:`~formsync_design.sim.montecarlo_data.MonteCarloResult` too, of agent runs.
     progress : callable, optional
-        Called with the number of runs finished after every batch (a progress bar; a
-        smaller ``batch`` moves it more often, with identical runs).
+        Called with the number of runs finished since its last call, after every batch (an
+        agent design: after every run), e.g. ``Progress.update`` of a progress bar; a
+        smaller ``batch`` moves it more often, with identical runs.
 
     Examples
     --------
@@ -352,7 +353,7 @@ def run_montecarlo(
     agent = agent_design_of(spec)
     if agent is not None:  # an agent design: its own campaign (agent runs)
         return monte_carlo_agents(agent, base, box, settings, options,
-                                  certify=certify)
+                                  certify=certify, progress=progress)
     sp_spec = load_spec(spec)
     bx = mc_box(box, sp_spec) if box is not None else point_box(base.gains, sp_spec)
     st = (settings if settings is not None else MonteCarloSettings()).resolved_for("lagrangian")
