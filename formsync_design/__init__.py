@@ -163,6 +163,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "torque_figures": "formsync_design.sim.figures",
     "MonteCarloSettings": "formsync_design.sim",
     "MonteCarloResult": "formsync_design.sim",
+    "MonteCarloRun": "formsync_design.sim",
     "monte_carlo": ("formsync_design.sim", "run_montecarlo"),
     # verification of a published case
     "Case": "formsync_design.verify",
@@ -192,8 +193,6 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "design_agent": "formsync_design.certify.agent",
     "AgentGainDesign": "formsync_design.certify.agent",
     "run_agent_montecarlo": "formsync_design.sim.agent_montecarlo",
-    "AgentMonteCarloSettings": "formsync_design.sim.agent_montecarlo",
-    "AgentMonteCarloResult": "formsync_design.sim.agent_montecarlo",
     "agent_derivation": "formsync_design.derive.agent_report",
     "write_agent_derivation_report": "formsync_design.derive.agent_report",
     # campaigns

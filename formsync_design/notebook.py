@@ -20,8 +20,7 @@ The ``to_pandas()`` columns of each type:
 
 * :class:`AgentResult`: The time series (``t``, ``attitude_error_deg``, ``rate_error``, ``reference_error_deg`` with a leader, torques ``u<axis>_<spacecraft>``)
 * :class:`SimResult`: The time series (``t``, ``q_m``, ``omega_m``, torques ``u<axis>_<spacecraft>``)
-* :class:`MonteCarloResult`: One row per run (the columns of ``runs.csv``)
-* :class:`AgentMonteCarloResult`: One row per run (the columns of ``runs.csv``)
+* :class:`MonteCarloResult`: One row per run (the columns of ``runs.csv``, those of the campaign's path)
 * :class:`RegionMap`: One row per box of the subdivision (``<gain>_lo``, ``<gain>_hi``, ``status``, ``family``, ``reason``)
 * :class:`CertificationResult`: One row per matrix family (``family``, ``size``, ``status``, bounds of its smallest eigenvalue)
 * :class:`EngineVerification` (and a tracking case's :class:`TrackingVerification`): One row per claim (``id``, ``claim``, ``verdict``, ``basis``, ``source``, ``predicate``, ``deciding`` metrics, ``scope``)
@@ -117,6 +116,8 @@ def _agent_frame(r: Any) -> dict[str, Any]:
 
 
 def _mc(r: Any) -> tuple[str, list[tuple[str, str]]]:
+    if r.is_agent:
+        return _agent_mc(r)
     ct = r.convergence_time_stats
     return "Monte-Carlo", [
         ("status", "all converged" if r.all_converged else f"{len(r.failures)} failed"),
@@ -210,7 +211,6 @@ _VIEWS: dict[str, tuple[Any, Any]] = {
     "SimResult": (_sim, _sim_frame),
     "AgentResult": (_agent, _agent_frame),
     "MonteCarloResult": (_mc, _runs_frame),
-    "AgentMonteCarloResult": (_agent_mc, _runs_frame),
     "RegionMap": (_region, _region_frame),
     "CertificationResult": (_cert, _cert_frame),
     "EngineVerification": (_verification, _verification_frame),

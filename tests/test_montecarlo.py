@@ -102,8 +102,11 @@ def test_bad_settings():
         MonteCarloSettings(runs=MAX_RUNS + 1)
     with pytest.raises(InputError):
         MonteCarloSettings(runs=0)
+    with pytest.raises(InputError):  # q0 > 0 initially: below 180 deg for a Lagrangian design
+        MonteCarloSettings(max_angle_deg=180.0).resolved_for("lagrangian")
+    assert MonteCarloSettings(max_angle_deg=180.0).resolved_for("agent").max_angle_deg == 180.0
     with pytest.raises(InputError):
-        MonteCarloSettings(max_angle_deg=180.0)
+        MonteCarloSettings(max_angle_deg=180.5)
     with pytest.raises(InputError):
         MonteCarloSettings(seed=-1)
 

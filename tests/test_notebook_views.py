@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import formsync_design as fs
-from formsync_design.sim.agent_montecarlo import AgentMonteCarloSettings, run_agent_montecarlo
+from formsync_design.sim.agent_montecarlo import run_agent_montecarlo
 from formsync_design.spec.agent import agent_design_from_functions
 
 pd = pytest.importorskip("pandas")
@@ -54,7 +54,7 @@ def test_agent_result_frame_is_its_time_series_and_html_escapes(agent_run: tuple
 def test_agent_montecarlo_frame_has_one_row_per_run(agent_run: tuple) -> None:
     design, f, _ = agent_run
     res = run_agent_montecarlo(design, f, fs.GainBox.parse({"k": "0.5:1"}),
-                               AgentMonteCarloSettings(runs=3, max_angle_deg=0, max_rate=0.001),
+                               fs.MonteCarloSettings(runs=3, max_angle_deg=0, max_rate=0.001),
                                fs.AgentOptions(tf=2, output_step=0.5, step=0.05, rate_tol=1.0))
     df = res.to_pandas()
     assert list(df["seed"]) == [r.seed for r in res.runs]

@@ -104,6 +104,24 @@ def test_montecarlo_batches_move_the_bar_and_give_the_same_runs() -> None:
     assert [r.to_dict() for r in small.runs] == [r.to_dict() for r in whole.runs]
 
 
+def test_agent_montecarlo_reports_each_finished_run_once() -> None:
+    """An agent design's campaign calls ``progress`` with the runs finished since the last
+    call, as the batch path does (a bar's ``update``), also through ``fs.monte_carlo``."""
+    import numpy as np
+
+    import formsync_design as fs
+    from formsync_design.spec.agent import agent_design_from_functions
+
+    d = agent_design_from_functions(lambda v: -v.k * v.J * v.w, gains={"k": {}})
+    f = fs.AgentFormation(fs.load_graph("path:2"), np.array([np.eye(3)] * 2),
+                          np.array([[0, 0, 0, 1.0]] * 2), np.zeros((2, 3)), fs.Gains(k=1.0))
+    calls: list[int] = []
+    res = fs.monte_carlo(f, {"k": "0.5:1"}, fs.MonteCarloSettings(runs=3, max_angle_deg=0),
+                         fs.AgentOptions(tf=2, output_step=0.5, step=0.05, rate_tol=1.0),
+                         certify=False, spec=d, progress=calls.append)
+    assert calls == [1, 1, 1] and sum(calls) == len(res.runs)
+
+
 def _on_a_pty(*argv: str) -> tuple[int, str, str]:
     """Run ``python -m formsync_design ARGV`` with stderr on a pseudo-terminal of 120 columns."""
     pty = pytest.importorskip("pty")

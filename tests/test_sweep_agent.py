@@ -208,8 +208,9 @@ def _mc_truth(graph, n):
 
     from formsync_design.gains import GainBox
     from formsync_design.graphs import load_graph
-    from formsync_design.sim.agent_montecarlo import AgentMonteCarloSettings, run_agent_montecarlo
+    from formsync_design.sim.agent_montecarlo import run_agent_montecarlo
     from formsync_design.sim.agents import AgentFormation
+    from formsync_design.sim.montecarlo_data import MonteCarloSettings
     from formsync_design.verify.agentcase import load_agent_case
 
     d = load_design(SO3)
@@ -218,7 +219,7 @@ def _mc_truth(graph, n):
     f = AgentFormation(load_graph(graph), case.inertias[idx], case.attitudes[idx],
                        case.rates[idx], case.gains)
     box = GainBox.parse({"k_R": Fraction(4, 5), "k_w": Fraction(3, 2)})
-    st = AgentMonteCarloSettings(runs=2, seed=1, max_angle_deg=20.0, max_rate=0.01)
+    st = MonteCarloSettings(runs=2, seed=1, max_angle_deg=20.0, max_rate=0.01)
     res = run_agent_montecarlo(d, f, box, st, replace(case.options, tf=15.0), certify=False)
     times = [r.convergence_time for r in res.runs if r.convergence_time is not None]
     status = [r.status for r in res.runs]

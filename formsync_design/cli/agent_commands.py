@@ -290,12 +290,9 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
     from formsync_design.gains import GainBox, GainRange, parse_number
     from formsync_design.graphs.theorem import check_theorem_graph
     from formsync_design.progress import Progress
-    from formsync_design.sim.agent_montecarlo import (
-        AgentMonteCarloSettings,
-        agent_run_formation,
-        run_agent_montecarlo,
-    )
+    from formsync_design.sim.agent_montecarlo import agent_run_formation, run_agent_montecarlo
     from formsync_design.sim.agents import simulate_agents
+    from formsync_design.sim.montecarlo_data import MonteCarloSettings
 
     refuse_lagrangian_options(args, ("ko", "kq", "beta", "kv", "q_tol", "omega_tol", "no_phases", "threads"), design)
     from formsync_design.cli.defaults import agent_criterion, agent_graph
@@ -318,10 +315,10 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
     box = design_box(design, named)
     box = GainBox(tuple(r for r in box.ranges if r.name in design.decl.controller_gains))
     assert all(isinstance(r, GainRange) for r in box.ranges)
-    settings = AgentMonteCarloSettings(
+    settings = MonteCarloSettings(
         runs=int(args.runs), seed=int(args.seed),  # checked up front (cli.montecarlo.run)
         max_angle_deg=float(parse_number(args.max_angle, "--max-angle")),
-        max_rate=float(parse_number(args.max_rate, "--max-rate")))
+        max_rate=float(parse_number(args.max_rate, "--max-rate"))).resolved_for("agent")
     opt = agent_options(args, case.options)
     criterion, dist = agent_criterion(case, opt, args.disturbance)
     defaults.add(f"criterion: {criterion}")
@@ -345,7 +342,7 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
                   f"{r.attitude_error[-1]:.3e} deg" + (f" ({r.message})" if r.diverged_time is not None
                                                        else ""))
         return EXIT_OK if str(r.status) == "converged" else EXIT_NEGATIVE
-    prog = Progress(settings.runs, "montecarlo", enabled=args.format == "text")
+    prog = Progress(settings.numbers()[0], "montecarlo", enabled=args.format == "text")
     res = run_agent_montecarlo(design, replace(base), box, settings, opt,
                                certify=not args.no_certify and theorem.inside,
                                progress=prog.update)

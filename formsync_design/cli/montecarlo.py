@@ -276,7 +276,7 @@ def run(args: argparse.Namespace) -> int:
         runs=_int(args.runs, "--runs", 1), seed=_int(args.seed, "--seed", 0),
         max_angle_deg=_float(args.max_angle, "--max-angle"), max_rate=_float(args.max_rate, "--max-rate"),
         phases=not args.no_phases,
-    )
+    ).resolved_for("lagrangian")
     opt = options_from_args(args, replace(case.options, norm_tol=1e-5))
     given = [n for n, v in legacy.items() if v is not None] + list(parse_gain_assignments(args.gain))
     have = {n: v for n, v in base.gains.as_dict().items() if n not in given}
@@ -303,10 +303,11 @@ def run(args: argparse.Namespace) -> int:
     threads = _int(args.threads, "--threads", 1) if args.threads is not None else None
     # the certificate needs the derivation, which needs an undirected graph inside the theorem
     certify = not args.no_certify and theorem.inside and isinstance(graph, Graph)
-    with Progress(settings.runs, "montecarlo", enabled=args.format == "text", unit="run") as prog:
+    runs = settings.numbers()[0]
+    with Progress(runs, "montecarlo", enabled=args.format == "text", unit="run") as prog:
         # batches of about 1/20 of the campaign move the bar (the runs are the same)
         res = run_montecarlo(base, box, settings, opt, threads=threads, certify=certify, spec=spec,
-                             batch=min(2000, max(1, -(-settings.runs // 20))) if prog.enabled
+                             batch=min(2000, max(1, -(-runs // 20))) if prog.enabled
                              else 2000, progress=prog.update)
     summ = {**flag, "case": case.name, "specification": spec.name, "graph": graph.name,
             "disturbance": base.disturbance.kind, "criterion": criterion,
@@ -354,7 +355,7 @@ def _text(case: Any, graph: Any, base: Any, res: Any, written: list[str], spec: 
     lines.append(f"  worst final Q_m {_g(sm['worst_final_q_m'])}, worst final Omega_m {_g(sm['worst_final_omega_m'])} rad/s, "
                  f"min q0 {_g(sm['min_q0'], '.4f')}, max |u| {_g(sm['max_peak_torque'], '.3g')} N m")
     lines.append(f"  time: {res.wall_seconds:.2f} s for the batch (+ build {res.build_seconds:.2f} s)")
-    c = res.certification
+    c = res.certification or {"status": "skipped"}
     if c.get("status") in ("skipped", "unavailable"):
         lines.append(f"  certification of the box: {c['status']}")
     else:

@@ -46,6 +46,7 @@ if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
     from formsync_design.sim.montecarlo import run_montecarlo as run_montecarlo
     from formsync_design.sim.montecarlo_data import (
         MonteCarloResult as MonteCarloResult,
+        MonteCarloRun as MonteCarloRun,
         MonteCarloSettings as MonteCarloSettings,
         RunStatus as RunStatus,
     )
@@ -72,6 +73,7 @@ _LAZY: dict[str, str] = {
     "HybridStatus": "formsync_design.sim.hybrid",
     "simulate_hybrid": "formsync_design.sim.hybrid",
     "MonteCarloResult": "formsync_design.sim.montecarlo_data",
+    "MonteCarloRun": "formsync_design.sim.montecarlo_data",
     "MonteCarloSettings": "formsync_design.sim.montecarlo_data",
     "RunStatus": "formsync_design.sim.montecarlo_data",
     "run_montecarlo": "formsync_design.sim.montecarlo",
@@ -95,6 +97,7 @@ __all__ = [
     "simulate",
     "MonteCarloSettings",
     "MonteCarloResult",
+    "MonteCarloRun",
     "RunStatus",
     "run_montecarlo",
     "HybridOptions",

@@ -16,57 +16,32 @@ seen between runs (each run is one call of at most a few seconds).
 
 from __future__ import annotations
 
-import math
+import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from formsync_design.errors import InputError
-from formsync_design.gains import GainBox, json_number
-from formsync_design.notebook import NotebookViews
-from formsync_design.sim.agents import AgentFormation, AgentOptions, simulate_agents
+from formsync_design.gains import GainBox
+from formsync_design.sim.agents import AgentFormation, AgentOptions, AgentStatus, simulate_agents
 from formsync_design.sim.formation import Gains
+from formsync_design.sim.montecarlo_data import (
+    MonteCarloResult,
+    MonteCarloRun,
+    MonteCarloSettings,
+    RunStatus,
+)
 
-__all__ = ["AgentMonteCarloSettings", "AgentRun", "AgentMonteCarloResult", "agent_run_formation",
-           "run_agent_montecarlo", "monte_carlo_agents", "MAX_AGENT_RUNS"]
-
-#: Most runs per campaign.
-MAX_AGENT_RUNS = 100_000
-
-
-@dataclass(frozen=True)
-class AgentMonteCarloSettings:
-    """``runs``, master ``seed``, ``max_angle_deg`` (initial attitudes), ``max_rate`` (rad/s).
-
-    >>> AgentMonteCarloSettings(runs=10).run_seeds()[:1] == AgentMonteCarloSettings(runs=3).run_seeds()[:1]
-    True
-    """
-
-    runs: int = 100
-    seed: int = 0
-    max_angle_deg: float = 90.0
-    max_rate: float = 0.01
-
-    def __post_init__(self) -> None:
-        if not 1 <= self.runs <= MAX_AGENT_RUNS:
-            raise InputError(f"expected 1..{MAX_AGENT_RUNS} runs, received {self.runs}")
-        if not 0 <= self.max_angle_deg <= 180:  # a rotation angle: beyond 180 deg is a smaller one
-            raise InputError(f"expected max_angle_deg in [0, 180], received {self.max_angle_deg:g}")
-        if not (math.isfinite(self.max_rate) and self.max_rate >= 0):
-            raise InputError(f"expected max_rate >= 0, received {self.max_rate:g}")
-
-    def run_seeds(self) -> list[int]:
-        """The per-run seeds (the first ``k`` do not depend on ``runs``)."""
-        ss = np.random.SeedSequence(self.seed)
-        return [int(c.generate_state(1, dtype=np.uint64)[0] >> np.uint64(1))
-                for c in ss.spawn(self.runs)]
+__all__ = ["agent_run_formation", "run_agent_montecarlo", "monte_carlo_agents"]
 
 
 def agent_run_formation(design: Any, base: AgentFormation, box: GainBox,
-                        settings: AgentMonteCarloSettings, seed: int) -> AgentFormation:
-    """The formation of the run with ``seed`` (its gains, attitudes and rates drawn)."""
+                        settings: MonteCarloSettings, seed: int) -> AgentFormation:
+    """The formation of the run with ``seed`` (its gains, attitudes and rates drawn; a
+    setting not given: the agent path's default, :meth:`MonteCarloSettings.resolved_for`)."""
+    _, max_angle_deg, max_rate = settings.resolved_for("agent").numbers()
     rng = np.random.default_rng(seed)
     vals: dict[str, Any] = {}
     for g in design.decl.gains:
@@ -82,91 +57,19 @@ def agent_run_formation(design: Any, base: AgentFormation, box: GainBox,
     n = base.n
     axis = rng.normal(size=(n, 3))
     axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-    ang = np.radians(settings.max_angle_deg) * rng.random(n)
+    ang = np.radians(max_angle_deg) * rng.random(n)
     att = np.column_stack([np.sin(ang / 2)[:, None] * axis, np.cos(ang / 2)])
-    rates = rng.uniform(-settings.max_rate, settings.max_rate, size=(n, 3))
+    rates = rng.uniform(-max_rate, max_rate, size=(n, 3))
     return replace(base, attitudes=att, rates=rates, gains=Gains(vals))
 
 
-@dataclass(frozen=True)
-class AgentRun:
-    """One run's metrics (``status`` of :class:`~formsync_design.sim.agents.AgentStatus`)."""
-
-    seed: int
-    gains: dict[str, Any]
-    status: str
-    convergence_time: float | None
-    final_attitude_error: float
-    final_rate_error: float
-    peak_torque: float
-    effort: float
-    transmissions: int | None
-    min_interevent: float | None
-    diverged_time: float | None = None
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "seed": self.seed,
-            **{f"gain_{k}": (json_number(v) if not isinstance(v, tuple)
-                             else "[" + ", ".join(f"{x:.9g}" for x in v) + "]")
-               for k, v in self.gains.items()},
-            "status": self.status,
-            "diverged_time": None if self.diverged_time is None else json_number(self.diverged_time),
-            "convergence_time": None if self.convergence_time is None
-            else json_number(self.convergence_time),
-            "final_attitude_error_deg": json_number(self.final_attitude_error),
-            "final_rate_error": json_number(self.final_rate_error),
-            "peak_torque": json_number(self.peak_torque), "effort": json_number(self.effort),
-            "transmissions": self.transmissions,
-            "min_interevent": None if self.min_interevent is None
-            else json_number(self.min_interevent),
-        }
-
-
-@dataclass(frozen=True)
-class AgentMonteCarloResult(NotebookViews):
-    """A campaign: its runs, the settings, the box and the box's certificate status
-    (``None`` when not certified here)."""
-
-    design: str
-    graph: str
-    box: GainBox
-    settings: AgentMonteCarloSettings
-    runs: tuple[AgentRun, ...]
-    certificate: str | None
-    certificate_reason: str = ""
-
-
-    @property
-    def failures(self) -> tuple[AgentRun, ...]:
-        return tuple(r for r in self.runs if r.status != "converged")
-
-    @property
-    def all_converged(self) -> bool:
-        return not self.failures
-
-    def to_dict(self) -> dict[str, Any]:
-        times = [r.convergence_time for r in self.runs if r.convergence_time is not None]
-        return {
-            "design": self.design, "graph": self.graph, "box": str(self.box),
-            "runs": len(self.runs), "seed": self.settings.seed,
-            "max_angle_deg": json_number(self.settings.max_angle_deg),
-            "max_rate": json_number(self.settings.max_rate),
-            "converged": len(self.runs) - len(self.failures),
-            "diverged": sum(r.status == "diverged" for r in self.runs),
-            "failed_seeds": [r.seed for r in self.failures],
-            "convergence_time_max": json_number(max(times)) if times else None,
-            "convergence_time_median": json_number(float(np.median(times))) if times else None,
-            "peak_torque_max": json_number(max(r.peak_torque for r in self.runs)),
-            "certificate": self.certificate, "certificate_reason": self.certificate_reason,
-        }
-
-
 def run_agent_montecarlo(design: Any, base: AgentFormation, box: GainBox,
-                         settings: AgentMonteCarloSettings, options: AgentOptions, *,
+                         settings: MonteCarloSettings, options: AgentOptions, *,
                          certify: bool = True,
-                         progress: Callable[[int], None] | None = None) -> AgentMonteCarloResult:
-    """Run the campaign (module docstring).
+                         progress: Callable[[int], None] | None = None) -> MonteCarloResult:
+    """Run the campaign (module docstring): the worker of ``fs.monte_carlo`` for an agent
+    design (:func:`monte_carlo_agents`); a setting not given is the agent path's default
+    (:meth:`~formsync_design.sim.montecarlo_data.MonteCarloSettings.resolved_for`).
 
     Examples
     --------
@@ -176,12 +79,13 @@ def run_agent_montecarlo(design: Any, base: AgentFormation, box: GainBox,
     >>> f = AgentFormation(load_graph("path:2"), np.array([np.eye(3)] * 2),
     ...                    np.array([[0, 0, 0, 1.0]] * 2), np.zeros((2, 3)), Gains(k=1.0))
     >>> box = GainBox.parse({"k": "0.5:1"})
-    >>> res = run_agent_montecarlo(d, f, box, AgentMonteCarloSettings(runs=3, max_angle_deg=0,
+    >>> res = run_agent_montecarlo(d, f, box, MonteCarloSettings(runs=3, max_angle_deg=0,
     ...                            max_rate=0.001), AgentOptions(tf=2, output_step=0.5, step=0.05,
     ...                            rate_tol=1.0))
-    >>> len(res.runs), res.all_converged, res.certificate
-    (3, True, None)
+    >>> len(res.runs), res.all_converged, res.certificate, res.settings.max_rate
+    (3, True, None, 0.001)
     """
+    settings = settings.resolved_for("agent")
     cert, reason = None, ""
     if certify and callable(design.module.get("conditions")):
         from formsync_design.certify.engine import certify_box
@@ -194,11 +98,12 @@ def run_agent_montecarlo(design: Any, base: AgentFormation, box: GainBox,
                else certify_box(conds, box))
         cert, reason = str(res.status), res.reason
     runs = []
-    for k, seed in enumerate(settings.run_seeds()):
+    t0 = time.perf_counter()
+    for seed in settings.run_seeds():
         f = agent_run_formation(design, base, box, settings, seed)
         r = simulate_agents(design, f, options)
-        runs.append(AgentRun(
-            seed=seed, gains=f.gains.as_dict(), status=str(r.status),
+        runs.append(MonteCarloRun(
+            seed=seed, gains=tuple(f.gains.as_dict().items()), status=RunStatus(str(r.status)),
             convergence_time=r.convergence_time,
             final_attitude_error=float(r.attitude_error[-1]),
             final_rate_error=float(r.rate_error[-1]), peak_torque=float(r.peak_torque.max()),
@@ -207,21 +112,30 @@ def run_agent_montecarlo(design: Any, base: AgentFormation, box: GainBox,
             min_interevent=None if r.min_interevent is None
             else float(np.nanmin(r.min_interevent)),
             diverged_time=r.diverged_time))
-        if progress is not None:
-            progress(k + 1)
-    return AgentMonteCarloResult(design=design.name, graph=base.graph.name, box=box,
-                                 settings=settings, runs=tuple(runs), certificate=cert,
-                                 certificate_reason=reason)
+        if progress is not None:  # the runs finished since the last call, as the batch path
+            progress(1)
+    wall = time.perf_counter() - t0
+    ct = np.array([r.convergence_time for r in runs if r.convergence_time is not None])
+    ct_stats = (
+        {"min": float(ct.min()), "median": float(np.median(ct)),
+         "p95": float(np.percentile(ct, 95)), "max": float(ct.max())}
+        if ct.size else {"min": None, "median": None, "p95": None, "max": None}
+    )
+    return MonteCarloResult(
+        runs=tuple(runs), box=box, settings=settings, options=options,
+        counts={str(s): sum(r.status == s for r in runs) for s in AgentStatus},
+        convergence_time_stats=ct_stats, wall_seconds=wall, design=design.name,
+        graph=base.graph.name, certificate=cert, certificate_reason=reason)
 
 
-def monte_carlo_agents(design: Any, base: Any, box: Any = None, settings: Any = None,
-                       options: Any = None, *, certify: bool = True,
-                       progress: Any = None) -> Any:
-    """:func:`run_agent_montecarlo` from the generic
-    arguments of ``fs.monte_carlo``: ``box`` default the point of ``base.gains``; ``settings``
-    an :class:`AgentMonteCarloSettings` or a
-    :class:`~formsync_design.sim.montecarlo_data.MonteCarloSettings` (runs, seed, angles, rates
-    taken from it); ``options`` an :class:`~formsync_design.sim.agents.AgentOptions`."""
+def monte_carlo_agents(design: Any, base: Any, box: Any = None,
+                       settings: MonteCarloSettings | None = None, options: Any = None, *,
+                       certify: bool = True, progress: Any = None) -> MonteCarloResult:
+    """:func:`run_agent_montecarlo` from the generic arguments of ``fs.monte_carlo``:
+    ``box`` default the point of ``base.gains``; ``settings`` a
+    :class:`~formsync_design.sim.montecarlo_data.MonteCarloSettings` (default: the agent
+    path's defaults, as is every value it leaves unset); ``options`` an
+    :class:`~formsync_design.sim.agents.AgentOptions`."""
     if box is None:
         vals = {}
         for n, v in base.gains.as_dict().items():
@@ -231,11 +145,14 @@ def monte_carlo_agents(design: Any, base: Any, box: Any = None, settings: Any = 
     elif not isinstance(box, GainBox):
         box = GainBox.parse(box)
     if settings is None:
-        settings = AgentMonteCarloSettings()
-    elif not isinstance(settings, AgentMonteCarloSettings):
-        settings = AgentMonteCarloSettings(runs=int(settings.runs), seed=int(settings.seed),
-                                           max_angle_deg=float(settings.max_angle_deg),
-                                           max_rate=float(settings.max_rate))
+        settings = MonteCarloSettings()
+    elif not isinstance(settings, MonteCarloSettings):
+        raise InputError(f"expected MonteCarloSettings for the agent design {design.name}, "
+                         f"received {type(settings).__name__}")
+    else:  # the spreads given as floats (as the summary has always written them)
+        a, m = settings.max_angle_deg, settings.max_rate
+        settings = replace(settings, max_angle_deg=None if a is None else float(a),
+                           max_rate=None if m is None else float(m))
     if options is None:
         options = AgentOptions()
     elif not isinstance(options, AgentOptions):

@@ -151,13 +151,16 @@ def point_box(g: Gains, spec: Spec | str | Path | None = None) -> GainBox:
 def _run_seeds(settings: MonteCarloSettings) -> np.ndarray:
     """Per-run seeds (63-bit) derived from the master seed (stable across versions of numpy)."""
     ss = np.random.SeedSequence(settings.seed)
-    return ss.generate_state(settings.runs, dtype=np.uint64) >> np.uint64(1)
+    return ss.generate_state(settings.resolved_for("lagrangian").numbers()[0],
+                             dtype=np.uint64) >> np.uint64(1)
 
 
 def sample_formation(base: Formation, box: Any, settings: MonteCarloSettings, run_seed: int,
                      spec: Spec | str | Path | None = None) -> Formation:
     """The formation of one run (deterministic in ``run_seed``): gains of the design ``spec``
-    (default: the paper's) drawn from ``box`` (:func:`mc_box`), attitudes, rates and phases.
+    (default: the paper's) drawn from ``box`` (:func:`mc_box`), attitudes, rates and phases
+    (a setting not given: the Lagrangian path's default,
+    :meth:`~formsync_design.sim.montecarlo_data.MonteCarloSettings.resolved_for`).
 
     >>> from formsync_design.verify.case import load_case
     >>> f = load_case().formation()
@@ -191,7 +194,9 @@ def sample_formations(base: Formation, box: Any, settings: MonteCarloSettings,
     dims += [sw] if sw is not None else []
     lo = np.array([b[name][0] for name in dims])
     hi = np.array([b[name][1] for name in dims])
-    max_angle = math.radians(settings.max_angle_deg)
+    st = settings.resolved_for("lagrangian")
+    _, max_angle_deg, max_rate = st.numbers()
+    max_angle = math.radians(max_angle_deg)
     out: list[Formation] = []
     for run_seed in run_seeds:
         rng = np.random.default_rng(int(run_seed))
@@ -209,8 +214,8 @@ def sample_formations(base: Formation, box: Any, settings: MonteCarloSettings,
         ang = rng.uniform(0.0, max_angle, size=n)
         att = np.column_stack([axis * np.sin(ang / 2)[:, None], np.cos(ang / 2)])
         att /= np.linalg.norm(att, axis=1, keepdims=True)
-        rates = rng.uniform(-settings.max_rate, settings.max_rate, size=(n, 3))
-        dist = base.disturbance.with_phases(rng) if settings.phases else base.disturbance
+        rates = rng.uniform(-max_rate, max_rate, size=(n, 3))
+        dist = base.disturbance.with_phases(rng) if st.phases else base.disturbance
         out.append(Formation(base.graph, base.inertias, att, rates, gains, dist))
     return out
 
@@ -309,6 +314,8 @@ def run_montecarlo(
         Over the design's :func:`mc_gain_names` (``K_o, K_q, beta, K_v`` for the paper's;
         see :func:`mc_box`).  Default: the point box of ``base.gains``.
     settings : MonteCarloSettings, optional
+        A value not given is the default of the path that runs
+        (:meth:`~formsync_design.sim.montecarlo_data.MonteCarloSettings.resolved_for`).
     options : SimOptions, optional
         Default ``SimOptions(step=0.1, output_step=0.5, norm_tol=1e-5)``.
     threads : int, optional
@@ -323,11 +330,12 @@ def run_montecarlo(
         The design whose controller is simulated and whose gains are sampled (default:
         the paper's); its kernel is cached under ``spec.key``.  An agent design runs
         :func:`~formsync_design.sim.agent_montecarlo.monte_carlo_agents` (``base`` an
-        ``AgentFormation``, ``options`` ``AgentOptions``) and returns an
-        ``AgentMonteCarloResult``.
+        ``AgentFormation``, ``options`` ``AgentOptions``); its result is a
+        :class:`~formsync_design.sim.montecarlo_data.MonteCarloResult` too, of agent runs.
     progress : callable, optional
-        Called with the number of runs finished after every batch (a progress bar; a
-        smaller ``batch`` moves it more often, with identical runs).
+        Called with the number of runs finished since its last call, after every batch (an
+        agent design: after every run), e.g. ``Progress.update`` of a progress bar; a
+        smaller ``batch`` moves it more often, with identical runs.
 
     Examples
     --------
@@ -343,12 +351,13 @@ def run_montecarlo(
     from formsync_design.spec.loader import agent_design_of
 
     agent = agent_design_of(spec)
-    if agent is not None:  # an agent design: its own campaign (AgentMonteCarloResult)
+    if agent is not None:  # an agent design: its own campaign (agent runs)
         return monte_carlo_agents(agent, base, box, settings, options,
-                                  certify=certify)
+                                  certify=certify, progress=progress)
     sp_spec = load_spec(spec)
     bx = mc_box(box, sp_spec) if box is not None else point_box(base.gains, sp_spec)
-    st = settings if settings is not None else MonteCarloSettings()
+    st = (settings if settings is not None else MonteCarloSettings()).resolved_for("lagrangian")
+    runs_total = st.numbers()[0]
     opt = options if options is not None else DEFAULT_OPTIONS
     if opt.method == "cvodes":
         raise InputError(f"expected the rk4 or dopri5 integrator for Monte-Carlo runs, received {opt.integrator!r}")
@@ -378,7 +387,7 @@ def run_montecarlo(
     # Python only between calls of the compiled kernel, ends the campaign within a second
     size = min(batch, 4 * nthreads)
     b0 = 0
-    while b0 < st.runs:
+    while b0 < runs_total:
         fb = forms[b0 : b0 + size]
         tb = time.perf_counter()
         P = np.stack([pack_params(f, opt, sp_spec) for f in fb])
@@ -406,7 +415,9 @@ def run_montecarlo(
     )
     cert = cert_job.result() if cert_job is not None else {"status": "skipped"}
     return MonteCarloResult(
-        tuple(runs), bx, st, opt, counts, ct_stats, wall, build, cert, sp_spec.key
+        runs=tuple(runs), box=bx, settings=st, options=opt, counts=counts,
+        convergence_time_stats=ct_stats, wall_seconds=wall, build_seconds=build,
+        certification=cert, spec_key=sp_spec.key,
     )
 
 
@@ -485,9 +496,9 @@ def _summarize_run(index: int, seed: int, f: Formation, S: np.ndarray, opt: SimO
             minq, peak = float(r.min_q0.min()), float(r.peak_torque.max())
             nerr = float(r.stats["max_norm_error"])
     return MonteCarloRun(
-        index=index, seed=seed, gains=_run_gains(f.gains, names),
-        status=status, convergence_time=ctime, final_q_m=final_q, final_omega_m=final_om,
-        min_q0=minq, peak_torque=peak, norm_error=nerr, event_time=event,
+        seed=seed, gains=_run_gains(f.gains, names), status=status, convergence_time=ctime,
+        peak_torque=peak, index=index, final_q_m=final_q, final_omega_m=final_om,
+        min_q0=minq, norm_error=nerr, event_time=event,
     )
 
 

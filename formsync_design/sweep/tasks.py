@@ -187,7 +187,7 @@ def agent_mc_inputs(graph: Graph, mc: dict[str, Any], design: Any,
     from dataclasses import replace
 
     from formsync_design.gains import GainBox
-    from formsync_design.sim.agent_montecarlo import AgentMonteCarloSettings
+    from formsync_design.sim.montecarlo_data import MonteCarloSettings
     from formsync_design.tomlio import parse_toml
     from formsync_design.verify.agentcase import parse_agent_case
 
@@ -195,8 +195,9 @@ def agent_mc_inputs(graph: Graph, mc: dict[str, Any], design: Any,
                             design=design).cycled(graph.n)
     names = tuple(design.decl.controller_gains)
     box = GainBox.parse([(v, v) for v in gains], names)
-    settings = AgentMonteCarloSettings(runs=mc["runs"], seed=mc["seed"],
-                                       max_angle_deg=mc["max_angle_deg"], max_rate=mc["max_rate"])
+    settings = MonteCarloSettings(runs=mc["runs"], seed=mc["seed"],
+                                  max_angle_deg=mc["max_angle_deg"],
+                                  max_rate=mc["max_rate"]).resolved_for("agent")
     opt = replace(case.options, **{k: mc[k] for k in ("tf", "step", "output_step")
                                    if mc[k] is not None})
     base = case.formation(graph, disturbance=mc["disturbance"] or None)

@@ -214,12 +214,12 @@ class EngineResults:
             c = self.case_for(formation, scenario)
             base = c.formation(self.case.formation(formation).graph)
             st = mc.settings
+            runs, max_angle_deg, max_rate = st.numbers()
             if mc.draws == "about-reference":
-                self._draws[key] = reference_draws(base, c.reference, st.runs, st.seed,
-                                                   st.max_angle_deg, mc.rate_sigma)
+                self._draws[key] = reference_draws(base, c.reference, runs, st.seed,
+                                                   max_angle_deg, mc.rate_sigma)
             elif mc.draws == "euler-uniform":
-                self._draws[key] = euler_draws(base, st.runs, st.seed, st.max_angle_deg,
-                                               st.max_rate)
+                self._draws[key] = euler_draws(base, runs, st.seed, max_angle_deg, max_rate)
             else:
                 box = self._mc_box(c)
                 self._draws[key] = [agent_run_formation(c.design, base, box, st, sd)
@@ -453,7 +453,7 @@ def run_engine(case: EngineCase, progress: Callable[[str], None] = lambda s: Non
         else:
             assert case.montecarlo is not None
             per = [_checked(m, m.spec.fn(replace(ctx, draw=k)))
-                   for k in range(case.montecarlo.settings.runs)]
+                   for k in range(case.montecarlo.settings.numbers()[0])]
             v = aggregate(per, m.aggregate, m.skip_unknown, m.spec.unit)
         values[m.id] = v
         rows.append((m, v))

@@ -5,7 +5,7 @@ Three draw rules (``[montecarlo] draws``, :mod:`formsync_design.verify.enginecas
 
 ``box`` (the default)
     the draws of :func:`~formsync_design.sim.agent_montecarlo.run_agent_montecarlo`: one
-    seed per run (:meth:`~formsync_design.sim.agent_montecarlo.AgentMonteCarloSettings.run_seeds`),
+    seed per run (:meth:`~formsync_design.sim.montecarlo_data.MonteCarloSettings.run_seeds`),
     the gains uniform in the box, every initial attitude a rotation from the identity by an
     angle uniform in ``[0, max_angle]`` about a uniform axis, rates uniform in
     ``[-max_rate, max_rate]`` (:func:`~formsync_design.sim.agent_montecarlo.agent_run_formation`);

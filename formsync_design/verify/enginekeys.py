@@ -25,7 +25,7 @@ from typing import Any
 
 from formsync_design.errors import InputError
 from formsync_design.ranges import check_range
-from formsync_design.sim.agent_montecarlo import MAX_AGENT_RUNS, AgentMonteCarloSettings
+from formsync_design.sim.montecarlo_data import MAX_RUNS, MonteCarloSettings
 from formsync_design.verify.agentcase import AgentCase, parse_agent_case
 from formsync_design.verify.enginedraws import DRAW_RULES
 
@@ -41,7 +41,7 @@ class MonteCarloSpec:
     (:data:`~formsync_design.verify.enginedraws.DRAW_RULES`) and ``rate_sigma`` (rad/s,
     ``about-reference``)."""
 
-    settings: AgentMonteCarloSettings
+    settings: MonteCarloSettings
     box: dict[str, str]
     tf: float | None = None
     draws: str = "box"
@@ -77,11 +77,12 @@ def parse_montecarlo(data: dict, base: AgentCase) -> MonteCarloSpec | None:
     if not isinstance(t, dict):
         raise InputError(f"expected a [montecarlo] table, received {t!r:.60}")
     _check_keys(t)
-    settings = AgentMonteCarloSettings(
-        runs=_int(t.get("runs", 20), "montecarlo.runs", 1, MAX_AGENT_RUNS),
+    settings = MonteCarloSettings(
+        runs=_int(t.get("runs", 20), "montecarlo.runs", 1, MAX_RUNS),
         seed=_int(t.get("seed", 0), "montecarlo.seed", 0, 2**63 - 1),
         max_angle_deg=_number(t.get("max_angle", 90.0), "montecarlo.max_angle", "angle"),
-        max_rate=_number(t.get("max_rate", 0.01), "montecarlo.max_rate", "rate"))
+        max_rate=_number(t.get("max_rate", 0.01), "montecarlo.max_rate", "rate")
+    ).resolved_for("agent")
     draws = t.get("draws", "box")
     if draws not in DRAW_RULES:
         raise InputError(f"expected montecarlo.draws among {list(DRAW_RULES)}, received "

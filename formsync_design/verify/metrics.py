@@ -374,7 +374,7 @@ class MetricContext:
         return self.results.certificate(self.formation, self.scenario)
 
     def montecarlo(self) -> Any:
-        """The :class:`~formsync_design.sim.agent_montecarlo.AgentMonteCarloResult`."""
+        """The :class:`~formsync_design.sim.montecarlo_data.MonteCarloResult` (agent runs)."""
         return self.results.montecarlo(self.formation, self.scenario)
 
     def value(self, value: float | str | None, detail: str = "", bound: str = "exact") -> MetricValue:
