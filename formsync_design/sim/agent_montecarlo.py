@@ -90,7 +90,7 @@ def agent_run_formation(design: Any, base: AgentFormation, box: GainBox,
 
 @dataclass(frozen=True)
 class AgentRun:
-    """One run's metrics (``status`` of :class:`~formsync_design.sim.agents.AgentStatus`)."""
+    """One run's metrics (``status`` of :data:`~formsync_design.sim.agents.AGENT_STATUSES`)."""
 
     seed: int
     gains: dict[str, Any]

@@ -63,7 +63,7 @@ class RunStatus(enum.StrEnum):
     """How one Monte-Carlo run ended.
 
     ``converged`` / ``not-converged`` (horizon reached, ``convergence_time``
-    None) as in :class:`~formsync_design.sim.formation.SimStatus`; ``singular``:
+    None) as in :class:`~formsync_design.sim.result.SimStatus`; ``singular``:
     some ``q0`` reached ``q0_floor`` (``event_time``); ``diverged``: NaN/inf
     (``event_time``); ``inaccurate``: quaternion norm drift above ``norm_tol``.
     """
