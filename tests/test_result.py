@@ -166,3 +166,22 @@ def test_a_diverged_replacement_keeps_the_status_type(
     lag, _ = both_paths
     d = replace(lag, status=SimStatus.DIVERGED, diverged_time=0.5, convergence_time=None)
     assert d.stopped_early and d.to_dict()["status"] == "diverged"
+    assert np.array_equal(d.attitude_error, lag.attitude_error)
+
+
+def test_the_lagrangian_measures_computed_on_first_read_are_the_shared_functions(
+        ring4: tuple[Formation, AgentFormation]) -> None:
+    """The Lagrangian simulator leaves attitude_error, rate_error and effort to the first read:
+    the same values as computed eagerly, read-only, and they survive pickling."""
+    import pickle
+
+    from formsync_design.sim.disagreement import attitude_disagreement, rate_disagreement
+
+    r = simulate(ring4[0], SimOptions(tf=2.0, step=0.01))
+    again = pickle.loads(pickle.dumps(r))
+    assert np.array_equal(r.attitude_error, attitude_disagreement(r.quaternions))
+    assert np.array_equal(r.rate_error, rate_disagreement(r.rates))
+    assert np.array_equal(r.effort, np.trapezoid(np.sum(r.torques**2, axis=2), r.t, axis=0))
+    assert not r.attitude_error.flags.writeable and not r.effort.flags.writeable
+    assert np.array_equal(again.attitude_error, r.attitude_error)
+    assert np.array_equal(again.q_m, r.q_m) and again.message == r.message

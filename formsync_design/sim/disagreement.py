@@ -58,8 +58,10 @@ def rate_disagreement(W: np.ndarray) -> np.ndarray:
     >>> float(rate_disagreement(np.array([[[0.0, 0, 0], [0, 3, 4], [0, 0, 1]]]))[0])
     5.0
     """
-    dif = W[:, :, None, :] - W[:, None, :, :]
-    return np.linalg.norm(dif, axis=3).max(axis=(1, 2))
+    out = np.linalg.norm(W - W, axis=2).max(axis=1)  # i = j: zero, or nan at a non-finite rate
+    for i in range(W.shape[1] - 1):  # pair by pair: no (T, N, N, 3) array
+        out = np.maximum(out, np.linalg.norm(W[:, i:i + 1, :] - W[:, i + 1:, :], axis=2).max(axis=1))
+    return out
 
 
 def settle_time(t: np.ndarray, ok: np.ndarray) -> float | None:

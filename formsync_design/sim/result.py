@@ -24,13 +24,13 @@ import enum
 from dataclasses import dataclass, field, fields
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import Any, Generic, TypeVar, overload
 
 import numpy as np
 
 from formsync_design.gains import json_number
 from formsync_design.notebook import NotebookViews
-from formsync_design.sim.disagreement import settle_time
+from formsync_design.sim.disagreement import attitude_disagreement, rate_disagreement, settle_time
 from formsync_design.sim.formation import SimOptions, state_names
 
 __all__ = ["SimResult", "SimStatus", "STATUSES"]
@@ -61,7 +61,48 @@ class SimStatus(enum.StrEnum):
 STATUSES = tuple(s.value for s in SimStatus)
 
 
-@dataclass(frozen=True)
+_R = TypeVar("_R")
+
+
+class _FromTrajectory(Generic[_R]):
+    """A field of :class:`SimResult` that a producer may leave ``None``: it is then computed
+    from the trajectory on first read (and kept, read-only).  The measures an agent run needs
+    for its convergence criterion are given; the Lagrangian simulator leaves them, since they
+    cost ``O(T N^2)`` (every pair of spacecraft at every output time) - more than the compiled
+    run itself - and most of its callers never read them."""
+
+    def __init__(self, compute: Any) -> None:
+        self._compute = compute
+        self._slot = ""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self._slot = "_" + name
+
+    @overload
+    def __get__(self, obj: None, owner: type | None = None) -> None: ...
+    @overload
+    def __get__(self, obj: _R, owner: type | None = None) -> np.ndarray: ...
+
+    def __get__(self, obj: Any, owner: type | None = None) -> np.ndarray | None:
+        if obj is None:  # the dataclass's default: None, computed on first read
+            return None
+        value = obj.__dict__.get(self._slot)
+        if value is None:
+            value = self._compute(obj)
+            value.setflags(write=False)
+            obj.__dict__[self._slot] = value
+        return value
+
+    def __set__(self, obj: Any, value: np.ndarray | None) -> None:
+        obj.__dict__[self._slot] = value
+
+
+def _effort(r: SimResult) -> np.ndarray:
+    sq = np.sum(r.torques * r.torques, axis=2)
+    return np.asarray(np.trapezoid(sq, r.t, axis=0), float)
+
+
+@dataclass(frozen=True, kw_only=True)
 class SimResult(NotebookViews):
     """A finished simulation run of a formation (frozen; arrays are per output time).
 
@@ -78,13 +119,17 @@ class SimResult(NotebookViews):
     attitude_error : (T,) largest pairwise principal angle (deg)
     reference_error : (T,) or None, largest angle to the reference (deg)
     rate_error : (T,) largest pairwise body-rate difference (rad/s; to the reference rate
-        with a leader)
+        with a leader, given by the producer)
     convergence_time : float or None
         First output time from which the producer's criterion (module docstring) holds to the
         end; None when not reached within the horizon or when the run stopped early.
     peak_torque : (N, 3) max ``|u|`` per spacecraft and axis (N m); effort : (N,)
         ``int |u_i|^2 dt`` (trapezoid on the output grid, exact for held torques of sampled
         agent designs)
+
+    ``attitude_error``, ``rate_error`` and ``effort`` given as None (the Lagrangian
+    simulator's) are computed from the trajectory on first read
+    (:mod:`~formsync_design.sim.disagreement`, the trapezoid rule), then kept.
     monitors : dict name -> (T, N) (an agent design's monitors)
     transmissions : (N,) or None; min_interevent, mean_interevent : (N,) or None;
     trigger_times : per spacecraft or None (sampled agent designs)
@@ -113,12 +158,13 @@ class SimResult(NotebookViews):
     states: np.ndarray
     torques: np.ndarray
     reference: np.ndarray | None
-    attitude_error: np.ndarray
+    attitude_error: _FromTrajectory[SimResult] = _FromTrajectory(
+        lambda r: attitude_disagreement(r.quaternions))
     reference_error: np.ndarray | None
-    rate_error: np.ndarray
+    rate_error: _FromTrajectory[SimResult] = _FromTrajectory(lambda r: rate_disagreement(r.rates))
     convergence_time: float | None
     peak_torque: np.ndarray
-    effort: np.ndarray
+    effort: _FromTrajectory[SimResult] = _FromTrajectory(_effort)
     monitors: dict[str, np.ndarray]
     transmissions: np.ndarray | None = None
     min_interevent: np.ndarray | None = None

@@ -87,7 +87,6 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -96,7 +95,6 @@ import numpy as np
 
 from formsync_design.errors import InputError, SimulationError
 from formsync_design.sim.adaptive import run_vm
-from formsync_design.sim.disagreement import attitude_disagreement, rate_disagreement
 from formsync_design.sim.formation import (
     Formation,
     SimOptions,
@@ -393,10 +391,8 @@ def _finish(
     torques = U.reshape(T, n, 3)
     for a in (t, X, U, om, qm, quats, rates, torques):
         a.setflags(write=False)
-    sq = np.sum(torques * torques, axis=2)
-    r = SimResult(
+    fields: dict[str, Any] = dict(
         status=status,
-        message="",
         design=design,
         graph=f.graph.name,
         t=t,
@@ -405,12 +401,12 @@ def _finish(
         states=np.zeros((T, n, 0)),
         torques=torques,
         reference=None,
-        attitude_error=attitude_disagreement(quats),
+        attitude_error=None,  # these three: computed from the trajectory on first read
         reference_error=None,
-        rate_error=rate_disagreement(rates),
+        rate_error=None,
         convergence_time=ct,
         peak_torque=np.max(np.abs(U.reshape(len(U), n, 3)), axis=0),
-        effort=np.trapezoid(sq, t, axis=0),
+        effort=None,
         monitors={},
         state_names=tuple(state_names(n)),
         integrator=str(stats["integrator"]),
@@ -425,7 +421,7 @@ def _finish(
         options=opt,
         spec_key=spec_key,
     )
-    return replace(r, message=lagrangian_message(r))
+    return SimResult(message=lagrangian_message(SimResult(message="", **fields)), **fields)
 
 
 def lagrangian_message(r: SimResult) -> str:
