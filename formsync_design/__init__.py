@@ -34,7 +34,7 @@ data flows through the stages:
   :func:`simulate`, :func:`simulate_sampled` (per-spacecraft sample-and-hold and
   trigger rules), :func:`metric_figure`, :func:`torque_figures`,
   :func:`monte_carlo`; agent designs: :class:`AgentFormation`, :class:`Reference`,
-  :class:`AgentOptions`, :func:`simulate_agents` (:class:`AgentResult`), gyro models
+  :class:`AgentOptions`, :func:`simulate_agents` (the same :class:`SimResult`), gyro models
   :class:`RateSensors`, :func:`measured_l2_gain`;
 * verification of a published case: :func:`verify_case` (a case file or a shipped case's
   name, -> :class:`EngineVerification`); :func:`load_case` and :func:`load_agent_case`
@@ -154,7 +154,6 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "simulate_sampled": "formsync_design.sim",
     "AgentFormation": "formsync_design.sim",
     "AgentOptions": "formsync_design.sim",
-    "AgentResult": "formsync_design.sim",
     "Reference": "formsync_design.sim",
     "simulate_agents": "formsync_design.sim",
     "RateSensors": "formsync_design.sim.sensors",

@@ -1,7 +1,7 @@
 """Notebook views of the results users look at: ``to_pandas()`` and rich summaries.
 
-Every result a notebook cell shows (:class:`~formsync_design.sim.result.SimResult`,
-:class:`~formsync_design.sim.agents.AgentResult`, the Monte-Carlo results, a
+Every result a notebook cell shows (:class:`~formsync_design.sim.result.SimResult`, the
+Monte-Carlo results, a
 :class:`~formsync_design.certify.subdivision.RegionMap`, a
 :class:`~formsync_design.certify.results.CertificationResult`, an
 :class:`~formsync_design.verify.engine.EngineVerification`) has
@@ -18,8 +18,8 @@ and :func:`markdown` of this module.
 
 The ``to_pandas()`` columns of each type:
 
-* :class:`AgentResult`: The time series (``t``, ``attitude_error_deg``, ``rate_error``, ``reference_error_deg`` with a leader, torques ``u<axis>_<spacecraft>``)
-* :class:`SimResult`: The time series (``t``, ``q_m``, ``omega_m``, torques ``u<axis>_<spacecraft>``)
+* :class:`SimResult` of the Lagrangian simulator: The time series (``t``, ``q_m``, ``omega_m``, torques ``u<axis>_<spacecraft>``)
+* :class:`SimResult` of an agent design: The time series (``t``, ``attitude_error_deg``, ``rate_error``, ``reference_error_deg`` with a leader, torques ``u<axis>_<spacecraft>``)
 * :class:`MonteCarloResult`: One row per run (the columns of ``runs.csv``, those of the campaign's path)
 * :class:`RegionMap`: One row per box of the subdivision (``<gain>_lo``, ``<gain>_hi``, ``status``, ``family``, ``reason``)
 * :class:`CertificationResult`: One row per matrix family (``family``, ``size``, ``status``, bounds of its smallest eigenvalue)
@@ -207,9 +207,18 @@ def _verification_frame(v: Any) -> list[dict[str, Any]]:
              "deciding": ", ".join(c.deciding), "scope": "; ".join(c.scope)} for c in v.claims]
 
 
+def _run(r: Any) -> tuple[str, list[tuple[str, str]]]:
+    """A :class:`~formsync_design.sim.result.SimResult`: the Lagrangian simulator's headline
+    (its ``Q_m``/``Omega_m``) or an agent design's."""
+    return _sim(r) if r.omega_m is not None else _agent(r)
+
+
+def _run_frame(r: Any) -> dict[str, Any]:
+    return _sim_frame(r) if r.omega_m is not None else _agent_frame(r)
+
+
 _VIEWS: dict[str, tuple[Any, Any]] = {
-    "SimResult": (_sim, _sim_frame),
-    "AgentResult": (_agent, _agent_frame),
+    "SimResult": (_run, _run_frame),
     "MonteCarloResult": (_mc, _runs_frame),
     "RegionMap": (_region, _region_frame),
     "CertificationResult": (_cert, _cert_frame),

@@ -342,4 +342,4 @@ print(run.status, f"converged at {run.convergence_time} s;",
       f"final disagreement {run.attitude_error[-1]:.2e} deg")
 
 # %%
-run  # an AgentResult: status, convergence time, final disagreement
+run  # a SimResult: status, convergence time, final disagreement

@@ -469,7 +469,7 @@ def test_principal_angles_against_rotation_matrices_and_at_tiny_angles():
     and exactly the constructed angle where ``arccos`` of the dot product would give 0."""
     from scipy.spatial.transform import Rotation
 
-    from formsync_design.sim.agents import principal_angles
+    from formsync_design.sim.disagreement import principal_angles
 
     rng = np.random.default_rng(11)
     ra, rb = Rotation.random(200, random_state=rng), Rotation.random(200, random_state=rng)

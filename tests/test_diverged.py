@@ -153,14 +153,15 @@ def test_a_claim_over_a_diverged_run_is_never_decided_by_it(metric: str) -> None
 def test_lagrangian_diverged_result_message_and_summary() -> None:
     from dataclasses import replace
 
-    from formsync_design.sim.formation import SimStatus
-    from formsync_design.sim.simulator import simulate
+    from formsync_design.sim.result import SimStatus
+    from formsync_design.sim.simulator import lagrangian_message, simulate
     from formsync_design.verify.case import load_case
 
     case = load_case()
     opt = replace(case.options, tf=1.0, compile=False)
     r = simulate(case.formation("ring:8"), opt)
     d = replace(r, status=SimStatus.DIVERGED, diverged_time=0.75, convergence_time=None)
+    d = replace(d, message=lagrangian_message(d))
     assert d.stopped_early and not d.converged
-    assert d.message().startswith("diverged at t = 0.7500 s")
+    assert d.message.startswith("diverged at t = 0.7500 s") and r.message == lagrangian_message(r)
     assert d.to_dict()["diverged_time"] == 0.75 and r.to_dict()["diverged_time"] is None

@@ -223,7 +223,7 @@ def test_singularity_detected_with_spacecraft_and_time():
     assert r.status == "singular"
     assert r.singular_spacecraft in (1, 2)
     assert r.singular_time == pytest.approx(t_star, abs=1e-3)
-    assert "singular" in r.message() and f"spacecraft {r.singular_spacecraft}" in r.message()
+    assert "singular" in r.message and f"spacecraft {r.singular_spacecraft}" in r.message
     assert r.t[-1] <= t_star  # trajectories stop at the event, never continue through it
 
 

@@ -18,7 +18,8 @@ from formsync_design.errors import CompilerError, InputError, SimulationError
 from formsync_design.graphs.build import make_graph
 from formsync_design.models.disturbances import no_disturbance
 from formsync_design.sim import ccompile, kernels, native
-from formsync_design.sim.formation import MAX_GRID_POINTS, Formation, Gains, SimOptions, SimStatus
+from formsync_design.sim.formation import MAX_GRID_POINTS, Formation, Gains, SimOptions
+from formsync_design.sim.result import SimStatus
 from formsync_design.sim.simulator import simulate
 from formsync_design.spec.loader import Spec, load_spec
 

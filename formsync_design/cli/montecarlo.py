@@ -298,7 +298,7 @@ def run(args: argparse.Namespace) -> int:
             if flag:
                 print(theorem.note())
             print(f"replay of run seed {seed}: " + " ".join(f"{n}={_v(v, '.6g')}" for n, v in gains.items()))
-            print(f"status: {r.status} - {r.message()}")
+            print(f"status: {r.status} - {r.message}")
         return EXIT_OK if r.converged else EXIT_NEGATIVE
     threads = _int(args.threads, "--threads", 1) if args.threads is not None else None
     # the certificate needs the derivation, which needs an undirected graph inside the theorem

@@ -262,7 +262,7 @@ def _text(case: Any, graph: Any, f: Any, r: Any, written: list[str], spec: Any =
         f"case {case.name} ({Path(case.path).name}): {r.n} spacecraft, graph {graph.name}, tf = {o.tf:g} s",
         f"  switch {sw}, {lim}, {ctl}, disturbance {f.disturbance.kind}",
         *([f"  specification {spec.name} ({spec.source})"] if spec is not None and spec.name != "liang2016" else []),
-        f"status: {r.status} - {r.message()}",
+        f"status: {r.status} - {r.message}",
         f"final metrics: Q_m = {r.final_q_m:.3e}, Omega_m = {r.final_omega_m:.3e} rad/s",
     ]
     i_min = int(np.argmin(r.min_q0))

@@ -1,14 +1,16 @@
 """Stage 6 — simulation: the SymPy-to-CasADi bridge, compiled kernels, Monte-Carlo, figures.
 
-Modules: :mod:`~.bridge` (SymPy -> CasADi), :mod:`~.formation` (inputs, options,
-statuses), :mod:`~.kernels` (building, compiling and caching the closed loop, keyed
-by the specification's content), :mod:`~.metrics`, :mod:`~.result`,
+Modules: :mod:`~.bridge` (SymPy -> CasADi), :mod:`~.formation` (inputs, options),
+:mod:`~.kernels` (building, compiling and caching the closed loop, keyed
+by the specification's content), :mod:`~.metrics`, :mod:`~.result` (the one result type
+:class:`SimResult` of every formation run, Lagrangian or agent design, and its
+:class:`SimStatus`), :mod:`~.disagreement` (attitude and rate disagreement),
 :mod:`~.simulator` (the driver), :mod:`~.montecarlo`,
 :mod:`~.figures`; :mod:`~.hybrid` (exact hybrid simulation with per-agent periodic,
 event-, self- and dynamic-event triggering, representation-agnostic); :mod:`~.sampled`
 (a design's controller with per-spacecraft sample-and-hold on the formation, through
 :mod:`~.hybrid`); agent designs (:mod:`formsync_design.spec.agent`): :mod:`~.agent_kernel`
-(their compiled formation kernels), :mod:`~.agents` (formations, options, results, the
+(their compiled formation kernels), :mod:`~.agents` (formations, options, the
 continuous driver) and :mod:`~.agent_sampled` (their sampled path).
 
 The public names are imported on first use (PEP 562, as in :mod:`formsync_design`), so
@@ -26,8 +28,6 @@ if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
     from formsync_design.sim.agents import (
         AgentFormation as AgentFormation,
         AgentOptions as AgentOptions,
-        AgentResult as AgentResult,
-        AgentStatus as AgentStatus,
         Reference as Reference,
         simulate_agents as simulate_agents,
     )
@@ -35,7 +35,6 @@ if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
         Formation as Formation,
         Gains as Gains,
         SimOptions as SimOptions,
-        SimStatus as SimStatus,
     )
     from formsync_design.sim.hybrid import (
         HybridOptions as HybridOptions,
@@ -50,7 +49,7 @@ if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
         MonteCarloSettings as MonteCarloSettings,
         RunStatus as RunStatus,
     )
-    from formsync_design.sim.result import SimResult as SimResult
+    from formsync_design.sim.result import SimResult as SimResult, SimStatus as SimStatus
     from formsync_design.sim.sampled import (
         SampledResult as SampledResult,
         TriggerSpec as TriggerSpec,
@@ -63,11 +62,9 @@ if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
 _LAZY: dict[str, str] = {
     "AgentFormation": "formsync_design.sim.agents",
     "AgentOptions": "formsync_design.sim.agents",
-    "AgentResult": "formsync_design.sim.agents",
-    "AgentStatus": "formsync_design.sim.agents",
     "Reference": "formsync_design.sim.agents",
     "simulate_agents": "formsync_design.sim.agents",
-    "SimStatus": "formsync_design.sim.formation",
+    "SimStatus": "formsync_design.sim.result",
     "HybridOptions": "formsync_design.sim.hybrid",
     "HybridResult": "formsync_design.sim.hybrid",
     "HybridStatus": "formsync_design.sim.hybrid",
@@ -110,8 +107,6 @@ __all__ = [
     "simulate_sampled",
     "AgentFormation",
     "AgentOptions",
-    "AgentResult",
-    "AgentStatus",
     "Reference",
     "simulate_agents",
 ]

@@ -1,4 +1,4 @@
-"""Figures of an agent-design run (:class:`~formsync_design.sim.agents.AgentResult`).
+"""Figures of an agent-design run (:class:`~formsync_design.sim.result.SimResult`).
 
 ``attitude``: the attitude disagreement (largest pairwise principal angle) and, with a
 leader, the largest error to the reference, in degrees on a log scale, with the tolerance

@@ -25,7 +25,12 @@ import numpy as np
 
 from formsync_design.errors import InputError
 from formsync_design.gains import GainBox
-from formsync_design.sim.agents import AgentFormation, AgentOptions, AgentStatus, simulate_agents
+from formsync_design.sim.agents import (
+    AGENT_STATUSES,
+    AgentFormation,
+    AgentOptions,
+    simulate_agents,
+)
 from formsync_design.sim.formation import Gains
 from formsync_design.sim.montecarlo_data import (
     MonteCarloResult,
@@ -123,7 +128,7 @@ def run_agent_montecarlo(design: Any, base: AgentFormation, box: GainBox,
     )
     return MonteCarloResult(
         runs=tuple(runs), box=box, settings=settings, options=options,
-        counts={str(s): sum(r.status == s for r in runs) for s in AgentStatus},
+        counts={str(s): sum(r.status == s for r in runs) for s in AGENT_STATUSES},
         convergence_time_stats=ct_stats, wall_seconds=wall, design=design.name,
         graph=base.graph.name, certificate=cert, certificate_reason=reason)
 

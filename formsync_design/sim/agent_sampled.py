@@ -144,7 +144,7 @@ def run_sampled_agents(design: AgentDesign, formation: Any, opt: Any,
     docstring; ``formation``, ``opt``: an :class:`~formsync_design.sim.agents.AgentFormation`
     and :class:`~formsync_design.sim.agents.AgentOptions`; ``record``: the hybrid run, trigger
     evaluations and kept values), assembled into an
-    :class:`~formsync_design.sim.agents.AgentResult` by
+    :class:`~formsync_design.sim.result.SimResult` by
     :func:`~formsync_design.sim.agents.simulate_agents_sampled`."""
     f = formation
     n = f.n

@@ -13,7 +13,7 @@ disturbance:
   broadcasts its state, recomputes its torque from its own state and its in-neighbours' last
   broadcasts and holds the torque until its next update.
 
-Outputs (:class:`AgentResult`): the trajectory, torques, the attitude disagreement (largest
+Outputs (the one :class:`~formsync_design.sim.result.SimResult`): the trajectory, torques, the attitude disagreement (largest
 principal angle between two spacecraft, degrees) and the error to the reference, the rate
 disagreement, the convergence time to the options' tolerances, peak torques, control effort,
 the design's monitors and, for sampled designs, the transmissions and inter-event times.
@@ -21,7 +21,6 @@ the design's monitors and, for sampled designs, the transmissions and inter-even
 
 from __future__ import annotations
 
-import enum
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -30,11 +29,9 @@ from typing import Any
 import numpy as np
 
 from formsync_design.errors import InputError, SimulationError
-from formsync_design.gains import json_number
 from formsync_design.graphs.digraph import Digraph
 from formsync_design.models.disturbances import DisturbanceModel, no_disturbance
 from formsync_design.models.inertia import check_inertias
-from formsync_design.notebook import NotebookViews
 from formsync_design.sim.agent_kernel import (
     agent_parameters,
     agent_state_names,
@@ -42,20 +39,24 @@ from formsync_design.sim.agent_kernel import (
     reference_rate_expressions,
     reference_rate_function,
 )
+from formsync_design.sim.disagreement import (
+    attitude_disagreement,
+    principal_angles,
+    rate_disagreement,
+    settle_time,
+)
 from formsync_design.sim.formation import Gains
+from formsync_design.sim.result import SimResult, SimStatus
 from formsync_design.spec.agent import AgentDesign
 
 __all__ = [
     "Reference",
     "AgentFormation",
     "AgentOptions",
-    "AgentStatus",
     "MAX_AGENT_GRID_POINTS",
     "MAX_AGENT_STEPS",
-    "AgentResult",
+    "AGENT_STATUSES",
     "simulate_agents",
-    "attitude_disagreement",
-    "principal_angles",
     "simulate_agents_sampled",
     "assemble_result",
     "observe_grid",
@@ -167,17 +168,15 @@ MAX_AGENT_GRID_POINTS = 1_000_000
 MAX_AGENT_STEPS = 1_000_000_000
 
 
-class AgentStatus(enum.StrEnum):
-    """How an agent-design run ended: ``converged`` (attitude and rate disagreement, and the
-    errors to the reference, within the tolerances from ``convergence_time`` to the end),
-    ``not-converged``, ``stopped`` (the hybrid integrator stopped: Zeno protection or too
-    many triggers, ``message`` says which), or ``diverged`` (the state became non-finite at
-    ``diverged_time``; the trajectory ends at the last finite output time)."""
-
-    CONVERGED = "converged"
-    NOT_CONVERGED = "not-converged"
-    STOPPED = "stopped"
-    DIVERGED = "diverged"
+#: The statuses an agent-design run ends with (:class:`~formsync_design.sim.result.SimStatus`
+#: without ``singular``, a stop of the Lagrangian simulator only): ``converged`` (attitude and
+#: rate disagreement, and the errors to the reference, within the options' tolerances from
+#: ``convergence_time`` to the end), ``not-converged``, ``stopped`` (the hybrid integrator
+#: stopped: Zeno protection or too many triggers, ``message`` says which) and ``diverged``
+#: (the state became non-finite at ``diverged_time``; the trajectory ends at the last finite
+#: output time).
+AGENT_STATUSES: tuple[SimStatus, ...] = (SimStatus.CONVERGED, SimStatus.NOT_CONVERGED,
+                                         SimStatus.STOPPED, SimStatus.DIVERGED)
 
 
 @dataclass(frozen=True)
@@ -233,133 +232,6 @@ class AgentOptions:
             raise InputError(f"expected a positive sampling period, received {self.period!r}")
 
 
-def principal_angles(qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
-    """Principal angle (rad) between attitudes (``..., 4`` quaternions, scalar last), double
-    cover removed: ``2 atan2(|vec(qa* qb)|, |qa . qb|)``, accurate to a relative rounding
-    error at every angle (``2 arccos|qa . qb|`` loses every digit below about 3e-8 rad).
-    The norm of the relative quaternion's vector part, ``|w_a v_b - w_b v_a + v_a x v_b|``,
-    is the same in either product convention (the cross product is orthogonal to the rest).
-
-    >>> round(float(principal_angles(np.array([0, 0, 0, 1.0]),
-    ...                              np.array([0, 0, math.sin(0.5), math.cos(0.5)]))), 12)
-    1.0
-    >>> float(principal_angles(np.array([0, 0, 0, 1.0]), np.array([1e-12, 0, 0, 1.0])))
-    2e-12
-    """
-    qa = qa / np.linalg.norm(qa, axis=-1, keepdims=True)
-    qb = qb / np.linalg.norm(qb, axis=-1, keepdims=True)
-    va, wa = qa[..., :3], qa[..., 3:]
-    vb, wb = qb[..., :3], qb[..., 3:]
-    s = np.linalg.norm(wa * vb - wb * va + np.cross(va, vb), axis=-1)
-    c = np.abs(np.sum(qa * qb, axis=-1))
-    return 2.0 * np.arctan2(s, c)
-
-
-def attitude_disagreement(Q: np.ndarray) -> np.ndarray:
-    """Largest principal angle (deg) between two spacecraft, per sample (``Q``: (T, N, 4)).
-
-    >>> Q = np.array([[[0, 0, 0, 1.0], [0, 0, math.sin(0.25), math.cos(0.25)]]])
-    >>> round(float(attitude_disagreement(Q)[0]), 10) == round(math.degrees(0.5), 10)
-    True
-    """
-    T, N, _ = Q.shape
-    out = np.zeros(T)
-    for i in range(N - 1):
-        out = np.maximum(out, principal_angles(Q[:, i:i + 1, :], Q[:, i + 1:, :]).max(axis=1))
-    return np.degrees(out)
-
-
-@dataclass(frozen=True)
-class AgentResult(NotebookViews):
-    """A finished agent-design run (frozen; arrays are per output time).
-
-    Attributes
-    ----------
-    status : AgentStatus; message : str
-    design, graph : str
-    t : (T,); quaternions : (T, N, 4); rates : (T, N, 3); states : (T, N, nz);
-    torques : (T, N, 3) (limited); reference : (T, 4) or None
-    attitude_error : (T,) largest pairwise principal angle (deg)
-    reference_error : (T,) or None, largest angle to the reference (deg)
-    rate_error : (T,) largest pairwise body-rate difference (rad/s; to the reference rate
-        with a leader)
-    convergence_time : float or None
-    peak_torque : (N, 3); effort : (N,) ``int |u_i|^2 dt`` (trapezoid on the output grid,
-        exact for held torques of sampled designs)
-    monitors : dict name -> (T, N)
-    transmissions : (N,) or None; min_interevent, mean_interevent : (N,) or None;
-    trigger_times : per spacecraft or None
-    state_names : list of str (the kernel's state order)
-    integrator : str
-    diverged_time : float or None, the first output time with a non-finite state (status
-        ``diverged``)
-    """
-
-    status: AgentStatus
-    message: str
-    design: str
-    graph: str
-    t: np.ndarray
-    quaternions: np.ndarray
-    rates: np.ndarray
-    states: np.ndarray
-    torques: np.ndarray
-    reference: np.ndarray | None
-    attitude_error: np.ndarray
-    reference_error: np.ndarray | None
-    rate_error: np.ndarray
-    convergence_time: float | None
-    peak_torque: np.ndarray
-    effort: np.ndarray
-    monitors: dict[str, np.ndarray]
-    transmissions: np.ndarray | None = None
-    min_interevent: np.ndarray | None = None
-    mean_interevent: np.ndarray | None = None
-    trigger_times: tuple[np.ndarray, ...] | None = None
-    state_names: tuple[str, ...] = ()
-    integrator: str = "rk4"
-    diverged_time: float | None = None
-
-
-    def time_to(self, angle_deg: float) -> float | None:
-        """First output time from which the attitude disagreement stays <= ``angle_deg``."""
-        return _settle(self.t, self.attitude_error <= angle_deg)
-
-    def to_dict(self) -> dict[str, Any]:
-        """Summary (no trajectories), numbers through :func:`json_number`."""
-        def arr(a: Any) -> Any:
-            return None if a is None else [json_number(float(x)) for x in np.ravel(a)]
-
-        return {
-            "status": str(self.status), "message": self.message, "design": self.design,
-            "graph": self.graph, "integrator": self.integrator,
-            "tf": json_number(float(self.t[-1])) if self.t.size else None,
-            "diverged_time": None if self.diverged_time is None else json_number(self.diverged_time),
-            "convergence_time": None if self.convergence_time is None
-            else json_number(self.convergence_time),
-            "final_attitude_error_deg": json_number(float(self.attitude_error[-1])),
-            "final_reference_error_deg": None if self.reference_error is None
-            else json_number(float(self.reference_error[-1])),
-            "final_rate_error": json_number(float(self.rate_error[-1])),
-            "peak_torque": [[json_number(float(x)) for x in row] for row in self.peak_torque],
-            "effort": arr(self.effort),
-            "monitors": {k: {"min": json_number(float(np.nanmin(v))),
-                             "max": json_number(float(np.nanmax(v)))}
-                         for k, v in self.monitors.items()},
-            "transmissions": None if self.transmissions is None
-            else [int(k) for k in self.transmissions],
-            "min_interevent": arr(self.min_interevent),
-            "mean_interevent": arr(self.mean_interevent),
-        }
-
-
-def _settle(t: np.ndarray, ok: np.ndarray) -> float | None:
-    if not ok.size or not ok[-1]:
-        return None
-    bad = np.nonzero(~ok)[0]
-    return float(t[0]) if bad.size == 0 else float(t[bad[-1] + 1])
-
-
 def _check(design: AgentDesign, f: AgentFormation) -> None:
     if getattr(design, "form", None) != "agent":
         raise InputError(f"expected an agent design (FORM = 'agent'), received "
@@ -399,7 +271,7 @@ def _x0(design: AgentDesign, f: AgentFormation) -> np.ndarray:
 
 def simulate_agents(design: AgentDesign, formation: AgentFormation,
                     options: AgentOptions | None = None, *, sensors: Any = None,
-                    torque_input: np.ndarray | None = None) -> AgentResult:
+                    torque_input: np.ndarray | None = None) -> SimResult:
     """Simulate ``formation`` under ``design`` (module docstring).
 
     ``sensors`` (a :class:`~formsync_design.sim.sensors.RateSensors`) makes the law read a
@@ -474,7 +346,7 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
             X = X[:diverged]
             tdiv, t = float(t[diverged]), t[:diverged]
             res = assemble_result(design, f, opt, kern, p, t, X, opt.integrator)
-            return replace(res, status=AgentStatus.DIVERGED, diverged_time=tdiv,
+            return replace(res, status=SimStatus.DIVERGED, diverged_time=tdiv,
                            convergence_time=None,
                            message=f"diverged at t = {tdiv:g} s (non-finite state; the trajectory "
                                    f"ends at t = {float(t[-1]):g} s): try a smaller step or a "
@@ -495,7 +367,7 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
 
 
 def simulate_agents_sampled(design: AgentDesign, formation: AgentFormation, opt: AgentOptions,
-                            record: dict | None = None) -> AgentResult:
+                            record: dict | None = None) -> SimResult:
     """The sampled path of :func:`simulate_agents`
     (:func:`~formsync_design.sim.agent_sampled.run_sampled_agents`; ``record``: the hybrid
     run, trigger evaluations and kept values)."""
@@ -525,10 +397,11 @@ def observe_grid(kern: Any, X: np.ndarray, t: np.ndarray, p: np.ndarray,
 
 def assemble_result(design: AgentDesign, f: AgentFormation, opt: AgentOptions, kern: Any, p: np.ndarray,
             t: np.ndarray, X: np.ndarray, integrator: str, *, torques: np.ndarray | None = None,
-            sampled: Any = None, ext: np.ndarray | None = None) -> AgentResult:
-    """The :class:`AgentResult` of a trajectory ``X`` (kernel state order) on the grid ``t``
-    (shared by the continuous and the sampled paths; ``ext``: the measured kernel's held
-    inputs at each output time)."""
+            sampled: Any = None, ext: np.ndarray | None = None) -> SimResult:
+    """The :class:`~formsync_design.sim.result.SimResult` of a trajectory ``X`` (kernel state
+    order) on the grid ``t`` (shared by the continuous and the sampled paths; ``ext``: the
+    measured kernel's held inputs at each output time).  Its status is one of
+    :data:`AGENT_STATUSES`."""
     n = f.n
     nz = design.decl.state_size
     Q = X[:, : 4 * n].reshape(X.shape[0], n, 4)
@@ -551,17 +424,16 @@ def assemble_result(design: AgentDesign, f: AgentFormation, opt: AgentOptions, k
         ok = (ref_err <= opt.angle_tol) & (rate_err <= opt.rate_tol) & (att <= opt.angle_tol)
     else:
         ref_err = None
-        dif = W[:, :, None, :] - W[:, None, :, :]
-        rate_err = np.linalg.norm(dif, axis=3).max(axis=(1, 2))
+        rate_err = rate_disagreement(W)
         ok = (att <= opt.angle_tol) & (rate_err <= opt.rate_tol)
-    conv = _settle(t, ok)
-    status = AgentStatus.CONVERGED if conv is not None else AgentStatus.NOT_CONVERGED
+    conv = settle_time(t, ok)
+    status = SimStatus.CONVERGED if conv is not None else SimStatus.NOT_CONVERGED
     message = ""
     if sampled is not None and str(sampled.status) != "completed":
-        status, message = AgentStatus.STOPPED, sampled.message
+        status, message = SimStatus.STOPPED, sampled.message
     sq = np.sum(U * U, axis=2)
     effort = np.trapezoid(sq, t, axis=0) if sampled is None else sampled.control_effort
-    return AgentResult(
+    return SimResult(
         status=status, message=message, design=design.name, graph=f.graph.name, t=t,
         quaternions=Q, rates=W, states=Z, torques=U, reference=R, attitude_error=att,
         reference_error=ref_err, rate_error=rate_err, convergence_time=conv,
@@ -571,4 +443,5 @@ def assemble_result(design: AgentDesign, f: AgentFormation, opt: AgentOptions, k
         mean_interevent=None if sampled is None else sampled.mean_interevent,
         trigger_times=None if sampled is None else tuple(sampled.trigger_times),
         state_names=tuple(agent_state_names(n, design)), integrator=integrator,
+        options=opt, spec_key=design.key,
     )

@@ -43,6 +43,10 @@ def metric_figure(result: SimResult, which: str = "omega") -> Figure:
     """
     if which not in ("omega", "q"):
         raise InputError(f"expected which = 'omega' or 'q', received {which!r}")
+    if result.omega_m is None or result.q_m is None:
+        raise InputError(f"expected a run of the Lagrangian simulator (its Omega_m and Q_m), "
+                         f"received a run of the agent design {result.design} (its figures: "
+                         "formsync_design.sim.agent_figures)")
     fig = Figure(figsize=(6.4, 3.6))
     ax = fig.subplots()
     o = result.options

@@ -1,5 +1,6 @@
 """Inputs of a simulation: the formation (graph, inertias, initial state, gains,
-disturbance), the options, the state layout and the run statuses.
+disturbance), the options and the state layout (the run statuses are
+:class:`~formsync_design.sim.result.SimStatus`).
 
 State layout (pydy style: coordinates, then speeds): ``x = (q1_1, q2_1, q3_1,
 q0_1, ..., q1_N, q2_N, q3_N, q0_N, w1_1, w2_1, w3_1, ..., w1_N, w2_N, w3_N)``.
@@ -7,7 +8,6 @@ q0_1, ..., q1_N, q2_N, q3_N, q0_N, w1_1, w2_1, w3_1, ..., w1_N, w2_N, w3_N)``.
 
 from __future__ import annotations
 
-import enum
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
@@ -25,10 +25,8 @@ __all__ = [
     "Gains",
     "Formation",
     "SimOptions",
-    "SimStatus",
     "INTEGRATORS",
     "DEFAULT_STEP",
-    "STATUSES",
     "MAX_GRID_POINTS",
     "state_names",
     "pack_state",
@@ -40,26 +38,6 @@ INTEGRATORS = ("auto", "rk4", "dopri5", "cvodes")
 #: The RK4 step when none is given (s).
 DEFAULT_STEP = 0.05
 
-
-class SimStatus(enum.StrEnum):
-    """How a simulation ended.
-
-    ``converged``: ``Q_m <= q_tol`` and ``Omega_m <= omega_tol`` from
-    ``convergence_time`` to the horizon; ``not-converged``: the horizon was
-    reached without that (``convergence_time`` is None: not reached within
-    the horizon); ``singular``: stopped early at the ``q0 -> 0`` singularity
-    (``singular_spacecraft``, ``singular_time``; every metric describes the
-    trajectory up to the stop only); ``diverged``: the state became non-finite
-    away from the singularity (``diverged_time``; the trajectory ends before it).
-    """
-
-    CONVERGED = "converged"
-    NOT_CONVERGED = "not-converged"
-    SINGULAR = "singular"
-    DIVERGED = "diverged"
-
-
-STATUSES = tuple(s.value for s in SimStatus)
 
 #: Largest number of output grid points of one run (``tf / output_step``): the
 #: trajectory is kept in memory (7N + 3N floats per point).

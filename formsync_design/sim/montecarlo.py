@@ -492,7 +492,8 @@ def _summarize_run(index: int, seed: int, f: Formation, S: np.ndarray, opt: SimO
                 status, event = RunStatus.DIVERGED, r.diverged_time
             else:
                 status, event = RunStatus.SINGULAR, r.singular_time
-            final_q, final_om = r.final_q_m, r.final_omega_m
+            assert r.q_m is not None and r.omega_m is not None and r.min_q0 is not None
+            final_q, final_om = float(r.q_m[-1]), float(r.omega_m[-1])
             minq, peak = float(r.min_q0.min()), float(r.peak_torque.max())
             nerr = float(r.stats["max_norm_error"])
     return MonteCarloRun(

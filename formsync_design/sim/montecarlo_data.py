@@ -139,8 +139,7 @@ class RunStatus(enum.StrEnum):
     """How one Monte-Carlo run ended.
 
     ``converged`` / ``not-converged`` (horizon reached, ``convergence_time``
-    None) as in :class:`~formsync_design.sim.formation.SimStatus` and
-    :class:`~formsync_design.sim.agents.AgentStatus`; ``singular`` (a Lagrangian design):
+    None) as in :class:`~formsync_design.sim.result.SimStatus`; ``singular`` (a Lagrangian design):
     some ``q0`` reached ``q0_floor`` (``event_time``); ``diverged``: NaN/inf (``event_time``,
     an agent design's ``diverged_time``); ``inaccurate`` (a Lagrangian design): quaternion
     norm drift above ``norm_tol``; ``stopped`` (an agent design): the hybrid integrator

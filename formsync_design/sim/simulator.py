@@ -98,7 +98,6 @@ from formsync_design.sim.adaptive import run_vm
 from formsync_design.sim.formation import (
     Formation,
     SimOptions,
-    SimStatus,
     state_names,
     unpack_state,
 )
@@ -106,12 +105,13 @@ from formsync_design.sim.kernels import get_kernel, pack_params
 from formsync_design.sim.metrics import convergence_time, linear_metrics
 from formsync_design.sim.native import METHODS, SWITCH_EVENTS, get_native
 from formsync_design.sim.native_c import CFG
-from formsync_design.sim.result import SimResult
+from formsync_design.sim.result import SimResult, SimStatus
 from formsync_design.spec.loader import Spec, load_spec
 
 __all__ = [
     "simulate",
     "driver_config",
+    "lagrangian_message",
     "SINGULAR_BLOWUP_Q0",
 ]
 
@@ -133,13 +133,16 @@ def simulate(
         ``liang2016``; resolved with :func:`~formsync_design.spec.loader.load_spec`).
         Its kernel is cached under ``spec.key``.  An agent design (``FORM = "agent"``)
         is simulated by :func:`~formsync_design.sim.agents.simulate_agents` (``formation``
-        an ``AgentFormation``, ``options`` ``AgentOptions``) and returns an ``AgentResult``.
+        an ``AgentFormation``, ``options`` ``AgentOptions``), which returns the same type.
 
     Returns
     -------
     SimResult
         Status ``converged`` / ``not-converged`` / ``singular`` / ``diverged`` (NaN/inf in
         the state away from the ``q0`` singularity, ``diverged_time``): a finding, not an error.
+        ``convergence_time`` is the Lagrangian criterion of ``options`` (``Q_m <= q_tol`` and
+        ``Omega_m <= omega_tol`` to the end); ``attitude_error``/``rate_error`` are the
+        largest pairwise principal angle and body-rate difference, as in an agent run.
 
     Raises
     ------
@@ -163,12 +166,12 @@ def simulate(
     from formsync_design.spec.loader import agent_design_of
 
     agent = agent_design_of(spec)
-    if agent is not None:  # an agent design: simulate_agents (an AgentResult)
+    if agent is not None:  # an agent design: simulate_agents (the same SimResult)
         from formsync_design.sim.agents import AgentOptions, simulate_agents
 
         agent_opt: Any = options if options is not None else AgentOptions()
         agent_formation: Any = formation
-        return simulate_agents(agent, agent_formation, agent_opt)  # type: ignore[return-value]
+        return simulate_agents(agent, agent_formation, agent_opt)
     opt = options if options is not None else SimOptions()
     if not isinstance(formation, Formation):
         raise InputError(f"expected a Formation, received a {type(formation).__name__}")
@@ -274,7 +277,7 @@ def _simulate_driver(f: Formation, opt: SimOptions, spec: Spec) -> SimResult:
         "build_seconds": build,
         "events": _events(out.events, opt.event_tol),
     })
-    return _finish(f, opt, spec.key, t, X, U, minq, sing_sc, sing_t, stats, MET, div_t)
+    return _finish(f, opt, spec.name, spec.key, t, X, U, minq, sing_sc, sing_t, stats, MET, div_t)
 
 
 #: A blow-up (NaN/inf) right after some ``q0`` fell below this value is attributed to the
@@ -346,6 +349,7 @@ def _classify_failure(run: Any, cfg: np.ndarray, opt: SimOptions, X: np.ndarray,
 def _finish(
     f: Formation,
     opt: SimOptions,
+    design: str,
     spec_key: str,
     t: np.ndarray,
     X: np.ndarray,
@@ -383,31 +387,73 @@ def _finish(
     if opt.torque_limit is not None:
         at = np.flatnonzero((np.abs(U) >= opt.torque_limit * (1 - 1e-12)).any(axis=1))
         sat_end = float(t[at[-1]]) if at.size else None
-    for a in (t, X, U, om, qm):
+    T = len(t)
+    torques = U.reshape(T, n, 3)
+    for a in (t, X, U, om, qm, quats, rates, torques):
         a.setflags(write=False)
-    return SimResult(
+    fields: dict[str, Any] = dict(
         status=status,
+        design=design,
+        graph=f.graph.name,
         t=t,
-        x=X,
-        u=U,
+        quaternions=quats,
+        rates=rates,
+        states=np.zeros((T, n, 0)),
+        torques=torques,
+        reference=None,
+        attitude_error=None,  # these three: computed from the trajectory on first read
+        reference_error=None,
+        rate_error=None,
+        convergence_time=ct,
+        peak_torque=np.max(np.abs(U.reshape(len(U), n, 3)), axis=0),
+        effort=None,
+        monitors={},
+        state_names=tuple(state_names(n)),
+        integrator=str(stats["integrator"]),
+        diverged_time=diverged_time,
         omega_m=om,
         q_m=qm,
-        convergence_time=ct,
-        final_omega_m=float(om[-1]),
-        final_q_m=float(qm[-1]),
-        peak_torque=np.max(np.abs(U.reshape(len(U), n, 3)), axis=0),
         min_q0=minq,
         singular_spacecraft=sing_sc,
         singular_time=sing_t,
         saturation_end_time=sat_end,
-        final_rates=rates[-1].copy(),
-        common_rate=rates[-1].mean(axis=0),
         stats=stats,
         options=opt,
-        n=n,
         spec_key=spec_key,
-        names=tuple(state_names(n)),
-        diverged_time=diverged_time,
+    )
+    return SimResult(message=lagrangian_message(SimResult(message="", **fields)), **fields)
+
+
+def lagrangian_message(r: SimResult) -> str:
+    """The one line a user can act on of a Lagrangian run (its ``message``), from its status,
+    measures and options."""
+    o = r.options
+    if r.status == "singular":
+        i = int(r.singular_spacecraft or 1)
+        assert r.min_q0 is not None
+        q0 = float(r.min_q0[i - 1])
+        if q0 <= o.q0_floor:
+            return (
+                f"q0 of spacecraft {i} reached {o.q0_floor:g} at t = {r.singular_time:.4f} s: "
+                f"Q is singular at q0 = 0 and controller (4) undefined"
+            )
+        return (
+            f"q0 of spacecraft {i} fell to {q0:.3g} at t = {r.singular_time:.4f} s and the "
+            f"integration blew up there (|omega| ~ 2|q'|/q0): the q0 -> 0 singularity of Q, "
+            f"where controller (4) is undefined"
+        )
+    if r.status == "diverged":
+        return (f"diverged at t = {r.diverged_time:.4f} s (non-finite state, not near the "
+                f"q0 singularity; the trajectory ends at t = {r.t[-1]:g} s): reduce the step "
+                "or tighten the tolerances")
+    if r.status == "converged":
+        return (
+            f"converged at t = {r.convergence_time:.2f} s (Q_m <= {o.q_tol:g}, "
+            f"Omega_m <= {o.omega_tol:g} rad/s to the end)"
+        )
+    return (
+        f"not converged within tf = {r.t[-1]:g} s: final Q_m = {r.final_q_m:.3e}, "
+        f"Omega_m = {r.final_omega_m:.3e} rad/s (tolerances {o.q_tol:g}, {o.omega_tol:g})"
     )
 
 
@@ -462,4 +508,5 @@ def _simulate_cvodes(f: Formation, opt: SimOptions, spec: Spec) -> SimResult:
         "build_seconds": kern.compile_seconds,
     }
     minq = np.min(q0s[: max(1, X.shape[0])], axis=0)
-    return _finish(f, opt, kern.spec_key, tg, X, U, minq, sing_sc, sing_t, stats, None, div_t)
+    return _finish(f, opt, spec.name, kern.spec_key, tg, X, U, minq, sing_sc, sing_t, stats, None,
+                   div_t)

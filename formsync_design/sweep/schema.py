@@ -163,7 +163,7 @@ class SweepSchema:
 
     @staticmethod
     def _agent_mc() -> list[tuple[str, str]]:
-        """The run-status columns of an agent design's Monte-Carlo (AgentStatus)."""
+        """The run-status columns of an agent design's Monte-Carlo (``AGENT_STATUSES``)."""
         lag = "Lagrangian designs only: empty for an agent design"
         return [
             ("mc_converged", "runs converged (attitude and rate disagreement, and the errors to "

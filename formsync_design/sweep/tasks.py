@@ -207,7 +207,7 @@ def agent_mc_inputs(graph: Graph, mc: dict[str, Any], design: Any,
 def _run_agent_mc(graph: Graph, mc: dict[str, Any], design: Any,
                   gains: Sequence[Fraction] | None) -> dict[str, Any]:
     from formsync_design.sim.agent_montecarlo import run_agent_montecarlo
-    from formsync_design.sim.agents import AgentStatus
+    from formsync_design.sim.agents import AGENT_STATUSES
 
     out: dict[str, Any] = {"mc_gains": mc["gains"]}
     if gains is None:
@@ -215,7 +215,7 @@ def _run_agent_mc(graph: Graph, mc: dict[str, Any], design: Any,
         return out
     base, box, settings, opt = agent_mc_inputs(graph, mc, design, gains)
     r = run_agent_montecarlo(design, base, box, settings, opt, certify=False)
-    out.update(_mc_cells(r.runs, [str(s) for s in AgentStatus]))
+    out.update(_mc_cells(r.runs, [str(s) for s in AGENT_STATUSES]))
     return out
 
 

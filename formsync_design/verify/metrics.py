@@ -335,7 +335,7 @@ class MetricContext:
     graph: Any = None
 
     def run(self, scenario: str | None = None) -> Any:
-        """The :class:`~formsync_design.sim.agents.AgentResult` of this formation and draw
+        """The :class:`~formsync_design.sim.result.SimResult` of this formation and draw
         under this scenario (or ``scenario``: another scenario's, for a comparison)."""
         return self.results.run(self.formation, scenario or self.scenario, self.draw)
 
