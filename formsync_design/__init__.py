@@ -30,12 +30,16 @@ data flows through the stages:
   and :func:`check_theorem` (a design's declared graph class tested on graph families);
   :func:`to_statespace` exports that linearisation as a ``control.StateSpace``
   (python-control, the ``control`` extra);
-* simulation: :class:`Formation`, :class:`Gains`, :class:`SimOptions`,
-  :func:`simulate`, :func:`simulate_sampled` (per-spacecraft sample-and-hold and
-  trigger rules), :func:`metric_figure`, :func:`torque_figures`,
-  :func:`monte_carlo`; agent designs: :class:`AgentFormation`, :class:`Reference`,
-  :class:`AgentOptions`, :func:`simulate_agents` (the same :class:`SimResult`), gyro models
-  :class:`RateSensors`, :func:`measured_l2_gain`;
+* simulation: :func:`simulate`, the one entry point (a :class:`Formation` with
+  :class:`SimOptions`: the Lagrangian view on the compiled whole-horizon driver; an
+  :class:`AgentFormation` with :class:`AgentOptions`, :class:`Reference`, gyro models
+  :class:`RateSensors`: the design's agent form, continuous or sampled; a
+  :class:`FlyaroundScenario`: a tracking design), one result type :class:`SimResult` for
+  every attitude-formation run; :class:`Gains`, :func:`simulate_sampled` (a Lagrangian
+  design's per-spacecraft sample-and-hold and trigger rules), :func:`metric_figure`,
+  :func:`torque_figures`, :func:`monte_carlo` (one :class:`MonteCarloResult`),
+  :func:`measured_l2_gain`; the paths themselves are exported too
+  (:func:`simulate_agents`, :func:`simulate_flyaround`);
 * verification of a published case: :func:`verify_case` (a case file or a shipped case's
   name, -> :class:`EngineVerification`); :func:`load_case` and :func:`load_agent_case`
   (the simulation case layouts a case file's base case is read with); the verification

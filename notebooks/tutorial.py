@@ -337,7 +337,7 @@ digraph = fs.load_graph([[0, 0, 1], [1, 0, 0], [0, "1/2", 0]])  # 1 <- 3, 2 <- 1
 formation = fs.AgentFormation(digraph, np.array([np.diag([20.0, 25, 30])] * 3),
                               np.array([[0, 0, 0, 1.0], [0.6, 0, 0, 0.8], [0, 0, 0.8, 0.6]]),
                               np.zeros((3, 3)), fs.Gains(k_R=1.0, k_w=1.5))
-run = fs.simulate_agents(design, formation, fs.AgentOptions(tf=40, output_step=0.5, step=0.01))
+run = fs.simulate(formation, fs.AgentOptions(tf=40, output_step=0.5, step=0.01), spec=design)
 print(run.status, f"converged at {run.convergence_time} s;",
       f"final disagreement {run.attitude_error[-1]:.2e} deg")
 

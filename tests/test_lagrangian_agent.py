@@ -17,9 +17,8 @@ from formsync_design.sim.agents import AgentFormation, AgentOptions, simulate_ag
 from formsync_design.sim.formation import Gains
 from formsync_design.sim.simulator import simulate
 from formsync_design.spec.agent_view import AgentView
-from formsync_design.spec.lagrangian_agent import agent_form
+from formsync_design.spec.lagrangian_agent import agent_form, agent_of
 from formsync_design.spec.loader import load_design, load_spec
-from formsync_design.verify.agentcase import agent_of
 from formsync_design.verify.case import load_case
 
 DATA = Path(__file__).parent / "data"

@@ -87,7 +87,6 @@ from __future__ import annotations
 
 import math
 import time
-from pathlib import Path
 from typing import Any
 
 import casadi as ca
@@ -117,35 +116,66 @@ __all__ = [
 
 
 def simulate(
-    formation: Formation,
-    options: SimOptions | None = None,
+    formation: Any,
+    options: Any = None,
     *,
-    spec: Spec | str | Path | None = None,
-) -> SimResult:
-    """Simulate the closed-loop formation.
+    spec: Any = None,
+    sensors: Any = None,
+    torque_input: np.ndarray | None = None,
+) -> Any:
+    """Simulate a formation under a design: the one entry point of simulation.
+
+    What is simulated, and by which integrator, follows from the formation's type and the
+    design:
+
+    * a :class:`~formsync_design.sim.formation.Formation` (options :class:`SimOptions`): the
+      design's Lagrangian view on the compiled whole-horizon driver (DOPRI5 or RK4 with
+      located events, :mod:`formsync_design.sim.native`; CVODES on request), with the paper's
+      metrics ``Q_m``/``Omega_m`` and the ``q0`` singularity;
+    * an :class:`~formsync_design.sim.agents.AgentFormation` (options
+      :class:`~formsync_design.sim.agents.AgentOptions`): the design's agent form, per
+      spacecraft on a directed weighted graph with a leader, controller states and the
+      design's sampling rule (compiled RK4 formation kernel or CVODES for a continuous law,
+      the exact hybrid integrator for a periodic, event- or self-triggered one;
+      :func:`~formsync_design.sim.agents.simulate_agents`); a design given by its
+      Lagrangian view runs its agent form (:func:`~formsync_design.spec.lagrangian_agent.agent_of`).
+      ``sensors`` (a :class:`~formsync_design.sim.sensors.RateSensors` gyro model) and
+      ``torque_input`` (``(steps, N, 3)`` held torques) are taken here;
+    * a :class:`~formsync_design.sim.tracking_scenario.FlyaroundScenario` (options
+      :class:`~formsync_design.sim.tracking_scenario.FlyaroundOptions`): a tracking design's
+      orbit and attitude closed loop with thrusters, allocation and PWM
+      (:func:`~formsync_design.sim.tracking.simulate_flyaround`; default design
+      ``zhang2014_flyaround``), returning its :class:`~formsync_design.sim.tracking_scenario.FlyaroundRun`.
 
     Parameters
     ----------
-    formation : Formation
-    options : SimOptions, optional
+    formation : Formation, AgentFormation or FlyaroundScenario
+    options : SimOptions, AgentOptions or FlyaroundOptions, optional
+        The options of the formation's path (its defaults when omitted).
     spec : Spec, AgentDesign, str, Path or None
-        The specification whose controller is simulated (default: the paper's,
-        ``liang2016``; resolved with :func:`~formsync_design.spec.loader.load_spec`).
-        Its kernel is cached under ``spec.key``.  An agent design (``FORM = "agent"``)
-        is simulated by :func:`~formsync_design.sim.agents.simulate_agents` (``formation``
-        an ``AgentFormation``, ``options`` ``AgentOptions``), which returns the same type.
+        The design (a shipped design's name, a file or a loaded design; default: the paper's,
+        ``liang2016``, or ``zhang2014_flyaround`` for a fly-around).  Kernels are cached
+        under its content key.
+    sensors, torque_input : optional
+        An agent formation's gyro model and extra held torques (the ``rk4`` integrator and
+        a continuous law); refused for the other paths.
 
     Returns
     -------
     SimResult
-        Status ``converged`` / ``not-converged`` / ``singular`` / ``diverged`` (NaN/inf in
-        the state away from the ``q0`` singularity, ``diverged_time``): a finding, not an error.
-        ``convergence_time`` is the Lagrangian criterion of ``options`` (``Q_m <= q_tol`` and
-        ``Omega_m <= omega_tol`` to the end); ``attitude_error``/``rate_error`` are the
-        largest pairwise principal angle and body-rate difference, as in an agent run.
+        For both attitude-formation paths (one type): status ``converged`` /
+        ``not-converged`` / ``singular`` / ``diverged`` / ``stopped``, a finding, not an
+        error.  A Lagrangian run's ``convergence_time`` is the criterion of its options
+        (``Q_m <= q_tol`` and ``Omega_m <= omega_tol`` to the end), an agent run's that of
+        :class:`~formsync_design.sim.agents.AgentOptions` (``angle_tol``, ``rate_tol``);
+        ``attitude_error``/``rate_error`` are the largest pairwise principal angle and
+        body-rate difference in both.  A fly-around returns a ``FlyaroundRun``.
 
     Raises
     ------
+    InputError
+        Options of another path, a formation the design cannot run (an agent-only design
+        on a ``Formation``), ``sensors``/``torque_input`` outside an agent formation.
     SimulationError
         Quaternion norm drift beyond ``options.norm_tol``, a step-size underflow or too
         many steps away from the ``q0`` singularity.
@@ -162,25 +192,68 @@ def simulate(
     >>> r = simulate(f, SimOptions(tf=60.0, compile=False))
     >>> str(r.status), r.final_q_m < 1e-4
     ('converged', True)
+
+    The same spacecraft as an agent formation run the paper's law in its agent form:
+
+    >>> from formsync_design.sim.agents import AgentFormation, AgentOptions
+    >>> a = AgentFormation(make_graph("path:2"), f.inertias, att, np.zeros((2, 3)),
+    ...                    Gains(K_o=1.6, K_q=0.4, beta=0.3, K_v=0.0), no_disturbance(2))
+    >>> ra = simulate(a, AgentOptions(tf=60.0, output_step=0.5, step=0.05), spec="liang2016")
+    >>> type(ra) is type(r), str(ra.status), bool(ra.attitude_error[-1] < 0.01)
+    (True, 'converged', True)
     """
+    from formsync_design.sim.agents import AgentFormation
     from formsync_design.spec.loader import agent_design_of
 
-    agent = agent_design_of(spec)
-    if agent is not None:  # an agent design: simulate_agents (the same SimResult)
-        from formsync_design.sim.agents import AgentOptions, simulate_agents
+    measured = sensors is not None or torque_input is not None
+    if _is_flyaround(formation):
+        if measured:
+            raise InputError("expected sensors and torque_input only for an AgentFormation, "
+                             "received them with a fly-around scenario")
+        from formsync_design.sim.tracking import simulate_flyaround
 
-        agent_opt: Any = options if options is not None else AgentOptions()
-        agent_formation: Any = formation
-        return simulate_agents(agent, agent_formation, agent_opt)
+        return simulate_flyaround(formation, options, spec)
+    if isinstance(formation, AgentFormation):
+        from formsync_design.sim.agents import AgentOptions, simulate_agents
+        from formsync_design.spec.lagrangian_agent import agent_of
+        from formsync_design.spec.loader import load_design
+
+        design = agent_of(spec if getattr(spec, "form", None) == "agent" or
+                          getattr(spec, "decl", None) is not None else load_design(spec))
+        agent_opt = options if options is not None else AgentOptions()
+        if not isinstance(agent_opt, AgentOptions):
+            raise InputError(f"expected AgentOptions for an AgentFormation, received a "
+                             f"{type(agent_opt).__name__}")
+        return simulate_agents(design, formation, agent_opt, sensors=sensors,
+                               torque_input=torque_input)
+    agent = agent_design_of(spec)
+    if agent is not None:
+        raise InputError(f"expected an AgentFormation for the agent design {agent.name}, "
+                         f"received a {type(formation).__name__}")
+    if measured:
+        raise InputError(f"expected an AgentFormation for sensors or a torque input (the agent "
+                         f"kernels' gyro and torque channels), received a "
+                         f"{type(formation).__name__}")
     opt = options if options is not None else SimOptions()
     if not isinstance(formation, Formation):
-        raise InputError(f"expected a Formation, received a {type(formation).__name__}")
+        raise InputError(f"expected a Formation, an AgentFormation or a FlyaroundScenario, "
+                         f"received a {type(formation).__name__}")
     if not isinstance(opt, SimOptions):
         raise InputError(f"expected SimOptions, received a {type(opt).__name__}")
     sp_spec = load_spec(spec)
     if opt.method == "cvodes":
         return _simulate_cvodes(formation, opt, sp_spec)
     return _simulate_driver(formation, opt, sp_spec)
+
+
+def _is_flyaround(formation: Any) -> bool:
+    """Is ``formation`` a fly-around scenario (checked without importing the tracking
+    modules for the other paths)?"""
+    if type(formation).__name__ != "FlyaroundScenario":
+        return False
+    from formsync_design.sim.tracking_scenario import FlyaroundScenario
+
+    return isinstance(formation, FlyaroundScenario)
 
 
 def _grid_count(opt: SimOptions) -> int:

@@ -35,10 +35,10 @@ from typing import Any
 import sympy as sp
 from sympy.matrices.expressions.matexpr import MatrixElement
 
-from formsync_design.errors import DerivationError
+from formsync_design.errors import DerivationError, InputError
 from formsync_design.spec.declarations import GainRole
 
-__all__ = ["agent_form", "lagrangian_model"]
+__all__ = ["agent_form", "agent_of", "lagrangian_model"]
 
 _FORMS: dict[str, Any] = {}
 
@@ -157,3 +157,25 @@ def agent_form(spec: Any) -> Any:
     d = replace(d, path=spec.path, source=spec.source, lagrangian=spec)
     _FORMS[spec.key] = d
     return d
+
+
+def agent_of(d: Any, where: str = "") -> Any:
+    """The agent design that runs for the loaded design ``d``: an agent design as it is, a
+    quaternion Lagrangian design in its agent form (:func:`agent_form`, the design its
+    Lagrangian view); a design of another kind (a tracking design) is refused in one line
+    (``where``: where it was named, for the message).
+
+    >>> from formsync_design.spec.loader import load_design, load_spec
+    >>> agent_of(load_spec("pd_consensus")).lagrangian.name
+    'pd_consensus'
+    >>> agent_of(load_design("ma_so3")).name
+    'ma_so3'
+    """
+    if getattr(d, "form", None) == "agent":
+        return d
+    decl = getattr(d, "decl", None)
+    if getattr(decl, "kind", None) != "formation" or getattr(decl, "representation", None) != "quaternion":
+        raise InputError(f"expected an agent design (FORM = 'agent') or a quaternion Lagrangian "
+                         f"design{where}, received the {getattr(decl, 'kind', '?')} design "
+                         f"{d.name!r}")
+    return agent_form(d)

@@ -76,7 +76,7 @@ from formsync_design.verify.case import (
 )
 
 __all__ = ["ENGINE_TABLES", "AgentCase", "load_agent_case", "parse_agent_case", "euler321_to_quat",
-           "case_design_ref", "case_is_agent", "agent_of", "shipped_agent_case", "formation_case_path",
+           "case_design_ref", "case_is_agent", "shipped_agent_case", "formation_case_path",
            "formation_inertias"]
 
 #: The tables an engine case (``[case] kind = "engine"``, :mod:`formsync_design.verify.enginecase`)
@@ -323,24 +323,9 @@ def _design_of(ref: str, path: str) -> Any:
     return load_design(Path(ref) if Path(ref).is_absolute() else Path(path).parent / ref)
 
 
-def agent_of(d: Any, where: str) -> Any:
-    """The agent design an agent case runs for the loaded design ``d``: an agent design as
-    it is, a quaternion Lagrangian design in its agent form
-    (:func:`~formsync_design.spec.lagrangian_agent.agent_form`, the design its Lagrangian
-    view); a design of another kind is refused in one line."""
-    if getattr(d, "form", None) == "agent":
-        return d
-    decl = getattr(d, "decl", None)
-    if getattr(decl, "kind", None) != "formation" or getattr(decl, "representation", None) != "quaternion":
-        raise InputError(f"expected an agent design (FORM = 'agent') or a quaternion Lagrangian "
-                         f"design{where}, received the {getattr(decl, 'kind', '?')} design "
-                         f"{d.name!r}")
-    from formsync_design.spec.lagrangian_agent import agent_form
-
-    return agent_form(d)
-
-
 def _resolve_design(ref: str, path: str) -> Any:
+    from formsync_design.spec.lagrangian_agent import agent_of
+
     return agent_of(_design_of(ref, path), f" in [case] design of {path}")
 
 
@@ -355,6 +340,7 @@ def parse_agent_case(data: dict, path: str = "<memory>", design: Any = None) -> 
                              f"received {ref!r}")
         d = _resolve_design(ref, path)
     else:
+        from formsync_design.spec.lagrangian_agent import agent_of
         from formsync_design.spec.loader import load_design
 
         d = load_design(design)
