@@ -426,8 +426,13 @@ def test_sampled_pd_matches_an_independent_zoh_loop():
         sol = solve_ivp(rhs, (k * T, (k + 1) * T), x.ravel(), method="DOP853", rtol=1e-12,
                         atol=1e-14)
         x = sol.y[:, -1].reshape(n, 7)
-    np.testing.assert_allclose(r.hybrid.x[-1], x, atol=1e-8)
+    # the one SimResult of a formation run: (q1..3, q0) and rates at the final time
+    np.testing.assert_allclose(np.column_stack([r.quaternions[-1], r.rates[-1]]), x, atol=1e-8)
     assert r.transmissions.tolist() == [int(tf / T)] * n
+    assert type(r).__name__ == "SimResult" and r.integrator == "hybrid-dop853"
+    # the held torques: each spacecraft's torque is constant between its broadcasts
+    k = int(round(0.25 / 0.1))  # inside the first hold interval [0, T)
+    np.testing.assert_array_equal(r.torques[k], r.torques[0])
 
 
 def test_event_triggered_pd_transmits_less_and_still_synchronizes():
@@ -442,12 +447,14 @@ def test_event_triggered_pd_transmits_less_and_still_synchronizes():
                   Gains(k_p=0.5, k_d=1.5), no_disturbance(4))
     opt = SimOptions(tf=80, q_tol=1e-3, omega_tol=1e-4)
     per = simulate_sampled(f, opt, parse_trigger("periodic:0.1"), PD)
-    ev = simulate_sampled(f, opt, parse_trigger("event:0.05:1e-5"), PD)
+    record: dict = {}
+    ev = simulate_sampled(f, opt, parse_trigger("event:0.05:1e-5"), PD, record=record)
     assert per.converged and ev.converged
     assert ev.transmissions.sum() < per.transmissions.sum()
+    assert [len(ts) for ts in ev.trigger_times] == ev.transmissions.tolist()
     # every event after the first broadcast happened because the error reached at least
     # the floor of its threshold (the rule was monitored, not a clock)
-    for states in ev.hybrid.trigger_states:
+    for states in record["hybrid"].trigger_states:
         S = np.asarray(states)
         assert len(S) > 1
         assert (np.linalg.norm(np.diff(S[:, :3], axis=0), axis=1) >= 1e-5 * (1 - 1e-6)).all()

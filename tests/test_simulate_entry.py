@@ -87,6 +87,19 @@ def test_sensors_and_torque_inputs_reach_the_agent_kernel(small) -> None:
     assert not np.array_equal(pushed.rates, simulate(af, opt).rates)  # the input acts
 
 
+def test_a_trigger_runs_the_lagrangian_view_sampled() -> None:
+    from formsync_design.sim.sampled import parse_trigger, simulate_sampled
+
+    case = load_case(DATA / "small_case.toml")
+    f = case.formation("ring:3")
+    opt = replace(case.options, tf=20.0)
+    a = simulate(f, opt, trigger="event:0.05:1e-4")
+    b = simulate_sampled(f, opt, parse_trigger("event:0.05:1e-4"), None)
+    _same(a, b)
+    assert np.array_equal(a.transmissions, b.transmissions) and a.integrator == "hybrid-dop853"
+    assert np.array_equal(a.q_m, b.q_m)
+
+
 def test_a_flyaround_scenario_runs_the_tracking_design() -> None:
     case = fs.load_flyaround_case()
     opt = replace(case.options, tf=20.0)
@@ -112,6 +125,10 @@ def test_what_a_path_cannot_take_is_refused_in_one_line(small) -> None:
         simulate(af, OPT, spec="zhang2014_flyaround")
     with pytest.raises(InputError, match="Formation, an AgentFormation or a FlyaroundScenario"):
         simulate("ring:3", None)
+    with pytest.raises(InputError, match="trigger rule only for a Formation"):
+        simulate(af, OPT, trigger="periodic:0.5")
+    with pytest.raises(InputError, match="periodic:T or event"):
+        simulate(f, case.options, trigger="sometimes")
     fly = fs.load_flyaround_case()
     with pytest.raises(InputError, match="fly-around"):
         simulate(fly.scenario, None, sensors=gyro)

@@ -314,7 +314,9 @@ def _text(case: Any, graph: Any, f: Any, r: Any, written: list[str], spec: Any =
 def _run_sampled(args: argparse.Namespace, case: Any, graph: Any, f: Any, opt: Any, spec: Any,
                  out_dir: Path | None, theorem: Any) -> int:
     """``--trigger``: the exact hybrid simulation with per-spacecraft sample-and-hold."""
-    from formsync_design.sim.sampled import parse_trigger, simulate_sampled
+    from formsync_design.sim.result import SimStatus
+    from formsync_design.sim.sampled import parse_trigger
+    from formsync_design.sim.simulator import simulate
 
     if args.trigger is None:
         raise InputError(f"expected --trigger periodic:T or event:SIGMA[:FLOOR]: design "
@@ -323,10 +325,11 @@ def _run_sampled(args: argparse.Namespace, case: Any, graph: Any, f: Any, opt: A
         raise InputError("expected --trigger without --sample-period and --integrator (the "
                          "hybrid integrator is DOP853 with event location)")
     trig = parse_trigger(args.trigger)
-    r = simulate_sampled(f, opt, trig, spec)
+    r = simulate(f, opt, spec=spec, trigger=trig)
+    assert r.transmissions is not None and r.min_interevent is not None  # a sampled run's
     doc = {**({"outside_theorem": theorem.to_dict()} if not theorem.inside else {}),
            "case": case.name, "graph": graph.name, "gains": f.gains.as_dict(),
-           "disturbance": f.disturbance.kind, **r.to_dict()}
+           "disturbance": f.disturbance.kind, "trigger": trig.text(), **r.to_dict()}
     if out_dir is not None:
         pth = write_text(out_dir / "summary.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
         doc["written"] = [str(pth)]
@@ -337,16 +340,17 @@ def _run_sampled(args: argparse.Namespace, case: Any, graph: Any, f: Any, opt: A
         lines = [
             f"case {case.name}: {f.n} spacecraft, graph {graph.name}, tf = {opt.tf:g} s, "
             f"design {spec.name}, trigger {trig.text()}",
-            f"status: {r.hybrid.status} - " + ("converged at t = "
-                                                f"{ct:.2f} s" if ct is not None else
-                                                f"not converged within {opt.tf:g} s"),
-            f"final metrics: Q_m = {r.q_m[-1]:.3e}, Omega_m = {r.omega_m[-1]:.3e} rad/s",
+            f"status: {r.status} - " + (f"converged at t = {ct:.2f} s" if ct is not None else
+                                        f"not converged within {opt.tf:g} s"
+                                        if r.status == SimStatus.NOT_CONVERGED else
+                                        f"the run stopped at t = {r.stop_time:g} s"),
+            f"final metrics: Q_m = {r.final_q_m:.3e}, Omega_m = {r.final_omega_m:.3e} rad/s",
             "transmissions per spacecraft: " + ", ".join(str(int(k)) for k in r.transmissions),
             "shortest inter-event time per spacecraft (s): "
-            + ", ".join(f"{v:.3g}" for v in r.hybrid.min_interevent),
+            + ", ".join(f"{v:.3g}" for v in r.min_interevent),
         ]
-        if r.hybrid.message:
-            lines.append(r.hybrid.message)
+        if r.status in (SimStatus.STOPPED, SimStatus.DIVERGED):
+            lines.append(r.message)
         if not theorem.inside:
             lines.insert(0, theorem.note())
         print("\n".join(lines))

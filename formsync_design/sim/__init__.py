@@ -51,7 +51,6 @@ if TYPE_CHECKING:  # the lazy names for type checkers and IDEs
     )
     from formsync_design.sim.result import SimResult as SimResult, SimStatus as SimStatus
     from formsync_design.sim.sampled import (
-        SampledResult as SampledResult,
         TriggerSpec as TriggerSpec,
         parse_trigger as parse_trigger,
         simulate_sampled as simulate_sampled,
@@ -74,7 +73,6 @@ _LAZY: dict[str, str] = {
     "MonteCarloSettings": "formsync_design.sim.montecarlo_data",
     "RunStatus": "formsync_design.sim.montecarlo_data",
     "run_montecarlo": "formsync_design.sim.montecarlo",
-    "SampledResult": "formsync_design.sim.sampled",
     "TriggerSpec": "formsync_design.sim.sampled",
     "parse_trigger": "formsync_design.sim.sampled",
     "simulate_sampled": "formsync_design.sim.sampled",
@@ -101,7 +99,6 @@ __all__ = [
     "HybridResult",
     "HybridStatus",
     "simulate_hybrid",
-    "SampledResult",
     "TriggerSpec",
     "parse_trigger",
     "simulate_sampled",

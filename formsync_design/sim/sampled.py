@@ -26,28 +26,36 @@ state its own rule):
     event-triggered consensus, e.g. Seyboth, Dimarogonas & Johansson 2013; the floor
     excludes Zeno behaviour near consensus).
 
-Outputs: the trajectory, the paper's metrics, the trigger instants and the number of
-transmissions per spacecraft.
+Outputs: the one :class:`~formsync_design.sim.result.SimResult` of a formation run (the
+trajectory, held torques, the paper's metrics, the trigger instants and the number of
+transmissions per spacecraft).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from formsync_design.errors import InputError
-from formsync_design.gains import json_number, parse_number
+from formsync_design.gains import parse_number
 from formsync_design.sim.bridge import build_controller, controller_gain_names
-from formsync_design.sim.formation import Formation, SimOptions
-from formsync_design.sim.hybrid import HybridOptions, HybridResult, event, periodic, simulate_hybrid
+from formsync_design.sim.formation import Formation, SimOptions, state_names
+from formsync_design.sim.hybrid import (
+    HybridOptions,
+    HybridResult,
+    HybridStatus,
+    event,
+    periodic,
+    simulate_hybrid,
+)
 from formsync_design.sim.kernels import get_kernel, pack_params
 from formsync_design.sim.metrics import convergence_time, formation_metrics
+from formsync_design.sim.result import SimResult, SimStatus
 from formsync_design.spec.loader import Spec, load_spec
 
-__all__ = ["TriggerSpec", "parse_trigger", "SampledResult", "simulate_sampled"]
+__all__ = ["TriggerSpec", "parse_trigger", "simulate_sampled"]
 
 
 @dataclass(frozen=True)
@@ -98,44 +106,6 @@ def parse_trigger(text: str) -> TriggerSpec:
     raise InputError(usage)
 
 
-@dataclass(frozen=True)
-class SampledResult:
-    """A sampled formation run: the hybrid run plus the paper's metrics."""
-
-    trigger: TriggerSpec
-    hybrid: HybridResult
-    t: np.ndarray
-    omega_m: np.ndarray
-    q_m: np.ndarray
-    convergence_time: float | None
-    spec_name: str
-
-    @property
-    def converged(self) -> bool:
-        return self.convergence_time is not None
-
-    @property
-    def transmissions(self) -> np.ndarray:
-        return self.hybrid.transmissions
-
-    def to_dict(self) -> dict[str, Any]:
-        h = self.hybrid
-        return {
-            "specification": self.spec_name,
-            "trigger": self.trigger.text(),
-            "status": str(h.status),
-            "message": h.message,
-            "diverged_time": None if h.diverged_time is None else json_number(h.diverged_time),
-            "converged": self.converged,
-            "convergence_time": json_number(self.convergence_time),
-            "final_q_m": json_number(float(self.q_m[-1])),
-            "final_omega_m": json_number(float(self.omega_m[-1])),
-            "transmissions": [int(k) for k in h.transmissions],
-            "min_interevent": [json_number(float(v)) for v in h.min_interevent],
-            "mean_interevent": [json_number(float(v)) for v in h.mean_interevent],
-        }
-
-
 def simulate_sampled(
     f: Formation,
     opt: SimOptions,
@@ -143,11 +113,25 @@ def simulate_sampled(
     spec: Spec | str | None = None,
     *,
     hybrid: HybridOptions | None = None,
-) -> SampledResult:
+    record: dict | None = None,
+) -> SimResult:
     """Simulate ``f`` with per-spacecraft sample-and-hold under ``trigger`` (module docstring).
 
     Uses ``opt.tf``, ``opt.output_step``, ``opt.switch``/``opt.phi`` (the design's switching
-    substitute), ``opt.torque_limit``, ``opt.q_tol``/``opt.omega_tol``.
+    substitute), ``opt.torque_limit``, ``opt.q_tol``/``opt.omega_tol``.  ``record`` (a dict)
+    receives the hybrid run (``"hybrid"``: the broadcast states and the integrator's
+    statistics).
+
+    Returns
+    -------
+    SimResult
+        The one result type of a formation run (:mod:`~formsync_design.sim.result`): the
+        trajectory on the output grid, the held torques, the paper's metrics ``Q_m`` and
+        ``Omega_m`` and the convergence time by ``opt.q_tol``/``opt.omega_tol``, the
+        transmissions, inter-event times and trigger instants per spacecraft, the exact
+        control effort; status ``converged``/``not-converged`` when the horizon was
+        reached, ``diverged`` (a non-finite state, ``diverged_time``) or ``stopped`` (Zeno
+        protection, too many triggers, a solver failure: ``message`` says which).
 
     Examples
     --------
@@ -161,8 +145,8 @@ def simulate_sampled(
     ...               np.zeros((3, 3)), Gains(k_p=0.5, k_d=1.5), no_disturbance(3))
     >>> r = simulate_sampled(f, SimOptions(tf=60), parse_trigger("periodic:0.5"),
     ...                      "pd_consensus")
-    >>> r.converged, r.transmissions.tolist()
-    (True, [120, 120, 120])
+    >>> r.converged, r.transmissions.tolist(), r.integrator
+    (True, [120, 120, 120], 'hybrid-dop853')
     """
     sp_ = load_spec(spec)
     n = f.n
@@ -210,9 +194,42 @@ def simulate_sampled(
     t_eval = np.arange(int(round(opt.tf / opt.output_step)) + 1) * opt.output_step
     h = simulate_hybrid(plant, control, rules, x0, (0.0, float(opt.tf)), t_eval, adjacency=A,
                         options=hybrid)
-    X = np.stack([to_kernel(x) for x in h.x])
+    if record is not None:
+        record["hybrid"] = h
+    return _result(f, opt, sp_, trigger, h)
+
+
+def _result(f: Formation, opt: SimOptions, sp_: Spec, trigger: TriggerSpec,
+            h: HybridResult) -> SimResult:
+    """The :class:`~formsync_design.sim.result.SimResult` of the hybrid run ``h``."""
+    n = f.n
+    X = np.stack([np.concatenate([x[:, :4].ravel(), x[:, 4:].ravel()]) for x in h.x])
     om, qm = formation_metrics(n, X)
     t = np.asarray(h.t, dtype=float)
+    U = np.asarray(h.u, dtype=float).reshape(len(t), n, 3)
     ct = convergence_time(t, om, qm, opt.q_tol, opt.omega_tol)
-    return SampledResult(trigger=trigger, hybrid=h, t=t, omega_m=om, q_m=qm,
-                         convergence_time=ct, spec_name=sp_.name)
+    if h.status == HybridStatus.COMPLETED:
+        status = SimStatus.CONVERGED if ct is not None else SimStatus.NOT_CONVERGED
+        message = (f"{trigger.text()}: converged at t = {ct:g} s" if ct is not None else
+                   f"{trigger.text()}: not converged within {opt.tf:g} s")
+    else:
+        status = SimStatus.DIVERGED if h.status == HybridStatus.DIVERGED else SimStatus.STOPPED
+        message, ct = h.message, None
+    sat_end = None
+    if opt.torque_limit is not None:
+        at = np.flatnonzero((np.abs(U) >= opt.torque_limit * (1 - 1e-12)).any(axis=(1, 2)))
+        sat_end = float(t[at[-1]]) if at.size else None
+    W = np.asarray(h.x, dtype=float)[:, :, 4:]
+    return SimResult(
+        status=status, message=message, design=sp_.name, graph=f.graph.name, t=t,
+        quaternions=np.asarray(h.x, dtype=float)[:, :, :4], rates=W,
+        states=np.zeros((len(t), n, 0)), torques=U, reference=None, attitude_error=None,
+        reference_error=None, rate_error=None, convergence_time=ct,
+        peak_torque=np.abs(U).max(axis=0) if len(t) else np.zeros((n, 3)),
+        effort=np.asarray(h.control_effort, dtype=float), monitors={},
+        transmissions=np.asarray(h.transmissions), min_interevent=h.min_interevent,
+        mean_interevent=h.mean_interevent,
+        trigger_times=tuple(np.asarray(ts, dtype=float) for ts in h.trigger_times),
+        state_names=tuple(state_names(n)), integrator="hybrid-dop853",
+        diverged_time=h.diverged_time, omega_m=om, q_m=qm, saturation_end_time=sat_end,
+        stats=dict(h.stats), options=opt, spec_key=sp_.key)

@@ -122,6 +122,7 @@ def simulate(
     spec: Any = None,
     sensors: Any = None,
     torque_input: np.ndarray | None = None,
+    trigger: Any = None,
 ) -> Any:
     """Simulate a formation under a design: the one entry point of simulation.
 
@@ -131,7 +132,10 @@ def simulate(
     * a :class:`~formsync_design.sim.formation.Formation` (options :class:`SimOptions`): the
       design's Lagrangian view on the compiled whole-horizon driver (DOPRI5 or RK4 with
       located events, :mod:`formsync_design.sim.native`; CVODES on request), with the paper's
-      metrics ``Q_m``/``Omega_m`` and the ``q0`` singularity;
+      metrics ``Q_m``/``Omega_m`` and the ``q0`` singularity; with ``trigger``
+      (``"periodic:T"``, ``"event:SIGMA[:FLOOR]"`` or a
+      :class:`~formsync_design.sim.sampled.TriggerSpec`) per-spacecraft sample-and-hold on
+      the exact hybrid integrator (:func:`~formsync_design.sim.sampled.simulate_sampled`);
     * an :class:`~formsync_design.sim.agents.AgentFormation` (options
       :class:`~formsync_design.sim.agents.AgentOptions`): the design's agent form, per
       spacecraft on a directed weighted graph with a leader, controller states and the
@@ -159,6 +163,9 @@ def simulate(
     sensors, torque_input : optional
         An agent formation's gyro model and extra held torques (the ``rk4`` integrator and
         a continuous law); refused for the other paths.
+    trigger : str or TriggerSpec, optional
+        A Lagrangian formation's per-spacecraft trigger rule (an agent design declares its
+        own sampling rule: :func:`~formsync_design.spec.agent.rule_variant`).
 
     Returns
     -------
@@ -206,6 +213,10 @@ def simulate(
     from formsync_design.spec.loader import agent_design_of
 
     measured = sensors is not None or torque_input is not None
+    if trigger is not None and not isinstance(formation, Formation):
+        raise InputError(f"expected a trigger rule only for a Formation (an agent design "
+                         f"declares its sampling rule), received one with a "
+                         f"{type(formation).__name__}")
     if _is_flyaround(formation):
         if measured:
             raise InputError("expected sensors and torque_input only for an AgentFormation, "
@@ -241,6 +252,11 @@ def simulate(
     if not isinstance(opt, SimOptions):
         raise InputError(f"expected SimOptions, received a {type(opt).__name__}")
     sp_spec = load_spec(spec)
+    if trigger is not None:
+        from formsync_design.sim.sampled import TriggerSpec, parse_trigger, simulate_sampled
+
+        rule = trigger if isinstance(trigger, TriggerSpec) else parse_trigger(str(trigger))
+        return simulate_sampled(formation, opt, rule, sp_spec)
     if opt.method == "cvodes":
         return _simulate_cvodes(formation, opt, sp_spec)
     return _simulate_driver(formation, opt, sp_spec)
