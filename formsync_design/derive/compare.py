@@ -163,9 +163,9 @@ def _identically_zero(entries: Any) -> bool:
     False
     """
     entries = list(entries)
-    gens = sorted(set().union(*(sp.sympify(x).free_symbols for x in entries)), key=str)
+    gens = sorted(set().union(*(x.free_symbols for x in entries)), key=str)
     if not gens:
-        return all(sp.sympify(x) == 0 for x in entries)
+        return all(x == 0 for x in entries)
     K = sp.field(gens, sp.QQ)[0]
     return all(K.from_expr(x) == 0 for x in entries)
 
