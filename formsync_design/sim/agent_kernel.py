@@ -359,6 +359,25 @@ class AgentKernel:
     measured: bool = False
     mapped: dict[int, ca.Function] = field(default_factory=dict)
     integrators: dict[tuple[Any, ...], ca.Function] = field(default_factory=dict)
+    batched: dict[tuple[int, int], ca.Function] = field(default_factory=dict)
+
+    def chunk_map(self, runs: int, threads: int) -> ca.Function:
+        """``chunk`` mapped over ``runs`` columns (initial states ``(nx + 1, runs)`` and
+        parameter vectors ``(P, runs)``; the step is shared) on ``threads`` threads: each
+        column is one call of ``chunk`` as a single run makes it (its parameter vector
+        repeated over the ``K`` intervals, which ``chunk``, a ``mapaccum``, takes one per
+        interval), the same compiled arithmetic, so every run equals its single run bitwise.
+        Kept per count."""
+        key = (runs, threads)
+        fn = self.batched.get(key)
+        if fn is None:
+            xa = ca.MX.sym("xa", self.chunk.size_in(0))
+            h = ca.MX.sym("h")
+            p = ca.MX.sym("p", self.chunk.size1_in(2))
+            one = ca.Function("agent_chunk_run", [xa, h, p], [self.chunk(xa, h, p)])
+            fn = self.batched[key] = (one.map(runs, "thread", threads) if threads > 1
+                                      else one.map(runs))
+        return fn
 
     def cvodes(self, grid: np.ndarray, rtol: float, atol: float) -> ca.Function:
         """CasADi's CVODES over ``rhs`` from ``t = 0`` to the output times ``grid``

@@ -22,7 +22,7 @@ the design's monitors and, for sampled designs, the transmissions and inter-even
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -58,6 +58,7 @@ __all__ = [
     "AGENT_STATUSES",
     "simulate_agents",
     "simulate_agents_sampled",
+    "simulate_agents_batch",
     "assemble_result",
     "observe_grid",
 ]
@@ -343,14 +344,7 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
                 break
             k += take
         if diverged is not None:
-            X = X[:diverged]
-            tdiv, t = float(t[diverged]), t[:diverged]
-            res = assemble_result(design, f, opt, kern, p, t, X, opt.integrator)
-            return replace(res, status=SimStatus.DIVERGED, diverged_time=tdiv,
-                           convergence_time=None,
-                           message=f"diverged at t = {tdiv:g} s (non-finite state; the trajectory "
-                                   f"ends at t = {float(t[-1]):g} s): try a smaller step or a "
-                                   "boundary layer")
+            return _diverged(design, f, opt, kern, p, t, X, diverged)
     else:
         integ = kern.cvodes(t[1:], opt.rtol, opt.atol)
         try:
@@ -364,6 +358,87 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
         cols = np.minimum(np.arange(T + 1) * M, ext.shape[1] - 1)
         obs_ext = ext[:, cols].T
     return assemble_result(design, f, opt, kern, p, t, X, opt.integrator, ext=obs_ext)
+
+
+def _diverged(design: AgentDesign, f: AgentFormation, opt: AgentOptions, kern: Any,
+              p: np.ndarray, t: np.ndarray, X: np.ndarray, index: int) -> SimResult:
+    """The result of a run whose state is non-finite from output ``index`` on: a finding,
+    the trajectory ending at the last finite output time."""
+    X = X[:index]
+    tdiv, t = float(t[index]), t[:index]
+    res = assemble_result(design, f, opt, kern, p, t, X, opt.integrator)
+    return replace(res, status=SimStatus.DIVERGED, diverged_time=tdiv, convergence_time=None,
+                   message=f"diverged at t = {tdiv:g} s (non-finite state; the trajectory ends "
+                           f"at t = {float(t[-1]):g} s): try a smaller step or a boundary layer")
+
+
+def simulate_agents_batch(design: AgentDesign, formations: Sequence[AgentFormation],
+                          options: AgentOptions | None = None, *,
+                          threads: int | None = None) -> list[SimResult]:
+    """The runs of ``formations`` (one graph structure: Monte-Carlo draws of one case) under
+    ``design``, advanced together: one call of the compiled RK4 kernel mapped over the runs
+    per chunk of output intervals, spread over ``threads`` threads (default: the machine's
+    cores).  Each result equals :func:`simulate_agents` of its formation bitwise (every run
+    is one column of the same compiled function); a run whose state goes non-finite ends
+    there as alone.  Formations of several structures or reference rates, the ``cvodes``
+    integrator and sampled designs run one by one through :func:`simulate_agents`.
+
+    >>> from formsync_design.graphs import load_graph
+    >>> from formsync_design.spec.agent import agent_design_from_functions
+    >>> d = agent_design_from_functions(lambda v: -v.k * v.J * v.w, gains={"k": {}})
+    >>> fs_ = [AgentFormation(load_graph("path:2"), np.array([np.eye(3)] * 2),
+    ...                       np.array([[0, 0, 0, 1.0]] * 2), np.full((2, 3), w), Gains(k=1.0))
+    ...        for w in (0.1, 0.2)]
+    >>> opt = AgentOptions(tf=5, output_step=0.5, step=0.05)
+    >>> both = simulate_agents_batch(d, fs_, opt)
+    >>> all(np.array_equal(b.rates, simulate_agents(d, f, opt).rates) for b, f in zip(both, fs_))
+    True
+    """
+    import os
+
+    from sympy import srepr
+
+    opt = options or AgentOptions()
+    fl = list(formations)
+    # the reference rates are SymPy expressions (Reference); one kernel serves one of them
+    refs = {None if f.reference is None else tuple(srepr(r) for r in f.reference.rate) for f in fl}
+    if (len(fl) < 2 or opt.integrator != "rk4" or design.decl.sampling != "continuous"
+            or len({f.neighbours() for f in fl}) > 1 or len(refs) > 1):
+        return [simulate_agents(design, f, opt) for f in fl]
+    for f in fl:
+        _check(design, f)
+    f0, B = fl[0], len(fl)
+    M = int(round(opt.output_step / opt.step))
+    T = int(math.floor(opt.tf / opt.output_step + 1e-9))
+    if T < 1:
+        raise InputError(f"expected tf >= output_step, received tf {opt.tf:g} and output_step "
+                         f"{opt.output_step:g}")
+    K = min(T, 200)
+    kern = get_agent_kernel(design, f0.neighbours(), opt.switch, M, K,
+                            f0.reference.rate if f0.reference is not None else ("0", "0", "0"))
+    P = np.stack([agent_parameters(design, f, opt, kern.layout) for f in fl], axis=1)
+    X = np.empty((B, T + 1, kern.nx))
+    X[:, 0] = np.stack([_x0(design, f) for f in fl])
+    xa = np.concatenate([X[:, 0].T, np.zeros((1, B))])
+    fn = kern.chunk_map(B, max(1, min(B, threads or os.cpu_count() or 1)))
+    diverged: list[int | None] = [None] * B
+    k = 0
+    while k < T and any(d is None for d in diverged):
+        out = np.asarray(fn(xa, opt.step, P)).reshape(kern.nx + 1, B, K)
+        take = min(K, T - k)
+        X[:, k + 1: k + 1 + take] = out[:-1, :, :take].transpose(1, 2, 0)
+        xa = np.ascontiguousarray(out[:, :, take - 1])
+        for b in range(B):
+            if diverged[b] is None:
+                bad = np.flatnonzero(~np.isfinite(X[b, k + 1: k + 1 + take]).all(axis=1))
+                if bad.size:  # this run ends at its last finite output time
+                    diverged[b] = k + 1 + int(bad[0])
+        k += take
+    t = np.arange(T + 1) * opt.output_step
+    return [assemble_result(design, f, opt, kern, P[:, b].copy(), t, X[b], opt.integrator)
+            if diverged[b] is None else
+            _diverged(design, f, opt, kern, P[:, b].copy(), t, X[b], int(diverged[b] or 0))
+            for b, f in enumerate(fl)]
 
 
 def simulate_agents_sampled(design: AgentDesign, formation: AgentFormation, opt: AgentOptions,
