@@ -42,6 +42,7 @@ from formsync_design.models.disturbances import (
 )
 from formsync_design.sim.bridge import sympy_to_casadi
 from formsync_design.sim.layout import param_slices
+from formsync_design.sim.reference_rate import reference_rate_expressions, reference_rate_function
 from formsync_design.spec.agent import AgentDesign, AgentView, agent_expressions, sgn
 from formsync_design.spec.dag import replace_function
 from formsync_design.spec.declarations import GainKind, GainRole
@@ -52,9 +53,6 @@ __all__ = [
     "AgentLaw",
     "agent_law",
     "attitude_entries",
-    "reference_rate_function",
-    "reference_rate_expressions",
-    "REFERENCE_FUNCTIONS",
     "AgentKernel",
     "agent_param_layout",
     "get_agent_kernel",
@@ -268,58 +266,6 @@ def agent_law(design: AgentDesign, m: int, switch: str = "sgn") -> AgentLaw:
                                         trig_names, ["tau"])
     _LAWS[ck] = out
     return out
-
-
-def reference_rate_expressions(rate: Sequence[Any], key: str = "reference.rate",
-                               path: str | None = None) -> tuple[Any, ...]:
-    """The three SymPy expressions in ``t`` (real) of a reference rate: SymPy expressions
-    are kept, text and numbers are read by :func:`formsync_design.safeexpr.parse_formula`
-    (never evaluated); ``key`` and ``path`` (the file) name the field in messages.
-
-    >>> reference_rate_expressions(["0.1*sin(t)", 0, "0.02"])
-    (0.1*sin(t), 0, 0.0200000000000000)
-    """
-    from formsync_design.safeexpr import parse_formula
-
-    ts = sp.Symbol("t", real=True)
-    where_file = f" in {path}" if path else ""
-    if isinstance(rate, (str, bytes)) or not isinstance(rate, Sequence) or len(rate) != 3:
-        raise InputError(f"expected {key} = three expressions in t{where_file}, received "
-                         f"{rate!r:.80}")
-    exprs = []
-    for k, r in enumerate(rate, start=1):
-        if isinstance(r, sp.Basic):
-            e = r
-        else:
-            e = parse_formula(r, f"{key}[{k}]{where_file}", variables={"t": ts},
-                              functions=REFERENCE_FUNCTIONS, constants=("pi",))
-        if e.free_symbols - {ts}:
-            raise InputError(f"expected {key}[{k}]{where_file} in t only, received the symbols "
-                             f"{sorted(str(s) for s in e.free_symbols - {ts})}")
-        exprs.append(e)
-    return tuple(exprs)
-
-
-#: What a reference rate may call: the functions the kernels compile (:mod:`sim.bridge`),
-#: whose derivatives they compile too.
-REFERENCE_FUNCTIONS = ("exp", "log", "sin", "cos", "tan", "tanh", "sqrt", "abs", "Abs",
-                       "atan", "asin", "acos")
-
-
-def reference_rate_function(rate: Sequence[Any]) -> ca.Function:
-    """``t -> (w_ref(t), w_ref'(t))`` from three SymPy expressions (or formulas) in ``t``
-    (:func:`reference_rate_expressions`).
-
-    >>> f = reference_rate_function(["0.1*sin(t)", 0, "0.02"])
-    >>> [round(float(x), 6) for x in ca.vertcat(*f(0.0)).full().ravel()]
-    [0.0, 0.0, 0.02, 0.1, 0.0, 0.0]
-    """
-    ts = sp.Symbol("t", real=True)
-    exprs = reference_rate_expressions(rate)
-    t = ca.SX.sym("t")
-    w = ca.vertcat(*[sympy_to_casadi(e, {ts: t}) for e in exprs])
-    wd = ca.vertcat(*[sympy_to_casadi(sp.diff(e, ts), {ts: t}) for e in exprs])
-    return ca.Function("ref_rate", [t], [w, wd], ["t"], ["w", "wdot"])
 
 
 def agent_param_layout(n: int, ngains: int, narcs: int) -> dict[str, slice]:

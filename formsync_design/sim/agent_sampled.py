@@ -36,7 +36,6 @@ from formsync_design.sim.agent_kernel import (
     agent_parameters,
     gain_vector,
     get_agent_kernel,
-    reference_rate_expressions,
 )
 from formsync_design.sim.hybrid import (
     HybridOptions,
@@ -45,6 +44,7 @@ from formsync_design.sim.hybrid import (
     self_triggered,
     simulate_hybrid,
 )
+from formsync_design.sim.reference_rate import reference_rate_expressions
 from formsync_design.spec.agent import AgentDesign
 
 __all__ = ["SampledRun", "run_sampled_agents", "attitude_entries_np", "reference_trajectory"]

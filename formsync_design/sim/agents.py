@@ -36,8 +36,6 @@ from formsync_design.sim.agent_kernel import (
     agent_parameters,
     agent_state_names,
     get_agent_kernel,
-    reference_rate_expressions,
-    reference_rate_function,
 )
 from formsync_design.sim.disagreement import (
     attitude_disagreement,
@@ -46,6 +44,7 @@ from formsync_design.sim.disagreement import (
     settle_time,
 )
 from formsync_design.sim.formation import Gains
+from formsync_design.sim.reference_rate import reference_rate_expressions, reference_rate_function
 from formsync_design.sim.result import SimResult, SimStatus
 from formsync_design.spec.agent import AgentDesign
 

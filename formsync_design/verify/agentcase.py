@@ -61,9 +61,9 @@ import numpy as np
 
 from formsync_design.errors import InputError
 from formsync_design.models.disturbances import Orbit
-from formsync_design.sim.agent_kernel import reference_rate_expressions
 from formsync_design.sim.agents import AgentFormation, AgentOptions, Reference
 from formsync_design.sim.formation import Gains
+from formsync_design.sim.reference_rate import reference_rate_expressions
 from formsync_design.tomlio import load_toml
 from formsync_design.verify.case import (
     case_matrix,
