@@ -269,6 +269,16 @@ def _x0(design: AgentDesign, f: AgentFormation) -> np.ndarray:
     return np.concatenate(parts)
 
 
+def _grid(opt: AgentOptions) -> tuple[int, int, int]:
+    """RK4 sub-steps per output interval ``M``, output intervals ``T`` and intervals per kernel
+    call ``K`` of the options."""
+    T = int(math.floor(opt.tf / opt.output_step + 1e-9))
+    if T < 1:
+        raise InputError(f"expected tf >= output_step, received tf {opt.tf:g} and output_step "
+                         f"{opt.output_step:g}")
+    return int(round(opt.output_step / opt.step)), T, min(T, 200)
+
+
 def simulate_agents(design: AgentDesign, formation: AgentFormation,
                     options: AgentOptions | None = None, *, sensors: Any = None,
                     torque_input: np.ndarray | None = None) -> SimResult:
@@ -302,12 +312,7 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
     if design.decl.sampling != "continuous":
         return simulate_agents_sampled(design, formation, opt)
     f = formation
-    M = int(round(opt.output_step / opt.step))
-    T = int(math.floor(opt.tf / opt.output_step + 1e-9))
-    if T < 1:
-        raise InputError(f"expected tf >= output_step, received tf {opt.tf:g} and output_step "
-                         f"{opt.output_step:g}")
-    K = min(T, 200)
+    M, T, K = _grid(opt)
     ref_rate = f.reference.rate if f.reference is not None else ("0", "0", "0")
     kern = get_agent_kernel(design, f.neighbours(), opt.switch, M, K, ref_rate,
                             measured=measured)
@@ -407,12 +412,7 @@ def simulate_agents_batch(design: AgentDesign, formations: Sequence[AgentFormati
     for f in fl:
         _check(design, f)
     f0, B = fl[0], len(fl)
-    M = int(round(opt.output_step / opt.step))
-    T = int(math.floor(opt.tf / opt.output_step + 1e-9))
-    if T < 1:
-        raise InputError(f"expected tf >= output_step, received tf {opt.tf:g} and output_step "
-                         f"{opt.output_step:g}")
-    K = min(T, 200)
+    M, T, K = _grid(opt)
     kern = get_agent_kernel(design, f0.neighbours(), opt.switch, M, K,
                             f0.reference.rate if f0.reference is not None else ("0", "0", "0"))
     P = np.stack([agent_parameters(design, f, opt, kern.layout) for f in fl], axis=1)
