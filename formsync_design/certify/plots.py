@@ -283,9 +283,11 @@ def region_report(
       "`Pi`'s `qdot` block `a(p) I + b(p) M` is handled through a rigorous enclosure of the "
       "spectrum of `M` (the Laplacian, or the adjacency matrix for the printed `M`). A box is "
       "refuted only when one integer vector `x` gives `x^T F(v) x <= 0` in exact rationals at "
-      "every vertex, hence (same multi-affinity) at every point of the box. `formsync certify` "
-      "additionally solves `max t s.t. F_b(v) >= t I` with cvxpy + Clarabel for the candidate "
-      "margin, which is then re-checked the same way.")
+      "every vertex, hence (same multi-affinity) at every point of the box. The re-check starts "
+      "from LAPACK's eigenvalues at the vertices; only when that leaves a block undecided does "
+      "`formsync certify` solve `max t s.t. F_b(v) >= t I` with cvxpy + Clarabel for a candidate "
+      "margin, which is then re-checked the same way (the solver's levels are a hint, never a "
+      "verdict). The maps below use the re-check alone.")
     w("")
     w("## Closed-form conditions (from `derive.closed_form_conditions`)")
     w("")
