@@ -185,3 +185,15 @@ def test_the_lagrangian_measures_computed_on_first_read_are_the_shared_functions
     assert not r.attitude_error.flags.writeable and not r.effort.flags.writeable
     assert np.array_equal(again.attitude_error, r.attitude_error)
     assert np.array_equal(again.q_m, r.q_m) and again.message == r.message
+
+
+def test_the_summary_takes_the_final_disagreement_from_the_last_time_alone(
+        ring4: tuple[Formation, AgentFormation]) -> None:
+    """to_dict() of a Lagrangian run does not compute the whole O(T N^2) series, and gives the
+    series' last values (checked against the series computed afterwards)."""
+    f, _ = ring4
+    r = simulate(f, SimOptions(tf=20.0))
+    d = r.to_dict()
+    assert r.__dict__.get("_attitude_error") is None and r.__dict__.get("_rate_error") is None
+    assert d["final_attitude_error_deg"] == float(r.attitude_error[-1])
+    assert d["final_rate_error"] == float(r.rate_error[-1])

@@ -250,6 +250,14 @@ class SimResult(NotebookViews):
         """First output time from which the attitude disagreement stays <= ``angle_deg``."""
         return settle_time(self.t, self.attitude_error <= angle_deg)
 
+    def _final(self, name: str, last: Any) -> float:
+        """The last value of the measure ``name``: from its series when that is given or was
+        read, else ``last()``, the measure of the last output time alone (each output time's
+        value depends on that time only, so it is the same number without the ``O(T N^2)``
+        series: the summary of a 256-spacecraft run spent 2.3 s there, 0.17 s simulating)."""
+        series = self.__dict__.get("_" + name)
+        return float((series if series is not None else last())[-1])
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (no trajectories), numbers through :func:`json_number`.
 
@@ -271,10 +279,12 @@ class SimResult(NotebookViews):
             "tf": json_number(float(self.t[-1])) if self.t.size else None,
             "diverged_time": num(self.diverged_time),
             "convergence_time": num(self.convergence_time),
-            "final_attitude_error_deg": json_number(float(self.attitude_error[-1])),
+            "final_attitude_error_deg": json_number(self._final(
+                "attitude_error", lambda: attitude_disagreement(self.quaternions[-1:]))),
             "final_reference_error_deg": None if self.reference_error is None
             else json_number(float(self.reference_error[-1])),
-            "final_rate_error": json_number(float(self.rate_error[-1])),
+            "final_rate_error": json_number(self._final(
+                "rate_error", lambda: rate_disagreement(self.rates[-1:]))),
             "peak_torque": [[json_number(float(x)) for x in row] for row in self.peak_torque],
             "effort": arr(self.effort),
             "monitors": {k: {"min": json_number(float(np.nanmin(v))),
