@@ -229,8 +229,8 @@ def simulate(
         from formsync_design.spec.lagrangian_agent import agent_of
         from formsync_design.spec.loader import load_design
 
-        design = agent_of(spec if getattr(spec, "form", None) == "agent" or
-                          getattr(spec, "decl", None) is not None else load_design(spec))
+        # a loaded design (agent or Lagrangian) as given, a name or file loaded
+        design = agent_of(spec if getattr(spec, "decl", None) is not None else load_design(spec))
         agent_opt = options if options is not None else AgentOptions()
         if not isinstance(agent_opt, AgentOptions):
             raise InputError(f"expected AgentOptions for an AgentFormation, received a "
