@@ -1,5 +1,6 @@
 """Zhang, Jin, Kang, Xiao (2014): coupled relative orbit / attitude control for a fast
-fly-around with monitoring (a tracking design, ``KIND = "tracking"``).
+fly-around with monitoring (one design contract: ``FORM = "agent"`` on the relative-orbit
+plant, ``PLANT = "relative-orbit"``, with thrusters).
 
 The chaser flies a 500 m sphere around a GEO target on a plane tilted by alpha_rT and keeps
 its sensor axis x_d on the target.  Orbit: LQR state feedback on the CW/HCW model about the
@@ -20,9 +21,12 @@ Assumptions (ours; each is also listed in ``verification/zhang2014_flyaround.tom
 
       T_c = omega_s x J omega_s + J (a_d - omega x w_d) - k_p sigma - K_d omega
 
-  with the candidate ``V = 1/2 omega^T J omega + 2 k_p ln(1 + sigma^T sigma)``, whose
-  derivative along the closed loop is ``-omega^T K_d omega`` (derived, not assumed:
-  :mod:`formsync_design.derive.tracking`).
+  (``omega_s`` = ``v.w`` the inertial body rate; ``sigma``, ``omega``, ``w_d``, ``a_d`` =
+  ``v.track.sigma``, ``v.track.w``, ``v.track.w_ref``, ``v.track.wdot_ref``: the MRP and
+  rate of the body relative to the desired frame, the desired frame's rate and its
+  derivative in body axes) with the candidate ``V = 1/2 omega^T J omega + 2 k_p ln(1 +
+  sigma^T sigma)``, whose derivative along the closed loop is ``-omega^T K_d omega``
+  (derived, not assumed: :mod:`formsync_design.derive.tracking`).
 * Orbit law: ``u = -K (X - X_d) + ff`` with the CW feedforward ``ff = l_T'' - A_21 l_T -
   A_22 l_T'`` (the reference is not a natural CW motion; without it the LQR alone would
   leave a steady error).  The paper writes ``u = K X`` with ``K = -R^-1 B^T P``; the sign
@@ -36,9 +40,12 @@ import sympy as sp
 
 NAME = "zhang2014_flyaround"
 TITLE = "Coupled relative orbit / attitude fly-around control (Zhang et al. 2014)"
-KIND = "tracking"
-REPRESENTATION = "orbit"
-GRAPHS = ()
+FORM = "agent"
+PLANT = "relative-orbit"  # the chaser's relative orbit about the target and its attitude
+ACTUATORS = "thrusters"  # 16 thrusters (the case's layout), allocation and PWM
+REPRESENTATION = "mrp"
+LEADER = True  # the reference: the desired frame, sensor axis x_d on the target
+GRAPHS = ()  # one spacecraft, no communication graph
 SAMPLING = "periodic"
 GAINS = {
     "q_r": {"role": "weight", "kind": "diag", "range": "0.01:100",
@@ -55,13 +62,15 @@ GAINS = {
 
 def controller(v):
     """T_c = omega_s x J omega_s + J (a_d - omega x w_d) - k_p sigma - K_d omega."""
-    return (v.omega_s.cross(v.J * v.omega_s) + v.J * (v.a_d - v.omega.cross(v.w_d))
-            - v.k_p * v.sigma - v.K_d * v.omega)
+    e = v.track
+    return (v.w.cross(v.J * v.w) + v.J * (e.wdot_ref - e.w.cross(e.w_ref))
+            - v.k_p * e.sigma - v.K_d * e.w)
 
 
 def lyapunov(v):
     """V = 1/2 omega^T J omega + 2 k_p ln(1 + sigma^T sigma)."""
-    return (v.omega.T * v.J * v.omega)[0, 0] / 2 + 2 * v.k_p * sp.log(1 + v.sigma.dot(v.sigma))
+    e = v.track
+    return (e.w.T * v.J * e.w)[0, 0] / 2 + 2 * v.k_p * sp.log(1 + e.sigma.dot(e.sigma))
 
 
 def orbit_controller(v):

@@ -34,7 +34,7 @@ data flows through the stages:
   :class:`SimOptions`: the Lagrangian view on the compiled whole-horizon driver; an
   :class:`AgentFormation` with :class:`AgentOptions`, :class:`Reference`, gyro models
   :class:`RateSensors`: the design's agent form, continuous or sampled; a
-  :class:`FlyaroundScenario`: a tracking design), one result type :class:`SimResult` for
+  :class:`FlyaroundScenario`: a design on the relative-orbit plant), one result type :class:`SimResult` for
   every attitude-formation run; :class:`Gains`, :func:`simulate_sampled` (a Lagrangian
   design's per-spacecraft sample-and-hold and trigger rules), :func:`metric_figure`,
   :func:`torque_figures`, :func:`monte_carlo` (one :class:`MonteCarloResult`),
@@ -181,7 +181,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "interevent_bound": "formsync_design.analysis.triggering",
     "sampling_variant": "formsync_design.spec.agent",
     "rule_variant": "formsync_design.spec.agent",
-    # tracking designs: the fly-around case
+    # the relative-orbit plant: the fly-around case
     "load_flyaround_case": "formsync_design.verify.tracking_case",
     "FlyaroundScenario": "formsync_design.sim.tracking_scenario",
     "FlyaroundOptions": "formsync_design.sim.tracking_scenario",

@@ -54,9 +54,10 @@ def formation_matrices(design: Any, graph: Any, inertias: Any, gains: Mapping[st
     from formsync_design.spec.loader import Spec
 
     design = _design(design)
-    if isinstance(design, Spec) and design.decl.kind != "formation":
+    plant = getattr(design.decl, "plant", "attitude")
+    if plant != "attitude":
         raise InputError(f"expected a formation design (agent or Lagrangian) for the export, "
-                         f"received {design.name} (a {design.decl.kind} design: one spacecraft, "
+                         f"received {design.name} (on the {plant} plant: one spacecraft, "
                          f"no formation)")
     if isinstance(design, Spec):  # a Lagrangian design: its derived, cancelled loop
         from formsync_design.derive.lagrangian_linear import linearize_lagrangian

@@ -180,4 +180,4 @@ def test_a_sweep_of_the_tracking_design_is_not_applicable(
     monkeypatch.chdir(tmp_path)
     rc, out, err = _run(["sweep", "--design", "zhang2014_flyaround"], capsys)
     assert rc == 1 and out == ""
-    assert err.count("\n") == 1 and "single-spacecraft tracking design" in err
+    assert err.count("\n") == 1 and "one spacecraft tracking its reference" in err

@@ -135,5 +135,5 @@ def test_lagrangian_export_refuses_sgn_missing_gains_and_pinning():
         to_statespace(lag, "ring:3", J, {"K_o": 1.6, "K_q": 0.4, "beta": 0.3})
     with pytest.raises(InputError, match="no pinning"):
         to_statespace(lag, "ring:3", J, g, pinning=[1, 0, 0])
-    with pytest.raises(InputError, match="tracking design"):
+    with pytest.raises(InputError, match="relative-orbit plant"):
         to_statespace("zhang2014_flyaround", "ring:3", J, g)

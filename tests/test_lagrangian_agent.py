@@ -97,4 +97,4 @@ def test_the_engine_runs_a_lagrangian_design_file_with_its_view(tmp_path: Path) 
 def test_a_design_of_another_kind_is_refused_in_one_line() -> None:
     with pytest.raises(InputError) as e:
         agent_of(load_design("zhang2014_flyaround"), " in the test")
-    assert "\n" not in str(e.value) and "tracking" in str(e.value)
+    assert "\n" not in str(e.value) and "relative-orbit plant" in str(e.value)

@@ -1,5 +1,6 @@
 """``simulate`` is the one entry point of simulation (issue 23, item 2): the formation's type
-chooses the path (Lagrangian view, agent form, tracking design) and the design its law.
+chooses the path (Lagrangian view, agent form, the relative-orbit plant's fly-around) and the
+design its law.
 
 Each path reached through ``simulate`` is checked against the path's own worker called
 directly (the same arrays, bitwise: ``simulate`` only routes), and a design given by its
@@ -121,8 +122,9 @@ def test_what_a_path_cannot_take_is_refused_in_one_line(small) -> None:
         simulate(f, case.options, spec="ma_so3")
     with pytest.raises(InputError, match="expected AgentOptions"):
         simulate(af, SimOptions(tf=10.0))
-    with pytest.raises(InputError, match="quaternion Lagrangian"):
-        simulate(af, OPT, spec="zhang2014_flyaround")
+    for form in (af, f):  # a design on the relative-orbit plant flies a fly-around scenario
+        with pytest.raises(InputError, match="FlyaroundScenario for a design on the relative-orbit"):
+            simulate(form, OPT, spec="zhang2014_flyaround")
     with pytest.raises(InputError, match="Formation, an AgentFormation or a FlyaroundScenario"):
         simulate("ring:3", None)
     with pytest.raises(InputError, match="trigger rule only for a Formation"):

@@ -1,8 +1,10 @@
-"""The tracking-design contract and the attitude-law derivation (issue 14).
+"""The relative-orbit plant of the one design contract and the attitude-law derivation
+(issues 14 and 23).
 
-* the design file loads as a tracking design; malformed tracking designs and misplaced
-  declarations are one-line DerivationErrors; the formation designs are unchanged;
-* the formation stages refuse a tracking design (exit 2, one line);
+* the design file loads as an agent design on the relative-orbit plant; malformed designs
+  and misplaced declarations are one-line DerivationErrors; the attitude-plant designs are
+  unchanged;
+* the formation stages refuse a design on the relative-orbit plant (exit 1, one line);
 * the derivation's V' = -w^T K_d w and its mismatch term against a numeric closed loop
   (numpy, finite differences of V along the flow) at random states, inertias and rates;
 * the linearization (A0, N, d) against a finite-difference Jacobian of the numeric loop.
@@ -16,33 +18,41 @@ import pytest
 from formsync_design.derive.tracking import derive_tracking_attitude, mrp_matrix_symbolic
 from formsync_design.errors import DerivationError
 from formsync_design.models.mrp import mrp_rate_matrix, mrp_to_matrix
+from formsync_design.spec.agent import agent_expressions
 from formsync_design.spec.declarations import parse_declarations
-from formsync_design.spec.loader import controller_expression, load_spec
+from formsync_design.spec.loader import load_design
 from formsync_design.spec.tracking import tracking_expressions
 
-DESIGN = load_spec("zhang2014_flyaround")
+DESIGN = load_design("zhang2014_flyaround")
 
 
-def test_design_loads_as_a_tracking_design():
+def test_design_loads_on_the_relative_orbit_plant():
     d = DESIGN.decl
-    assert (d.kind, d.representation, d.graphs) == ("tracking", "orbit", ())
+    assert DESIGN.form == "agent"
+    assert (d.plant, d.actuators, d.representation, d.graphs, d.leader, d.sampling) == (
+        "relative-orbit", "thrusters", "mrp", (), True, "periodic")
     assert [g.name for g in d.gains] == ["q_r", "q_v", "r_u", "k_p", "K_d"]
-    assert dict(DESIGN.extra).keys() == {"controller", "lyapunov", "orbit_controller",
-                                         "lqr_weights"}
+    assert set(DESIGN.functions) == {"controller", "lyapunov", "orbit_controller",
+                                     "lqr_weights"}
     ex = tracking_expressions(DESIGN)
     assert ex.Q.shape == (6, 6) and ex.R.shape == (3, 3)
-    assert d.to_dict()["kind"] == "tracking"
-    assert "kind" not in load_spec("liang2016").decl.to_dict()  # formation keys unchanged
+    assert d.to_dict()["plant"] == "relative-orbit"
+    # the attitude plant's content keys are unchanged (no plant/actuators keys)
+    assert "plant" not in load_design("ma_so3").decl.to_dict()
+    assert "kind" not in load_design("liang2016").lagrangian.decl.to_dict()
 
 
 _GOOD = """
 import sympy as sp
-KIND = "tracking"
-REPRESENTATION = "orbit"
+FORM = "agent"
+PLANT = "relative-orbit"
+REPRESENTATION = "mrp"
+LEADER = True
 GRAPHS = ()
+SAMPLING = "periodic"
 GAINS = {"k": {}, "w": {"role": "weight"}}
-def controller(v): return -v.k * v.sigma
-def lyapunov(v): return v.sigma.dot(v.sigma)
+def controller(v): return -v.k * v.track.sigma
+def lyapunov(v): return v.track.sigma.dot(v.track.sigma)
 def orbit_controller(v): return -v.K * v.dX + v.ff
 def lqr_weights(v): return (v.w * sp.eye(6), sp.eye(3))
 """
@@ -50,41 +60,63 @@ def lqr_weights(v): return (v.w * sp.eye(6), sp.eye(3))
 
 @pytest.mark.parametrize("edit, needle", [
     (("def orbit_controller(v): return -v.K * v.dX + v.ff\n", ""),
-     "expected a function orbit_controller(view)"),
-    (("return -v.k * v.sigma", "return v.sigma.T"), "controller(view): expected an explicit 3x1"),
-    (("return -v.k * v.sigma", "return v.nothing"), "expected an attribute of the view"),
+     "expected a function orbit_controller(view) on the relative-orbit plant"),
+    (("return -v.k * v.track.sigma", "return v.track.sigma.T"),
+     "controller(view): expected an explicit 3x1"),
+    (("return -v.k * v.track.sigma", "return v.nothing"), "expected an attribute of the view"),
+    # the plant measures the tracking error: the absolute attitude is not in its view
+    (("return -v.k * v.track.sigma", "return -v.k * v.sigma"),
+     "expected an attribute of the view"),
     (("return -v.K * v.dX + v.ff", "return -v.K * v.dX + v.ff + v.sigma"),
      "orbit_controller(view): expected an attribute of the view"),
-    (('REPRESENTATION = "orbit"', 'REPRESENTATION = "mrp"'), "'orbit' for a tracking design"),
-    (('KIND = "tracking"', 'KIND = "swarm"'), "KIND: expected one of"),
+    (('REPRESENTATION = "mrp"', 'REPRESENTATION = "so3"'), "REPRESENTATION: expected 'mrp'"),
+    (("LEADER = True", "LEADER = False"), "LEADER: expected True"),
+    (('SAMPLING = "periodic"', 'SAMPLING = "continuous"'), "SAMPLING: expected 'periodic'"),
+    (("GRAPHS = ()", 'GRAPHS = ("undirected",)'), "GRAPHS: expected ()"),
+    (('PLANT = "relative-orbit"', 'PLANT = "swarm"'), "PLANT: expected one of"),
+    (('PLANT = "relative-orbit"', 'PLANT = "relative-orbit"\nACTUATORS = "torque"'),
+     "ACTUATORS: expected 'thrusters'"),
+    (('PLANT = "relative-orbit"', 'KIND = "tracking"'), "KIND: expected no KIND"),
     (("return (v.w * sp.eye(6), sp.eye(3))", "return v.w"), "expected a pair (Q, R)"),
+    (("def lqr_weights", "def monitors(v): return {}\ndef lqr_weights"),
+     "expected only ['controller', 'lyapunov', 'orbit_controller', 'lqr_weights']"),
 ])
-def test_malformed_tracking_design_is_one_line(tmp_path, edit, needle):
+def test_malformed_relative_orbit_design_is_one_line(tmp_path, edit, needle):
     p = tmp_path / "d.py"
     p.write_text(_GOOD.replace(*edit))
     with pytest.raises(DerivationError) as e:
-        load_spec(str(p))
+        load_design(str(p))
     assert needle in str(e.value) and "\n" not in str(e.value) and str(p) in str(e.value)
 
 
-def test_good_tracking_design_and_weight_only_in_tracking(tmp_path):
+def test_good_relative_orbit_design_and_weight_only_on_that_plant(tmp_path):
     p = tmp_path / "d.py"
     p.write_text(_GOOD)
-    assert load_spec(str(p)).decl.kind == "tracking"
-    with pytest.raises(DerivationError, match="weights .role 'weight'. only in a tracking"):
+    assert load_design(str(p)).decl.plant == "relative-orbit"
+    with pytest.raises(DerivationError, match="weights .role 'weight'. only on the relative-orbit"):
         parse_declarations({"GAINS": {"k": {}, "w": {"role": "weight"}}}, "x.py")
+    # the attitude plant's torque actuators only
+    q = tmp_path / "e.py"
+    q.write_text('FORM = "agent"\nACTUATORS = "thrusters"\nGAINS = {"k": {}}\n'
+                 "def controller(v): return -v.k * v.w\n")
+    with pytest.raises(DerivationError, match="ACTUATORS: expected 'torque' on the attitude"):
+        load_design(str(q))
 
 
-def test_formation_stages_refuse_a_tracking_design(capsys, tmp_path):
+def test_formation_stages_refuse_a_relative_orbit_design(capsys, tmp_path):
     from formsync_design.cli.main import main
 
-    with pytest.raises(DerivationError, match="received a tracking design"):
-        controller_expression(DESIGN)
+    with pytest.raises(DerivationError, match="on the relative-orbit plant"):
+        agent_expressions(DESIGN, 1)
     # derive applies (V' of the attitude loop); the graph stages do not: exit 1, one line
     assert main(["derive", "--design", "zhang2014_flyaround"]) == 0
     assert "attitude loop derived" in capsys.readouterr().out
     for argv in (["simulate", "--design", "zhang2014_flyaround", "--tf", "1"],
-                 ["certify", "--design", "zhang2014_flyaround", "--graph", "ring:4"]):
+                 ["certify", "--design", "zhang2014_flyaround", "--graph", "ring:4"],
+                 ["montecarlo", "--design", "zhang2014_flyaround", "--runs", "2"],
+                 ["region", "--design", "zhang2014_flyaround"],
+                 ["design", "--design", "zhang2014_flyaround"],
+                 ["sweep", "--design", "zhang2014_flyaround"]):
         assert main(argv) == 1, argv
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "not applicable: design zhang2014_flyaround" in err[0], err
@@ -183,7 +215,8 @@ def test_symbolic_mrp_matrix_is_the_numeric_one():
 def test_linearization_of_a_design_without_stiffness_is_refused(tmp_path):
     p = tmp_path / "nokp.py"
     p.write_text(_GOOD.replace('GAINS = {"k": {}, "w": {"role": "weight"}}',
-                                                'GAINS = {"K_d": {"kind": "diag"}, "w": {"role": "weight"}}')
-                 .replace("return -v.k * v.sigma", "return -v.K_d * v.omega + v.sigma"))
+                               'GAINS = {"K_d": {"kind": "diag"}, "w": {"role": "weight"}}')
+                 .replace("return -v.k * v.track.sigma",
+                          "return -v.K_d * v.track.w + v.track.sigma"))
     with pytest.raises(DerivationError, match="expected the linearized loop"):
         derive_tracking_attitude(str(p))

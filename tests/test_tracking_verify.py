@@ -63,7 +63,7 @@ def _write(tmp_path: Path, text: str) -> Path:
     ('allocation = "pinv-shift"', 'allocation = "magic"', "expected simulation.allocation"),
     ("half_size = 1.0", "half_size = 1.0\ncolour = 1", "expected keys among"),
     ('metric = "fuel"', 'metric = "joy"', "expected metrics[18].metric among"),
-    ('metric = "fuel"', 'metric = "peak_torque"', "applies to the tracking design"),
+    ('metric = "fuel"', 'metric = "peak_torque"', "applies to the relative-orbit design"),
     ('scenario = "lp"', 'scenario = "nope"', "expected metrics[136].scenario among"),
     ("{ carry = true }", "{ steady_from = 5.0 }", "expected scenarios[10].simulation keys"),
     ("{ half_size = 0.75 }", "{ half_size = -0.75 }", "expected thrusters.half_size > 0"),
@@ -84,7 +84,7 @@ def test_bad_case_files_are_one_line_input_errors(tmp_path, old, new, needle):
 
 def test_case_values_and_scenarios():
     case = load_engine_case(case_file("zhang2014_flyaround"))
-    assert type(case).__name__ == "TrackingEngineCase" and case.form.name == "tracking"
+    assert type(case).__name__ == "TrackingEngineCase" and case.form.name == "relative-orbit"
     sc = case.tracking.scenario
     assert sc.layout.count == 16 and sc.gains["K_d"] == (1628.0, 1461.0, 1752.5)
     assert len(case.scenarios) == 14 and len(case.claims) == 11

@@ -376,12 +376,12 @@ def run(args: argparse.Namespace) -> int:
     from formsync_design.verify.defaults import Defaults
 
     agent = agent_design_or_none(args.spec)
+    refused = refuse_tracking("certify", agent, "a gain certificate on a communication graph")
+    if refused is not None:
+        return refused
     if agent is not None:
         return run_agent_certify(args, agent)
     spec = load_spec(args.spec)
-    refused = refuse_tracking("certify", spec, "a gain certificate on a communication graph")
-    if refused is not None:
-        return refused
     defaults = Defaults()
     args.graph = default_graph(args.graph, spec, defaults)
     no_gains = not args.gain and all(getattr(args, f, None) is None for f in ("ko", "kq", "beta"))

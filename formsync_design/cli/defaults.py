@@ -46,13 +46,14 @@ def not_applicable(command: str, reason: str) -> int:
 
 
 def refuse_tracking(command: str, design: Any, what: str) -> int | None:
-    """Exit status 1 with the reason when ``design`` is a single-spacecraft tracking design
-    (``what`` names the formation stage), else ``None``."""
+    """Exit status 1 with the reason when ``design`` is a single spacecraft tracking its
+    reference on the relative-orbit plant (``what`` names the formation stage), else ``None``."""
     if not is_tracking(design):
         return None
-    return not_applicable(command, f"design {design.name} is a single-spacecraft tracking design "
-                          f"(KIND = 'tracking', no communication graph): {what} applies to "
-                          f"formation designs; run formsync verify --design {design.name}")
+    return not_applicable(command, f"design {design.name} is one spacecraft tracking its "
+                          f"reference (PLANT = 'relative-orbit', no communication graph): {what} "
+                          f"applies to formation designs; run formsync verify --design "
+                          f"{design.name}")
 
 
 def refuse_uncertified(command: str, design: Any) -> int | None:

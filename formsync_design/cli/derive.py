@@ -104,11 +104,11 @@ def run(args: argparse.Namespace) -> int:
     from formsync_design.verify.defaults import Defaults, is_tracking
 
     agent = agent_design_or_none(args.spec)
+    if is_tracking(agent):
+        return _derive_tracking(args, agent)
     if agent is not None:
         return run_agent_derive(args, agent)
     spec = load_spec(args.spec)
-    if is_tracking(spec):
-        return _derive_tracking(args, spec)
     if args.graph is None and args.spec is not None:
         defaults = Defaults()
         args.graph = default_graph(None, spec, defaults)
@@ -181,7 +181,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _derive_tracking(args: argparse.Namespace, spec: Any) -> int:
-    """``formsync derive`` of a single-spacecraft tracking design: ``V'`` of its attitude loop
+    """``formsync derive`` of a design on the relative-orbit plant: ``V'`` of its attitude loop
     derived along the closed loop (:func:`~formsync_design.derive.tracking.derive_tracking_attitude`),
     with and without the inertia mismatch; no graph."""
     from formsync_design.cli.options import EXIT_NEGATIVE
@@ -189,13 +189,14 @@ def _derive_tracking(args: argparse.Namespace, spec: Any) -> int:
 
     if args.graph is not None or getattr(args, "gain", None) or any(
             getattr(args, f, None) is not None for f in ("ko", "kq", "beta")):
-        raise InputError(f"expected no --graph/--gain for the tracking design {spec.name} (one "
-                         "spacecraft, its derivation is symbolic in the gains), received one")
+        raise InputError(f"expected no --graph/--gain for the relative-orbit design {spec.name} "
+                         "(one spacecraft, its derivation is symbolic in the gains), received one")
     d = derive_tracking_attitude(spec)
     if args.format == "json":
-        emit_json({"design": spec.name, "kind": "tracking", **d.to_dict()})
+        emit_json({"design": spec.name, "plant": spec.decl.plant, **d.to_dict()})
         return EXIT_OK
-    print(f"design {spec.name} (tracking, one spacecraft, no graph): attitude loop derived")
+    print(f"design {spec.name} (relative-orbit plant, one spacecraft, no graph): attitude loop "
+          "derived")
     print(f"  V' along the closed loop (J_hat = J): {d.vdot}")
     print(f"  the design's claim V' = {d.claim}: {'holds' if d.nominal_holds else 'FAILS'}")
     print(f"  with an inertia mismatch dJ = J_hat - J: V' - claim = {d.mismatch_form} "

@@ -91,12 +91,12 @@ def run(args: argparse.Namespace) -> int:
     from formsync_design.verify.defaults import Defaults
 
     agent = agent_design_or_none(args.spec)
+    refused = refuse_tracking("design", agent, "a gain design on a communication graph")
+    if refused is not None:
+        return refused
     if agent is not None:
         return run_agent_design(args, agent)
     spec = load_spec(args.spec)
-    refused = refuse_tracking("design", spec, "a gain design on a communication graph")
-    if refused is not None:
-        return refused
     defaults = Defaults()
     args.graph = default_graph(args.graph, spec, defaults)
     lagrangian_range_gains(args, spec, defaults)

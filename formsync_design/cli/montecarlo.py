@@ -253,6 +253,11 @@ def run(args: argparse.Namespace) -> int:
 
     check_run_options(args)
     agent = agent_design_or_none(args.spec, args.case)
+    from formsync_design.cli.defaults import refuse_tracking
+
+    refused = refuse_tracking("montecarlo", agent, "a Monte-Carlo campaign of a formation")
+    if refused is not None:
+        return refused
     if agent is not None:
         from formsync_design.cli.agent_commands import run_agent_montecarlo_cli
 
@@ -263,10 +268,7 @@ def run(args: argparse.Namespace) -> int:
     )
     from formsync_design.cli.simulate import lagrangian_criterion, lagrangian_setup
 
-    got = lagrangian_setup(args, "montecarlo", "a Monte-Carlo campaign of a formation")
-    if isinstance(got, int):
-        return got
-    out_dir, defaults, case, spec, graph, theorem = got
+    out_dir, defaults, case, spec, graph, theorem = lagrangian_setup(args)
     base = case.formation(graph, args.disturbance)
     flag = {} if theorem.inside else {"outside_theorem": theorem.to_dict()}
     legacy = {name: getattr(args, attr) for attr, name in

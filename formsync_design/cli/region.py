@@ -137,12 +137,12 @@ def run(args: argparse.Namespace) -> int:
 
     check_out_dir(args.out, overwrite=args.overwrite, results=("region.json",))
     agent = agent_design_or_none(args.spec)
+    refused = refuse_tracking("region", agent, "a region map of gains on a communication graph")
+    if refused is not None:
+        return refused
     if agent is not None:
         return run_agent_region(args, agent)
     spec = load_spec(args.spec)
-    refused = refuse_tracking("region", spec, "a region map of gains on a communication graph")
-    if refused is not None:
-        return refused
     defaults = Defaults()
     if args.graph is None:
         args.graph = [default_graph(None, spec, defaults)]

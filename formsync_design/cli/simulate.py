@@ -156,31 +156,26 @@ def lagrangian_case_and_spec(args: argparse.Namespace, defaults: Any) -> tuple[A
     ``--design``, the design's shipped case (else the paper's), said in ``defaults``."""
     from formsync_design.spec.loader import load_spec
     from formsync_design.verify.case import load_case
-    from formsync_design.verify.defaults import is_tracking, lagrangian_case_for
+    from formsync_design.verify.defaults import lagrangian_case_for
 
     if args.case is None and getattr(args, "spec", None) is not None:
         spec = load_spec(args.spec)
-        if is_tracking(spec):  # no formation case: the command refuses it (exit 1)
-            return None, spec
         return lagrangian_case_for(spec, None, defaults), spec
     case = load_case(args.case)
     return case, resolve_cli_spec(args, case)
 
 
-def lagrangian_setup(args: argparse.Namespace, command: str, what: str) -> Any:
+def lagrangian_setup(args: argparse.Namespace) -> Any:
     """The common start of ``simulate`` and ``montecarlo`` of a Lagrangian design: the
     ``--out`` folder (claimed), the defaults, the case and design, the graph and its theorem
-    check; an ``int`` exit status instead when the command does not apply (a tracking design,
+    check (a design on the relative-orbit plant was refused before, in the command:
     :func:`~formsync_design.cli.defaults.refuse_tracking`)."""
-    from formsync_design.cli.defaults import lagrangian_graph, refuse_tracking
+    from formsync_design.cli.defaults import lagrangian_graph
     from formsync_design.verify.defaults import Defaults
 
     out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
     defaults = Defaults()
     case, spec = lagrangian_case_and_spec(args, defaults)
-    refused = refuse_tracking(command, spec, what)
-    if refused is not None:
-        return refused
     case, graph, theorem = lagrangian_graph(args, case, spec, defaults)
     return out_dir, defaults, case, spec, graph, theorem
 
@@ -363,6 +358,11 @@ def run(args: argparse.Namespace) -> int:
     from formsync_design.sim.simulator import simulate
 
     agent = agent_design_or_none(args.spec, args.case)
+    from formsync_design.cli.defaults import refuse_tracking
+
+    refused = refuse_tracking("simulate", agent, "a formation simulation")
+    if refused is not None:
+        return refused
     if agent is not None:
         return run_agent_simulate(args, agent)
     from formsync_design.cli.defaults import (
@@ -370,10 +370,7 @@ def run(args: argparse.Namespace) -> int:
         gains_text,
     )
 
-    got = lagrangian_setup(args, "simulate", "a formation simulation")
-    if isinstance(got, int):
-        return got
-    out_dir, defaults, case, spec, graph, theorem = got
+    out_dir, defaults, case, spec, graph, theorem = lagrangian_setup(args)
     opt = options_from_args(args, case.options)
     f = case.formation(graph, args.disturbance)
     if args.gain or tuple(f.gains.names) != spec.decl.controller_gains:

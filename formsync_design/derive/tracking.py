@@ -1,7 +1,9 @@
-"""Symbolic derivation for a tracking design's attitude law (``KIND = "tracking"``).
+"""Symbolic derivation for the attitude law of a design on the relative-orbit plant
+(``PLANT = "relative-orbit"``, :mod:`formsync_design.spec.tracking`).
 
 From the design's ``controller(view)`` (the torque ``T_c``) and ``lyapunov(view)``
-(``V(sigma, omega)``), with the MRP kinematics of :mod:`formsync_design.models.mrp` and
+(``V(sigma, omega)``; ``sigma``, ``omega``, ``omega_s``, ``w_d``, ``a_d`` are the view's
+``track.sigma``, ``track.w``, ``w``, ``track.w_ref``, ``track.wdot_ref``), with the MRP kinematics of :mod:`formsync_design.models.mrp` and
 Euler's equation written for the error rate ``omega = omega_s - w_d``::
 
     sigma'  = G(sigma) omega
@@ -24,8 +26,8 @@ Euler's equation written for the error rate ``omega = omega_s - w_d``::
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
+from types import SimpleNamespace
 from typing import Any
 
 import sympy as sp
@@ -33,7 +35,8 @@ import sympy as sp
 from formsync_design.errors import DerivationError
 from formsync_design.models.attitude import skew
 from formsync_design.models.mrp import mrp_kinematics_matrix
-from formsync_design.spec.loader import Spec, load_spec
+from formsync_design.spec.agent import AgentDesign
+from formsync_design.spec.loader import load_design
 from formsync_design.spec.tracking import tracking_expressions
 
 __all__ = ["TrackingDerivation", "derive_tracking_attitude", "mrp_matrix_symbolic"]
@@ -53,7 +56,8 @@ def mrp_matrix_symbolic(sigma: sp.Matrix) -> sp.Matrix:
 
 @dataclass(frozen=True)
 class TrackingDerivation:
-    """The derivation of a tracking design's attitude loop (module docstring).
+    """The derivation of the attitude loop of a design on the relative-orbit plant (module
+    docstring).
 
     Attributes
     ----------
@@ -105,7 +109,8 @@ class TrackingDerivation:
 def _gain_matrix(view: Any, name: str) -> sp.Matrix:
     g = view.gains.get(name)
     if g is None:
-        raise DerivationError(f"expected a tracking design with a gain {name!r}, received gains "
+        raise DerivationError(f"expected a design on the relative-orbit plant with a gain "
+                              f"{name!r}, received gains "
                               f"{sorted(view.gains)}")
     return g if isinstance(g, sp.MatrixBase) else g * sp.eye(3)
 
@@ -128,10 +133,26 @@ def _jsyms(v: Any) -> dict[tuple[int, int], sp.Symbol]:
     return {(i, k): v.J[i, k] for i in range(3) for k in range(i, 3)}
 
 
-@functools.lru_cache(maxsize=4)
-def _derive(key: str, spec: Spec) -> TrackingDerivation:
+def _paper_names(view: Any) -> SimpleNamespace:
+    """The view's quantities under the names of the derivation (module docstring)."""
+    tr = view.track
+    return SimpleNamespace(sigma=tr.sigma, omega=tr.w, omega_s=view.w, w_d=tr.w_ref,
+                           a_d=tr.wdot_ref, J=view.J, gains=view.gains)
+
+
+_DERIVED: dict[str, TrackingDerivation] = {}
+
+
+def _derive(spec: AgentDesign) -> TrackingDerivation:
+    hit = _DERIVED.get(spec.key)
+    if hit is None:
+        hit = _DERIVED[spec.key] = _derive_uncached(spec)
+    return hit
+
+
+def _derive_uncached(spec: AgentDesign) -> TrackingDerivation:
     ex = tracking_expressions(spec)
-    v = ex.attitude_view
+    v = _paper_names(ex.attitude_view)
     kd = _gain_matrix(v, "K_d")
     k_p = v.gains.get("k_p")
     js = _jsyms(v)
@@ -186,16 +207,21 @@ def _derive(key: str, spec: Spec) -> TrackingDerivation:
                               forcing, syms)
 
 
-def derive_tracking_attitude(spec: Spec | str | None = None) -> TrackingDerivation:
-    """Derive the attitude loop of a tracking design (default ``zhang2014_flyaround``).
+def derive_tracking_attitude(spec: AgentDesign | str | None = None) -> TrackingDerivation:
+    """Derive the attitude loop of a design on the relative-orbit plant (default
+    ``zhang2014_flyaround``).
 
-    Raises :class:`~formsync_design.errors.DerivationError` (exit 2) for a design that is
-    not a tracking design or whose law does not linearize to ``-k_p sigma - K_d omega``.
+    Raises :class:`~formsync_design.errors.DerivationError` (exit 2) for a design that is not
+    on the relative-orbit plant or whose law does not linearize to ``-k_p sigma - K_d omega``.
 
     >>> d = derive_tracking_attitude()
     >>> same = {h: j for h, j in zip(d.symbols["J_hat"], d.symbols["J"])}
     >>> d.mismatch_matches, d.forcing.xreplace(same).T, d.N.xreplace(same).is_zero_matrix
     (True, Matrix([[0, 0, 0]]), True)
     """
-    s = load_spec(spec if spec is not None else "zhang2014_flyaround")
-    return _derive(s.key, s)
+    s = load_design(spec if spec is not None else "zhang2014_flyaround")
+    if getattr(getattr(s, "decl", None), "plant", None) != "relative-orbit":
+        raise DerivationError(f"{s.path}: PLANT: expected a design on the relative-orbit plant, "
+                              f"received {s.name} on the "
+                              f"{getattr(s.decl, 'plant', 'attitude')} plant")
+    return _derive(s)

@@ -210,13 +210,18 @@ def simulate(
     (True, 'converged', True)
     """
     from formsync_design.sim.agents import AgentFormation
-    from formsync_design.spec.loader import agent_design_of
+    from formsync_design.spec.loader import agent_design_of, load_design
 
     measured = sensors is not None or torque_input is not None
     if trigger is not None and not isinstance(formation, Formation):
         raise InputError(f"expected a trigger rule only for a Formation (an agent design "
                          f"declares its sampling rule), received one with a "
                          f"{type(formation).__name__}")
+    if not _is_flyaround(formation) and spec is not None:
+        plant = getattr(getattr(load_design(spec), "decl", None), "plant", "attitude")
+        if plant != "attitude":
+            raise InputError(f"expected a FlyaroundScenario for a design on the {plant} plant, "
+                             f"received a {type(formation).__name__}")
     if _is_flyaround(formation):
         if measured:
             raise InputError("expected sensors and torque_input only for an AgentFormation, "
@@ -227,7 +232,6 @@ def simulate(
     if isinstance(formation, AgentFormation):
         from formsync_design.sim.agents import AgentOptions, simulate_agents
         from formsync_design.spec.lagrangian_agent import agent_of
-        from formsync_design.spec.loader import load_design
 
         # a loaded design (agent or Lagrangian) as given, a name or file loaded
         design = agent_of(spec if getattr(spec, "decl", None) is not None else load_design(spec))

@@ -1,7 +1,7 @@
 """Compiled closed-loop simulation of the fly-around case (Zhang et al. 2014, issue 14).
 
-:func:`simulate_flyaround` runs a tracking design (default ``zhang2014_flyaround``) on a
-:class:`FlyaroundScenario` (orbits, spacecraft, fly-around reference, thrusters, gains):
+:func:`simulate_flyaround` runs a design on the relative-orbit plant (default
+``zhang2014_flyaround``) on a :class:`FlyaroundScenario` (orbits, spacecraft, fly-around reference, thrusters, gains):
 one control sample every ``sample_period`` seconds with the PWM pulses of that sample
 integrated inside it (:mod:`formsync_design.sim.tracking_model`).  The sample step is
 generated once per design and option set, compiled to C through the kernel compiler and
@@ -71,8 +71,9 @@ from formsync_design.sim.tracking_scenario import (
     FlyaroundStatus,
     euler321,
 )
+from formsync_design.spec.agent import AgentDesign
 from formsync_design.spec.declarations import GainKind, GainRole
-from formsync_design.spec.loader import Spec, load_spec
+from formsync_design.spec.loader import load_design
 from formsync_design.spec.tracking import gain_entry_symbols, tracking_expressions
 
 __all__ = [
@@ -90,7 +91,7 @@ CHUNK = 500
 LP_COMPILE_MIN_SAMPLES = 5000
 
 
-def lqr_for(spec: Spec, scenario: FlyaroundScenario) -> tuple[LQRDesign, np.ndarray, np.ndarray]:
+def lqr_for(spec: AgentDesign, scenario: FlyaroundScenario) -> tuple[LQRDesign, np.ndarray, np.ndarray]:
     """The LQR design of ``spec``'s weights on the CW model: ``(design, Q, R)``."""
     ex = tracking_expressions(spec)
     sub: dict[Any, float] = {}
@@ -148,15 +149,16 @@ class _Kernel:
 _KERNELS: dict[tuple[Any, ...], _Kernel] = {}
 
 
-def _laws(spec: Spec) -> dict[str, Any]:
+def _laws(spec: AgentDesign) -> dict[str, Any]:
     ex = tracking_expressions(spec)
     av, ov = ex.attitude_view, ex.orbit_view
+    tr = av.track
     ctrl_gains = [g for g in spec.decl.gains if g.role == GainRole.CONTROLLER]
 
     def bind_torque(sig: Any, w: Any, ws: Any, wd: Any, ad: Any, jh: Any, gv: Any) -> dict:
         b: dict[Any, Any] = {}
-        for vec, val in ((av.sigma, sig), (av.omega, w), (av.omega_s, ws), (av.w_d, wd),
-                         (av.a_d, ad)):
+        for vec, val in ((tr.sigma, sig), (tr.w, w), (av.w, ws), (tr.w_ref, wd),
+                         (tr.wdot_ref, ad)):
             b.update({vec[i]: val[i] for i in range(3)})
         for i in range(3):
             for k in range(i, 3):
@@ -179,7 +181,7 @@ def _laws(spec: Spec) -> dict[str, Any]:
             "bind_orbit": bind_orbit, "ngain": ngain, "ctrl_gains": ctrl_gains}
 
 
-def _kernel(spec: Spec, opt: FlyaroundOptions) -> _Kernel:
+def _kernel(spec: AgentDesign, opt: FlyaroundOptions) -> _Kernel:
     from formsync_design.sim.ccompile import compile_enabled
     from formsync_design.sim.kernels import compile_function
 
@@ -201,7 +203,7 @@ def _kernel(spec: Spec, opt: FlyaroundOptions) -> _Kernel:
     return k
 
 
-def _params(spec: Spec, sc: FlyaroundScenario, opt: FlyaroundOptions,
+def _params(spec: AgentDesign, sc: FlyaroundScenario, opt: FlyaroundOptions,
             lqr: LQRDesign) -> np.ndarray:
     laws = _laws(spec)
     lay = param_layout(laws["ngain"])
@@ -247,7 +249,7 @@ def _params(spec: Spec, sc: FlyaroundScenario, opt: FlyaroundOptions,
 
 def simulate_flyaround(scenario: FlyaroundScenario,
                        options: FlyaroundOptions | None = None,
-                       spec: Spec | str | None = None) -> FlyaroundRun:
+                       spec: AgentDesign | str | None = None) -> FlyaroundRun:
     """Simulate the fly-around closed loop (module docstring).
 
     Parameters
@@ -256,8 +258,8 @@ def simulate_flyaround(scenario: FlyaroundScenario,
         The case (:func:`~formsync_design.verify.tracking_case.load_flyaround_case` reads
         one from a case file).
     options : FlyaroundOptions, optional
-    spec : Spec or str, optional
-        A tracking design (default ``zhang2014_flyaround``).
+    spec : AgentDesign or str, optional
+        A design on the relative-orbit plant (default ``zhang2014_flyaround``).
 
     Returns
     -------
@@ -266,7 +268,7 @@ def simulate_flyaround(scenario: FlyaroundScenario,
     """
     sc = scenario
     opt = options if options is not None else FlyaroundOptions()
-    sp_ = load_spec(spec if spec is not None else "zhang2014_flyaround")
+    sp_ = load_design(spec if spec is not None else "zhang2014_flyaround")
     lqr, _, _ = lqr_for(sp_, sc)
     kern = _kernel(sp_, opt)
     p = _params(sp_, sc, opt, lqr)

@@ -37,6 +37,18 @@ What a design file declares (besides ``NAME``, ``TITLE``)
     checks the controller's (and the states' and trigger's) free symbols against it, so
     e.g. an output-feedback design declaring ``("attitude", "neighbour-attitude")`` is
     proven not to use any angular velocity.
+``PLANT`` (optional, default ``"attitude"``) and ``ACTUATORS`` (default ``"torque"``)
+    What the law drives.  ``"attitude"``: each spacecraft's rigid-body attitude, with body
+    torques, on a communication graph (every function below).  ``"relative-orbit"`` with
+    ``ACTUATORS = "thrusters"``: one spacecraft flying a relative orbit about its reference
+    (a target) and tracking the reference attitude (``LEADER = True``), in MRPs, sampled
+    periodically (``SAMPLING = "periodic"``), no graph (``GRAPHS = ()``); the commanded force
+    and torque are realised by the case's thrusters (allocation and pulse-width modulation).
+    Its functions are ``controller(v)`` (the torque, from the tracking error ``v.track``),
+    ``lyapunov(v)``, ``orbit_controller(v)`` and ``lqr_weights(v)``, and it may declare gains
+    of role ``weight``: the contract of :mod:`formsync_design.spec.tracking`.  The attitude
+    plant's stages (graph certificates, formation simulation, sweeps) refuse it in one line;
+    ``formsync verify`` on its case and ``fs.simulate`` of its scenario run it.
 
 Functions (``v`` is an :class:`AgentView` of spacecraft ``i`` with ``m`` in-neighbours)
 --------------------------------------------------------------------------------------
@@ -81,17 +93,23 @@ from __future__ import annotations
 
 import hashlib
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from types import MappingProxyType, ModuleType
 from typing import Any
 
 import sympy as sp
 
 from formsync_design.errors import DerivationError
+from formsync_design.spec.agent_declarations import (
+    check_agent_functions,
+    parse_agent_declarations,
+)
 
 # re-exported: a design file imports what its law is written in from here
 from formsync_design.spec.agent_view import (
+    ACTUATORS as ACTUATORS,
     AGENT_REPRESENTATIONS as AGENT_REPRESENTATIONS,
+    PLANTS as PLANTS,
     QUANTITIES as QUANTITIES,
     AgentDeclarations as AgentDeclarations,
     AgentView as AgentView,
@@ -106,7 +124,6 @@ from formsync_design.spec.agent_view import (
     vee as vee,
 )
 from formsync_design.spec.dag import free_symbols as dag_free_symbols
-from formsync_design.spec.declarations import GainRole, parse_declarations
 
 __all__ = [
     "AgentDesign",
@@ -118,9 +135,6 @@ __all__ = [
     "rule_variant",
     "SAMPLING_RULES",
 ]
-
-_FUNCTIONS = ("controller", "states", "event", "next_interval", "monitors", "hold")
-
 
 @dataclass(frozen=True)
 class AgentDesign:
@@ -181,56 +195,6 @@ class AgentDesign:
         'k'
         """
         return agent_design_from_functions(controller, **declarations)
-
-
-def _parse_agent_declarations(attrs: Mapping[str, Any], where: str) -> AgentDeclarations:
-    base = parse_declarations(attrs, where)
-    if base.representation not in AGENT_REPRESENTATIONS:
-        raise DerivationError(f"{where}: REPRESENTATION: expected one of "
-                              f"{list(AGENT_REPRESENTATIONS)} for an agent design, received "
-                              f"{base.representation!r}")
-    if base.switching is not None and callable(attrs.get("lagrangian_controller")):
-        # the Lagrangian view's per-spacecraft switching gain is one controller gain here
-        base = replace(base, gains=tuple(replace(g, role=GainRole.CONTROLLER)
-                                         if g.role == GainRole.SWITCHING else g
-                                         for g in base.gains))
-    if base.switching is not None:
-        raise DerivationError(f"{where}: GAINS[{base.switching!r}].role: expected 'controller' or "
-                              "'multiplier' in an agent design (a switching gain is a controller "
-                              "gain there), received 'switching'")
-    taken = {g.name for g in base.gains} | {"q", "q0", "sigma", "R", "w", "J", "t", "b", "z"}
-    states = _sized_names(attrs.get("STATES", {}), "STATES", taken, where)
-    hold = _sized_names(attrs.get("HOLD", {}), "HOLD", set(), where)
-    if hold and base.sampling == "continuous":
-        raise DerivationError(f"{where}: HOLD: expected a sampled design (SAMPLING 'event', "
-                              "'self-triggered' or 'periodic'), received SAMPLING 'continuous'")
-    leader = attrs.get("LEADER", False)
-    if not isinstance(leader, bool):
-        raise DerivationError(f"{where}: LEADER: expected True or False, received {leader!r}")
-    measured = attrs.get("MEASURED", QUANTITIES)
-    if isinstance(measured, str) or not all(m in QUANTITIES for m in measured):
-        raise DerivationError(f"{where}: MEASURED: expected quantities among {list(QUANTITIES)}, "
-                              f"received {measured!r}")
-    return AgentDeclarations(representation=base.representation, gains=base.gains,
-                             graphs=base.graphs, sampling=base.sampling, states=tuple(states),
-                             leader=leader, measured=tuple(measured), hold=tuple(hold))
-
-
-def _sized_names(raw: Any, what: str, taken: set[str], where: str) -> list[tuple[str, int]]:
-    """``{name: size}`` of ``STATES`` / ``HOLD``, validated (identifiers, sizes 1..12)."""
-    if not isinstance(raw, Mapping):
-        raise DerivationError(f"{where}: {what}: expected a dict name -> size, received "
-                              f"{type(raw).__name__}")
-    out: list[tuple[str, int]] = []
-    for n, k in raw.items():
-        if not isinstance(n, str) or not n.isidentifier() or n in taken or n.startswith("_"):
-            kind = "state names" if what == "STATES" else "names"
-            raise DerivationError(f"{where}: {what}: expected {kind} that are identifiers "
-                                  f"unlike the gains and the view's quantities, received {n!r}")
-        if not isinstance(k, int) or isinstance(k, bool) or not 1 <= k <= 12:
-            raise DerivationError(f"{where}: {what}[{n!r}]: expected a size 1..12, received {k!r}")
-        out.append((n, k))
-    return out
 
 
 def _call(fn: str, f: Callable[[AgentView], Any], v: AgentView, where: str) -> Any:
@@ -329,6 +293,12 @@ def agent_expressions(design: AgentDesign, m: int, where: str | None = None) -> 
     """
     where = where or design.path
     decl = design.decl
+    if decl.plant != "attitude":
+        raise DerivationError(
+            f"{where}: PLANT: expected a design on the attitude plant (torques on each "
+            f"spacecraft's attitude) for this stage, received {design.name} on the "
+            f"{decl.plant} plant (run it with formsync verify on its case, e.g. "
+            f"formsync verify {design.name})")
     v = AgentView(decl, m)
     out: dict[str, Any] = {"view": v}
     out["u"] = _vector("controller", _call("controller", design.controller, v, where), 3, where)
@@ -385,47 +355,14 @@ def agent_expressions(design: AgentDesign, m: int, where: str | None = None) -> 
     return out
 
 
-def _check_functions(attrs: Mapping[str, Any], decl: AgentDeclarations, where: str) -> dict:
-    fns: dict[str, Callable[[AgentView], Any]] = {}
-    for fn in _FUNCTIONS:
-        f = attrs.get(fn)
-        if f is None:
-            continue
-        if not callable(f):
-            raise DerivationError(f"{where}: expected {fn} to be a function {fn}(view), "
-                                  f"received a {type(f).__name__}")
-        fns[fn] = f
-    if "controller" not in fns:
-        raise DerivationError(f"{where}: expected a function controller(view), received none")
-    if decl.states and "states" not in fns:
-        raise DerivationError(f"{where}: expected a function states(view) for STATES "
-                              f"{[n for n, _ in decl.states]}, received none")
-    if not decl.states and "states" in fns:
-        raise DerivationError(f"{where}: expected STATES declared for the function states(view), "
-                              "received none")
-    need = {"event": "event", "self-triggered": "next_interval"}.get(decl.sampling)
-    if need is not None and need not in fns:
-        raise DerivationError(f"{where}: expected a function {need}(view) for SAMPLING "
-                              f"{decl.sampling!r}, received none")
-    for fn, rule in (("event", "event"), ("next_interval", "self-triggered")):
-        if fn in fns and decl.sampling != rule:
-            raise DerivationError(f"{where}: expected SAMPLING = {rule!r} with a function "
-                                  f"{fn}(view), received SAMPLING = {decl.sampling!r}")
-    if decl.hold and "hold" not in fns:
-        raise DerivationError(f"{where}: expected a function hold(view) for HOLD "
-                              f"{[n for n, _ in decl.hold]}, received none")
-    if not decl.hold and "hold" in fns:
-        raise DerivationError(f"{where}: expected HOLD declared for the function hold(view), "
-                              "received none")
-    if decl.states and decl.sampling != "continuous":
-        raise DerivationError(f"{where}: expected SAMPLING 'continuous' for a design with "
-                              f"controller STATES, received {decl.sampling!r}")
-    return fns
-
-
 def _validate(design: AgentDesign, where: str, text: bool = False) -> str:
     # ``text`` (the expressions' srepr, a key of designs built from functions) walks the
     # expression *tree*: only computed when asked for
+    if design.decl.plant == "relative-orbit":
+        from formsync_design.spec.tracking import validate_tracking
+
+        orbit = validate_tracking(design.functions, where, design.decl)
+        return orbit.canonical() if text else ""
     parts = []
     for m in (0, 1, 2):
         ex = agent_expressions(design, m, where)
@@ -446,8 +383,8 @@ def agent_design_from_module(mod: ModuleType, where: str, key: str, stem: str) -
 def _design_from_attrs(attrs: Mapping[str, Any], where: str, key: str,
                        stem: str) -> tuple[AgentDesign, str]:
     """The validated design of a namespace and the text of its expressions."""
-    decl = _parse_agent_declarations(attrs, where)
-    fns = _check_functions(attrs, decl, where)
+    decl = parse_agent_declarations(attrs, where)
+    fns = check_agent_functions(attrs, decl, where)
     d = AgentDesign(name=str(attrs.get("NAME", stem)), title=str(attrs.get("TITLE", stem)),
                     path=where, key=key, source=where, decl=decl,
                     functions=MappingProxyType(fns), module=MappingProxyType(dict(attrs)))
@@ -484,8 +421,8 @@ def agent_design_from_functions(controller: Callable[[AgentView], Any], *, name:
                               "graphs, sampling, states, leader, measured, hold, states_fn, "
                               "hold_fn, event, next_interval, monitors, conditions; received "
                               f"{sorted(declarations)}")
-    decl = _parse_agent_declarations(attrs, where)
-    fns = _check_functions(attrs, decl, where)
+    decl = parse_agent_declarations(attrs, where)
+    fns = check_agent_functions(attrs, decl, where)
     extra = MappingProxyType({k: v for k, v in attrs.items() if k == "conditions"})
     d = AgentDesign(name=name, title=title or name, path=where, key="", source=where, decl=decl,
                     functions=MappingProxyType(fns), module=extra)

@@ -23,6 +23,8 @@ from formsync_design.spec.declarations import Declarations, GainKind, GainRole
 
 __all__ = [
     "AGENT_REPRESENTATIONS",
+    "PLANTS",
+    "ACTUATORS",
     "QUANTITIES",
     "AgentDeclarations",
     "AttitudeSymbols",
@@ -40,6 +42,15 @@ __all__ = [
 
 #: Representations an agent design may be written in.
 AGENT_REPRESENTATIONS: tuple[str, ...] = ("quaternion", "mrp", "so3")
+
+#: Plants a design may declare (``PLANT``): each spacecraft's rigid-body attitude, or the
+#: relative orbit and attitude of one spacecraft about its reference
+#: (:mod:`formsync_design.spec.tracking`).
+PLANTS: tuple[str, ...] = ("attitude", "relative-orbit")
+
+#: Actuators a design may declare (``ACTUATORS``): body torques, or thrusters realising the
+#: commanded force and torque (the case's layout, allocation and pulse-width modulation).
+ACTUATORS: tuple[str, ...] = ("torque", "thrusters")
 
 #: Quantity classes for ``MEASURED``.
 QUANTITIES: tuple[str, ...] = (
@@ -141,16 +152,20 @@ def quat_to_R(q: Any, q0: Any) -> sp.Matrix:
 @dataclass(frozen=True)
 class AgentDeclarations(Declarations):
     """An agent design's declarations: :class:`Declarations` plus controller states, the
-    leader flag and the measured quantities.
+    leader flag, the measured quantities, the plant and the actuators.
 
     >>> AgentDeclarations(representation="so3").states, AgentDeclarations().measured[:2]
     ((), ('attitude', 'rate'))
+    >>> AgentDeclarations().plant, AgentDeclarations().actuators
+    ('attitude', 'torque')
     """
 
     states: tuple[tuple[str, int], ...] = ()
     leader: bool = False
     measured: tuple[str, ...] = QUANTITIES
     hold: tuple[tuple[str, int], ...] = ()
+    plant: str = "attitude"
+    actuators: str = "torque"
 
     @property
     def state_size(self) -> int:
@@ -163,6 +178,8 @@ class AgentDeclarations(Declarations):
                    measured=list(self.measured))
         if self.hold:
             out["hold"] = {n: k for n, k in self.hold}
+        if self.plant != "attitude" or self.actuators != "torque":
+            out.update(plant=self.plant, actuators=self.actuators)
         return out
 
 

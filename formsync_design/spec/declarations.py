@@ -10,8 +10,7 @@ what was expected):
     written in: ``"quaternion"`` (the Lagrangian form in the quaternion vector
     part, derived by :mod:`formsync_design.models.attitude`), ``"mrp"``
     (:mod:`~formsync_design.models.mrp`, shadow-set switching), ``"so3"``
-    (:mod:`~formsync_design.models.so3`), ``"orbit"`` (relative orbit,
-    :mod:`~formsync_design.models.orbit`).  The derivation and certification
+    (:mod:`~formsync_design.models.so3`).  The derivation and certification
     stages support the representations in :data:`DERIVABLE`; a design in
     another representation loads but ``derive``/``certify`` refuse it with a
     message naming the representation.
@@ -40,14 +39,14 @@ what was expected):
     ``"continuous"``, ``"periodic"``, ``"event"`` or ``"self-triggered"``:
     how each spacecraft samples (see :mod:`formsync_design.sim.hybrid`).
 
-``KIND`` (default ``"formation"``)
-    What the design controls: ``"formation"`` (a formation's attitudes on a graph: the
-    quaternion ``controller(view)``/``lyapunov(view)`` contract of
-    :mod:`formsync_design.spec.loader`) or ``"tracking"`` (one spacecraft tracking a
-    reference: relative orbit and attitude, ``REPRESENTATION = "orbit"``, no graph; the
-    contract of :mod:`formsync_design.spec.tracking`).  A tracking design may declare
+``PLANT``, ``ACTUATORS``, ``LEADER``, ``STATES``, ``MEASURED``, ...
+    What the design controls and how, declared by an agent design (``FORM = "agent"``,
+    :mod:`formsync_design.spec.agent`): the rigid-body attitude of each spacecraft driven by
+    body torques (the default), or the relative orbit and attitude of a spacecraft about its
+    reference driven by thrusters (``PLANT = "relative-orbit"``,
+    :mod:`formsync_design.spec.tracking`).  A design on the relative-orbit plant may declare
     gains of role ``"weight"`` (design weights from which a gain is computed, e.g. LQR
-    weights); the formation stages refuse a tracking design with one line.
+    weights).  ``KIND`` (the former name of that choice) is refused with the new spelling.
 """
 
 from __future__ import annotations
@@ -76,7 +75,6 @@ __all__ = [
     "CLASSIC",
     "RESERVED_NAMES",
     "parse_declarations",
-    "DESIGN_KINDS",
 ]
 
 
@@ -86,7 +84,7 @@ class GainRole(enum.StrEnum):
     CONTROLLER = "controller"
     MULTIPLIER = "multiplier"
     SWITCHING = "switching"
-    WEIGHT = "weight"  # a design weight of a tracking design (e.g. an LQR weight)
+    WEIGHT = "weight"  # a design weight of the relative-orbit plant (e.g. an LQR weight)
 
 
 class GainKind(enum.StrEnum):
@@ -101,7 +99,6 @@ REPRESENTATIONS: dict[str, str] = {
     "quaternion": "formsync_design.models.attitude",
     "mrp": "formsync_design.models.mrp",
     "so3": "formsync_design.models.so3",
-    "orbit": "formsync_design.models.orbit",
 }
 
 #: Representations the derivation/certification stages support.
@@ -119,9 +116,6 @@ GRAPH_PROPERTIES: tuple[str, ...] = (
     "undirected",
     "leader-reachable",
 )
-
-#: Design kinds (module docstring: ``KIND``).
-DESIGN_KINDS: tuple[str, ...] = ("formation", "tracking")
 
 #: Names a gain may not take: the quantities the views provide.
 RESERVED_NAMES: frozenset[str] = frozenset(
@@ -184,7 +178,6 @@ class Declarations:
     gains: tuple[GainDecl, ...] = ()
     graphs: tuple[str, ...] = ("undirected", "weakly-connected")
     sampling: str = "continuous"
-    kind: str = "formation"
 
     @property
     def family_gains(self) -> tuple[str, ...]:
@@ -232,8 +225,6 @@ class Declarations:
             "graphs": list(self.graphs),
             "sampling": self.sampling,
         }
-        if self.kind != "formation":  # formation designs keep their historical content keys
-            out["kind"] = self.kind
         return out
 
 
@@ -301,7 +292,8 @@ def _parse_gain(name: Any, spec: Any, where: str) -> GainDecl:
     return GainDecl(name, role, kind, rng, desc)
 
 
-def parse_declarations(attrs: Mapping[str, Any], where: str) -> Declarations:
+def parse_declarations(attrs: Mapping[str, Any], where: str, *,
+                       weights: bool = False) -> Declarations:
     """Validate a design's declarations (module attributes) into :class:`Declarations`.
 
     Parameters
@@ -310,6 +302,9 @@ def parse_declarations(attrs: Mapping[str, Any], where: str) -> Declarations:
         The module's namespace (``REPRESENTATION``, ``GAINS``, ``GRAPHS``, ``SAMPLING``).
     where : str
         The file named in error messages.
+    weights : bool
+        Whether gains of role ``"weight"`` may be declared (a design on the relative-orbit
+        plant, :mod:`formsync_design.spec.agent`).
 
     Examples
     --------
@@ -325,17 +320,15 @@ def parse_declarations(attrs: Mapping[str, Any], where: str) -> Declarations:
     >>> parse_declarations({"REPRESENTATION": "euler"}, "demo.py")
     Traceback (most recent call last):
     ...
-    formsync_design.errors.DerivationError: demo.py: REPRESENTATION: expected one of ['quaternion', 'mrp', 'so3', 'orbit'], received 'euler'
+    formsync_design.errors.DerivationError: demo.py: REPRESENTATION: expected one of ['quaternion', 'mrp', 'so3'], received 'euler'
     """
+    if "KIND" in attrs:
+        raise _fail(where, "KIND", "no KIND (every design is one contract: a spacecraft tracking "
+                    "a reference in relative orbit and attitude declares FORM = 'agent' with "
+                    "PLANT = 'relative-orbit')", _show(attrs["KIND"]))
     rep = attrs.get("REPRESENTATION", "quaternion")
     if rep not in REPRESENTATIONS:
         raise _fail(where, "REPRESENTATION", f"one of {list(REPRESENTATIONS)}", _show(rep))
-    kind = attrs.get("KIND", "formation")
-    if kind not in DESIGN_KINDS:
-        raise _fail(where, "KIND", f"one of {list(DESIGN_KINDS)}", _show(kind))
-    if kind == "tracking" and rep != "orbit":
-        raise _fail(where, "REPRESENTATION", "'orbit' for a tracking design (KIND = 'tracking')",
-                    _show(rep))
     if "GAINS" not in attrs:
         gains = CLASSIC_GAINS
     else:
@@ -355,8 +348,9 @@ def parse_declarations(attrs: Mapping[str, Any], where: str) -> Declarations:
         gains = tuple(_parse_gain(n, s, where) for n, s in items)
         if not any(g.role == GainRole.CONTROLLER for g in gains):
             raise _fail(where, "GAINS", "at least one controller gain", "none")
-        if kind != "tracking" and any(g.role == GainRole.WEIGHT for g in gains):
-            raise _fail(where, "GAINS", "weights (role 'weight') only in a tracking design",
+        if not weights and any(g.role == GainRole.WEIGHT for g in gains):
+            raise _fail(where, "GAINS", "weights (role 'weight') only on the relative-orbit "
+                        "plant (PLANT = 'relative-orbit')",
                         [g.name for g in gains if g.role == GainRole.WEIGHT])
         if sum(g.role == GainRole.SWITCHING for g in gains) > 1:
             raise _fail(where, "GAINS", "at most one switching gain",
@@ -371,9 +365,9 @@ def parse_declarations(attrs: Mapping[str, Any], where: str) -> Declarations:
     sampling = attrs.get("SAMPLING", "continuous")
     if sampling not in SAMPLING_RULES:
         raise _fail(where, "SAMPLING", f"one of {list(SAMPLING_RULES)}", _show(sampling))
-    if kind == "tracking" and "GAINS" not in attrs:
-        raise _fail(where, "GAINS", "the gains of a tracking design declared", "none")
+    if weights and "GAINS" not in attrs:
+        raise _fail(where, "GAINS", "the gains of a design on the relative-orbit plant declared",
+                    "none")
     return Declarations(representation=str(rep), gains=gains,
-                        graphs=tuple(str(p) for p in graphs), sampling=str(sampling),
-                        kind=str(kind))
+                        graphs=tuple(str(p) for p in graphs), sampling=str(sampling))
 

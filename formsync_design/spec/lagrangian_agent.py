@@ -128,8 +128,8 @@ def _gains(spec: Any) -> dict[str, dict[str, Any]]:
 
 def agent_form(spec: Any) -> Any:
     """The agent design of the Lagrangian design ``spec`` (module docstring), cached by its
-    key; its :attr:`lagrangian` is ``spec``.  A design of another kind (a tracking design) is
-    a one-line :class:`~formsync_design.errors.DerivationError`."""
+    key; its :attr:`lagrangian` is ``spec``.  A design in another representation is a
+    one-line :class:`~formsync_design.errors.DerivationError`."""
     from dataclasses import replace
 
     from formsync_design.spec.agent import agent_design_from_functions
@@ -162,7 +162,7 @@ def agent_form(spec: Any) -> Any:
 def agent_of(d: Any, where: str = "") -> Any:
     """The agent design that runs for the loaded design ``d``: an agent design as it is, a
     quaternion Lagrangian design in its agent form (:func:`agent_form`, the design its
-    Lagrangian view); a design of another kind (a tracking design) is refused in one line
+    Lagrangian view); a design on another plant (the relative-orbit plant) is refused in one line
     (``where``: where it was named, for the message).
 
     >>> from formsync_design.spec.loader import load_design, load_spec
@@ -171,11 +171,14 @@ def agent_of(d: Any, where: str = "") -> Any:
     >>> agent_of(load_design("ma_so3")).name
     'ma_so3'
     """
-    if getattr(d, "form", None) == "agent":
-        return d
     decl = getattr(d, "decl", None)
-    if getattr(decl, "kind", None) != "formation" or getattr(decl, "representation", None) != "quaternion":
-        raise InputError(f"expected an agent design (FORM = 'agent') or a quaternion Lagrangian "
-                         f"design{where}, received the {getattr(decl, 'kind', '?')} design "
-                         f"{d.name!r}")
+    plant = getattr(decl, "plant", "attitude")
+    if getattr(d, "form", None) == "agent" and plant == "attitude":
+        return d
+    if plant != "attitude" or getattr(decl, "representation", None) != "quaternion":
+        what = (f"on the {plant} plant" if plant != "attitude"
+                else f"in REPRESENTATION {getattr(decl, 'representation', '?')!r}")
+        raise InputError(f"expected an agent design on the attitude plant (FORM = 'agent') or a "
+                         f"quaternion Lagrangian design{where}, received the design {d.name!r} "
+                         f"{what}")
     return agent_form(d)

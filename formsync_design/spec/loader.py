@@ -108,8 +108,6 @@ class Spec:
     key: str = ""
     source: str = ""
     decl: Declarations = CLASSIC
-    #: the further functions of a design kind (a tracking design's ``orbit_controller`` ...)
-    extra: tuple[tuple[str, Callable[[Any], Any]], ...] = ()
 
     @property
     def gains(self) -> tuple[str, ...]:
@@ -348,11 +346,6 @@ def controller_expression(spec: Spec) -> tuple[ControllerView, Any]:
     >>> u.shape, len(v.switch_arguments)
     ((3, 1), 1)
     """
-    if spec.decl.kind != "formation":
-        raise DerivationError(
-            f"{spec.path}: KIND: expected a formation design for this command, received a "
-            f"{spec.decl.kind} design (run it with formsync verify on its case, e.g. "
-            f"formsync verify {spec.name})")
     view = ControllerView(spec.decl)
     u = spec.controller(view)
     if getattr(u, "shape", None) != (3, 1):
@@ -447,15 +440,7 @@ def _load_file(p: Path) -> Spec:
             got = "none" if not hasattr(mod, fn) else f"a {type(getattr(mod, fn)).__name__}"
             raise DerivationError(f"{where}: expected a function {fn}(view), received {got}")
     decl = parse_declarations(mod.__dict__, where)
-    extra: tuple[tuple[str, Callable[[Any], Any]], ...] = ()
-    if decl.kind == "tracking":
-        from formsync_design.spec.tracking import TRACKING_FUNCTIONS, validate_tracking
-
-        fns = {fn: getattr(mod, fn, None) for fn in TRACKING_FUNCTIONS}
-        validate_tracking(fns, where, decl)
-        extra = tuple((fn, f) for fn, f in fns.items() if f is not None)
-    else:
-        validate_spec(mod.controller, mod.lyapunov, where, decl)
+    validate_spec(mod.controller, mod.lyapunov, where, decl)
     spec = Spec(
         name=str(getattr(mod, "NAME", p.stem)),
         title=str(getattr(mod, "TITLE", p.stem)),
@@ -465,7 +450,6 @@ def _load_file(p: Path) -> Spec:
         key=key,
         source=where,
         decl=decl,
-        extra=extra,
     )
     _LOADED[cache_key] = spec
     return spec

@@ -1,41 +1,50 @@
-"""The contract of a *tracking* design (``KIND = "tracking"``): one spacecraft tracking a
-reference in relative orbit and attitude (Zhang et al. 2014 is the first).
+"""The relative-orbit plant of the one design contract: one spacecraft tracking its reference
+in relative orbit and attitude, with thrusters (Zhang et al. 2014 is the first).
 
-A tracking design file declares ``KIND = "tracking"``, ``REPRESENTATION = "orbit"``
-(the relative orbit of :mod:`formsync_design.models.orbit` with the MRP attitude of
-:mod:`formsync_design.models.mrp`), its ``GAINS`` (roles ``controller`` and ``weight``)
-and four functions of a view, each returning explicit SymPy expressions:
+A design on this plant is an agent design (:mod:`formsync_design.spec.agent`) that declares
+``FORM = "agent"``, ``PLANT = "relative-orbit"`` (``ACTUATORS = "thrusters"``, the
+default there), ``REPRESENTATION = "mrp"``, ``LEADER = True`` (the reference: the desired
+frame), ``SAMPLING = "periodic"`` and ``GRAPHS = ()``; its ``GAINS`` (roles ``controller``
+and ``weight``) and four functions of a view, each returning explicit SymPy expressions
+(the relative orbit of :mod:`formsync_design.models.orbit`, the MRP attitude of
+:mod:`formsync_design.models.mrp`):
 
-``controller(view: AttitudeView) -> 3x1 Matrix``
-    the body torque ``T_c`` from the attitude tracking error: ``view.sigma`` (MRP of the
-    body frame relative to the desired frame, short set), ``view.omega`` (``omega_sd``,
-    body rate relative to the desired frame, body axes), ``view.omega_s`` (inertial body
-    rate), ``view.w_d`` (``R_sd omega_di``, the desired frame's inertial rate in body
-    axes), ``view.a_d`` (``R_sd omega_di'``), ``view.J`` (the inertia the law uses, a
-    symmetric 3x3 Matrix of symbols ``J_ij``) and one attribute per controller gain (a
-    scalar gain is a positive symbol, a diagonal gain ``K`` is ``diag(K_1, K_2, K_3)``);
-``lyapunov(view: AttitudeView) -> scalar``
-    the candidate ``V(sigma, omega)`` of the attitude law, in the same quantities
-    (``view.J`` is then the plant's inertia);
-``orbit_controller(view: OrbitView) -> 3x1 Matrix``
-    the commanded specific force in the relative orbit frame from ``view.dX`` (6x1, the
-    state error ``X - X_d``), ``view.ff`` (3x1, the feedforward ``l_T'' - f(l_T, l_T')``
-    of the design model) and ``view.K`` (3x6, the state-feedback gain, a Matrix of
+``controller(v: TrackingView) -> 3x1 Matrix``
+    the body torque ``T_c``.  ``v.w`` is the spacecraft's inertial body rate and ``v.J`` the
+    inertia the law uses (a symmetric 3x3 Matrix of symbols ``J_ij``), as in every agent
+    view; ``v.track`` is the tracking error with respect to the reference, measured by the
+    plant: ``v.track.sigma`` (MRP of the body frame relative to the reference frame, short
+    set), ``v.track.w`` (body rate relative to the reference frame, body axes),
+    ``v.track.w_ref`` (the reference's inertial rate in body axes) and
+    ``v.track.wdot_ref`` (its derivative, body axes); one attribute per controller gain (a
+    scalar gain is a positive symbol, a diagonal gain ``K`` is ``diag(K_1, K_2, K_3)``) and
+    the helpers ``hat``, ``vee``, ``G``, ``sgn``, ``sig``;
+``lyapunov(v: TrackingView) -> scalar``
+    the candidate ``V`` of the attitude law in the same quantities (``v.J`` is then the
+    plant's inertia);
+``orbit_controller(v: OrbitView) -> 3x1 Matrix``
+    the commanded specific force in the relative orbit frame from ``v.dX`` (6x1, the
+    state error ``X - X_d``), ``v.ff`` (3x1, the feedforward ``l_T'' - f(l_T, l_T')``
+    of the design model) and ``v.K`` (3x6, the state-feedback gain, a Matrix of
     symbols ``K_i_j``);
-``lqr_weights(view: WeightView) -> (Q 6x6, R 3x3)``
+``lqr_weights(v: WeightView) -> (Q 6x6, R 3x3)``
     the LQR weights in the design's ``weight`` gains (a diagonal weight ``q`` is
     ``diag(q_1, q_2, q_3)``); the engine computes ``K = R^-1 B^T P`` on the CW model.
 
 Each function is called on its view when the design is loaded: a missing function, a
 wrong shape or a symbol the view does not provide is a one-line
-:class:`~formsync_design.errors.DerivationError` naming the file and the function.
+:class:`~formsync_design.errors.DerivationError` naming the file and the function.  The
+plant measures the tracking error itself, so the view has no absolute attitude (``v.sigma``
+is not provided: a law on this plant is written in ``v.track``).
 
->>> v = AttitudeView(_demo_decl())
+>>> v = TrackingView(_demo_decl())
 >>> v.K_d
 Matrix([
 [K_d_1,     0,     0],
 [    0, K_d_2,     0],
 [    0,     0, K_d_3]])
+>>> v.track.sigma.T, v.w.T
+(Matrix([[sigma_1, sigma_2, sigma_3]]), Matrix([[omega_s_1, omega_s_2, omega_s_3]]))
 """
 
 from __future__ import annotations
@@ -46,11 +55,13 @@ from typing import Any
 import sympy as sp
 
 from formsync_design.errors import DerivationError
+from formsync_design.spec.agent_view import AgentDeclarations, hat, mrp_G, sgn_of, sig, vee
 from formsync_design.spec.declarations import Declarations, GainDecl, GainKind, GainRole
 
 __all__ = [
     "TRACKING_FUNCTIONS",
-    "AttitudeView",
+    "TrackingError",
+    "TrackingView",
     "OrbitView",
     "WeightView",
     "validate_tracking",
@@ -58,7 +69,7 @@ __all__ = [
     "TrackingExpressions",
 ]
 
-#: The functions a tracking design defines (module docstring).
+#: The functions a design on the relative-orbit plant defines (module docstring).
 TRACKING_FUNCTIONS: tuple[str, ...] = ("controller", "lyapunov", "orbit_controller",
                                        "lqr_weights")
 
@@ -103,26 +114,47 @@ class _View:
         return out
 
 
-class AttitudeView(_View):
-    """What ``controller(view)`` and ``lyapunov(view)`` of a tracking design may use."""
+class TrackingError:
+    """The tracking error of the reference that the relative-orbit plant measures (3x1 each):
+    ``sigma`` (MRP, body relative to the reference frame), ``w`` (body rate relative to the
+    reference frame, body axes), ``w_ref`` and ``wdot_ref`` (the reference's inertial rate
+    and its derivative, body axes)."""
+
+    def __init__(self) -> None:
+        self.sigma = _vec("sigma")
+        self.w = _vec("omega")
+        self.w_ref = _vec("w_d")
+        self.wdot_ref = _vec("a_d")
+
+    def matrices(self) -> tuple[sp.Matrix, ...]:
+        return (self.sigma, self.w, self.w_ref, self.wdot_ref)
+
+
+class TrackingView(_View):
+    """What ``controller(v)`` and ``lyapunov(v)`` of a design on the relative-orbit plant
+    may use (module docstring)."""
 
     def __init__(self, decl: Declarations) -> None:
         super().__init__(decl, (GainRole.CONTROLLER,))
-        self.sigma = _vec("sigma")
-        self.omega = _vec("omega")
-        self.omega_s = _vec("omega_s")
-        self.w_d = _vec("w_d")
-        self.a_d = _vec("a_d")
+        self.track = TrackingError()
+        self.w = _vec("omega_s")
         j = {(i, k): sp.Symbol(f"J_{min(i, k) + 1}{max(i, k) + 1}", real=True)
              for i in range(3) for k in range(3)}
         self.J = sp.Matrix(3, 3, lambda i, k: j[(i, k)])
 
+    # the helpers of every agent view
+    sgn = staticmethod(sgn_of)
+    sig = staticmethod(sig)
+    hat = staticmethod(hat)
+    vee = staticmethod(vee)
+    G = staticmethod(mrp_G)
+
     def _base(self) -> list[str]:
-        return ["sigma", "omega", "omega_s", "w_d", "a_d", "J"]
+        return ["w", "J", "track (sigma, w, w_ref, wdot_ref)", "sgn", "sig", "hat", "vee", "G"]
 
     def symbols(self) -> set[Any]:
         out = super().symbols()
-        for m in (self.sigma, self.omega, self.omega_s, self.w_d, self.a_d, self.J):
+        for m in (self.w, self.J, *self.track.matrices()):
             out |= set(m.free_symbols)
         return out
 
@@ -186,16 +218,16 @@ def _matrix(where: str, name: str, value: Any, shape: tuple[int, int], view: _Vi
 
 
 class TrackingExpressions:
-    """The SymPy expressions a tracking design returns on its views.
+    """The SymPy expressions a design on the relative-orbit plant returns on its views.
 
     Attributes
     ----------
-    attitude_view, orbit_view, weight_view : the views
+    attitude_view : TrackingView; orbit_view : OrbitView; weight_view : WeightView
     torque : 3x1 Matrix; lyapunov : scalar; acceleration : 3x1 Matrix
     Q, R : 6x6 and 3x3 Matrices in the weight symbols
     """
 
-    def __init__(self, av: AttitudeView, ov: OrbitView, wv: WeightView, torque: sp.Matrix,
+    def __init__(self, av: TrackingView, ov: OrbitView, wv: WeightView, torque: sp.Matrix,
                  lyap: sp.Expr, acc: sp.Matrix, q: sp.Matrix, r: sp.Matrix) -> None:
         self.attitude_view, self.orbit_view, self.weight_view = av, ov, wv
         self.torque, self.lyapunov, self.acceleration, self.Q, self.R = torque, lyap, acc, q, r
@@ -208,17 +240,19 @@ class TrackingExpressions:
 
 def validate_tracking(functions: Mapping[str, Any], where: str,
                       decl: Declarations) -> TrackingExpressions:
-    """Check a tracking design's four functions on their views (module docstring).
+    """Check the four functions of a design on the relative-orbit plant on their views
+    (module docstring).
 
     Examples
     --------
-    >>> fns = {"controller": lambda v: -v.k * v.sigma, "lyapunov": lambda v: v.sigma.dot(v.sigma),
+    >>> fns = {"controller": lambda v: -v.k * v.track.sigma,
+    ...        "lyapunov": lambda v: v.track.sigma.dot(v.track.sigma),
     ...        "orbit_controller": lambda v: -v.K * v.dX + v.ff,
     ...        "lqr_weights": lambda v: (sp.eye(6) * v.q, sp.eye(3))}
     >>> ex = validate_tracking(fns, "demo.py", _demo_decl())
     >>> ex.torque.T
     Matrix([[-k*sigma_1, -k*sigma_2, -k*sigma_3]])
-    >>> validate_tracking({**fns, "controller": lambda v: v.sigma.T}, "demo.py", _demo_decl())
+    >>> validate_tracking({**fns, "controller": lambda v: v.track.sigma.T}, "demo.py", _demo_decl())
     Traceback (most recent call last):
     ...
     formsync_design.errors.DerivationError: demo.py: controller(view): expected an explicit 3x1 sympy Matrix, received shape (1, 3)
@@ -226,12 +260,12 @@ def validate_tracking(functions: Mapping[str, Any], where: str,
     for name in TRACKING_FUNCTIONS:
         if not callable(functions.get(name)):
             got = "none" if name not in functions else f"a {type(functions[name]).__name__}"
-            raise DerivationError(f"{where}: expected a function {name}(view) (a tracking "
-                                  f"design), received {got}")
-    av, ov, wv = AttitudeView(decl), OrbitView(decl), WeightView(decl)
+            raise DerivationError(f"{where}: expected a function {name}(view) on the "
+                                  f"relative-orbit plant, received {got}")
+    av, ov, wv = TrackingView(decl), OrbitView(decl), WeightView(decl)
     torque = _matrix(where, "controller", _call(where, "controller", functions["controller"], av),
                      (3, 1), av)
-    lv = AttitudeView(decl)
+    lv = TrackingView(decl)
     lyap = sp.sympify(_call(where, "lyapunov", functions["lyapunov"], lv))
     if isinstance(lyap, sp.MatrixBase):
         if lyap.shape != (1, 1):
@@ -256,23 +290,26 @@ def validate_tracking(functions: Mapping[str, Any], where: str,
     return TrackingExpressions(av, ov, wv, torque, lyap, acc, q, r)
 
 
-def tracking_expressions(spec: Any) -> TrackingExpressions:
-    """The expressions of a loaded tracking design (a :class:`~formsync_design.spec.Spec`).
+def tracking_expressions(design: Any) -> TrackingExpressions:
+    """The expressions of a loaded design on the relative-orbit plant (an
+    :class:`~formsync_design.spec.agent.AgentDesign` with ``PLANT = "relative-orbit"``).
 
-    >>> from formsync_design.spec.loader import load_spec
-    >>> ex = tracking_expressions(load_spec("zhang2014_flyaround"))
+    >>> from formsync_design.spec.loader import load_design
+    >>> ex = tracking_expressions(load_design("zhang2014_flyaround"))
     >>> ex.torque.shape, ex.acceleration.shape
     ((3, 1), (3, 1))
     """
-    if spec.decl.kind != "tracking":
-        raise DerivationError(f"{spec.path}: KIND: expected 'tracking', received "
-                              f"{spec.decl.kind!r}")
-    return validate_tracking(dict(spec.extra), spec.path, spec.decl)
+    plant = getattr(getattr(design, "decl", None), "plant", None)
+    if plant != "relative-orbit":
+        raise DerivationError(f"{getattr(design, 'path', design)}: PLANT: expected "
+                              f"'relative-orbit', received {plant or 'attitude'!r}")
+    return validate_tracking(dict(design.functions), design.path, design.decl)
 
 
-def _demo_decl() -> Declarations:
+def _demo_decl() -> AgentDeclarations:
     """Declarations used by the doctests: gains ``k`` (scalar), ``K_d`` (diagonal), ``q``."""
-    return Declarations(
-        representation="orbit", kind="tracking", graphs=(), sampling="periodic",
+    return AgentDeclarations(
+        representation="mrp", graphs=(), sampling="periodic", leader=True,
+        plant="relative-orbit", actuators="thrusters",
         gains=(GainDecl("k"), GainDecl("K_d", kind=GainKind.DIAG),
                GainDecl("q", GainRole.WEIGHT)))

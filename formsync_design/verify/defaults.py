@@ -106,15 +106,14 @@ class Defaults:
 
 
 def is_tracking(design: Any) -> bool:
-    """Whether ``design`` is a single-spacecraft tracking design (``KIND = "tracking"``).
+    """Whether ``design`` is a single spacecraft tracking its reference on the relative-orbit
+    plant (``PLANT = "relative-orbit"``).
 
     >>> from formsync_design.spec.loader import load_design
     >>> is_tracking(load_design("zhang2014_flyaround")), is_tracking(load_design("ma_so3"))
     (True, False)
     """
-    decl = getattr(design, "decl", None)
-    return str(getattr(decl, "kind", "")) == "tracking" or getattr(design, "representation",
-                                                                    None) == "orbit"
+    return getattr(getattr(design, "decl", None), "plant", "attitude") == "relative-orbit"
 
 
 def _case_ref(doc: dict) -> str | None:

@@ -1,6 +1,6 @@
-"""The tracking form of the verification engine: an engine case whose design is a tracking
-design (``KIND = "tracking"``: one spacecraft flying a relative orbit about a target with
-thrusters, allocation and PWM).
+"""The relative-orbit form of the verification engine: an engine case whose design is on the
+relative-orbit plant (``PLANT = "relative-orbit"``: one spacecraft flying a relative orbit
+about a target and tracking its reference attitude with thrusters, allocation and PWM).
 
 The engine (:mod:`formsync_design.verify.engine`) hands such a case to this form
 (:mod:`formsync_design.verify.engineform`); the claims are judged, and the report written,
@@ -168,7 +168,7 @@ def _metrics(data: dict, base: Any, scens: tuple[TrackingScenario, ...], path: s
         why = spec.applies(base.spec) if spec.applies is not None else (
             "a metric of agent designs")
         if why is not None or spec.evidence == "montecarlo":
-            raise InputError(f"expected a metric that applies to the tracking design in "
+            raise InputError(f"expected a metric that applies to the relative-orbit design in "
                              f"{where}, received {name!r} ({why or 'Monte-Carlo'})")
         s = row.get("scenario", names[0])
         if s not in names:
@@ -299,9 +299,9 @@ class TrackingVerification(NotebookViews):
 
 
 class TrackingForm:
-    """The tracking form (:class:`~formsync_design.verify.engineform.EngineForm`)."""
+    """The relative-orbit form (:class:`~formsync_design.verify.engineform.EngineForm`)."""
 
-    name = "tracking"
+    name = "relative-orbit"
 
     def parse(self, data: dict, path: str, design: Any = None) -> TrackingEngineCase:
         return parse_tracking_engine_case(data, path, design)

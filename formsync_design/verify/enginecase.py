@@ -48,8 +48,8 @@ range-checked, :mod:`formsync_design.ranges`; bad input is one line, exit 2)::
     [[claims]]      id, text (the paper's words), source (where in the paper),
                     predicate over metric ids (formsync_design/verify/predicates.py)
 
-A design that is not an agent design (``KIND = "tracking"``) has its own form of these
-tables (:mod:`formsync_design.verify.engineform`, :mod:`formsync_design.verify.engine_tracking`).
+A design on another plant than the attitude plant (``PLANT = "relative-orbit"``) has its own
+form of these tables (:mod:`formsync_design.verify.engineform`, :mod:`formsync_design.verify.engine_tracking`).
 
 Without ``[[formations]]`` the one formation ``case`` is the case's graph; without
 ``[[scenarios]]`` the one scenario ``nominal`` is the base case (list it as a scenario
@@ -544,7 +544,7 @@ def _claims(data: dict, metrics: tuple[MetricRow, ...], path: str) -> tuple[Clai
 
 def parse_engine_case(data: dict, path: str = "<memory>", design: Any = None) -> EngineCase:
     """Validate a parsed engine case document (module docstring); a case whose design is of
-    another form (a tracking design) is that form's case (:mod:`formsync_design.verify.engineform`)."""
+    another plant (the relative-orbit plant) is that plant's form's case (:mod:`formsync_design.verify.engineform`)."""
     meta = data.get("case", {})
     if not isinstance(meta, dict) or meta.get("kind") != "engine":
         got = meta.get("kind") if isinstance(meta, dict) else meta

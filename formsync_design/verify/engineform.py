@@ -1,10 +1,12 @@
-"""Design forms of the verification engine: the one hook by which an engine case whose design
-is not an agent design is verified by the same engine, judge and report writer.
+"""Plant forms of the verification engine: the one hook by which an engine case whose design
+drives another plant than the attitude plant is verified by the same engine, judge and report
+writer.
 
-The engine's own form is the agent form (``FORM = "agent"``: formations of spacecraft,
-:mod:`formsync_design.verify.enginecase`, :mod:`formsync_design.verify.engine`).  A design
-of another kind (``KIND = "tracking"``: one spacecraft flying about a target with thrusters)
-has its form registered in :data:`FORMS`; :func:`~formsync_design.verify.enginecase.parse_engine_case`
+Every design is declared in one contract (:mod:`formsync_design.spec.agent`).  The engine's
+own form is the attitude plant's (formations of spacecraft with body torques,
+:mod:`formsync_design.verify.enginecase`, :mod:`formsync_design.verify.engine`).  A design on
+another plant (``PLANT = "relative-orbit"``: one spacecraft flying about a target with
+thrusters) has its form registered in :data:`FORMS`; :func:`~formsync_design.verify.enginecase.parse_engine_case`
 hands its case to the form's :meth:`EngineForm.parse`, :func:`~formsync_design.verify.engine.run_engine`
 to its :meth:`EngineForm.run`, and :mod:`formsync_design.verify.engine_report` takes from it
 the sections that depend on the form (scenarios, certificates, scope of the evidence, runs,
@@ -17,11 +19,11 @@ documentation are the engine's, for every form.  A form's case has ``form`` (the
 (:class:`~formsync_design.verify.engine.ClaimVerdict`), ``results`` and ``all_hold``.
 
 >>> sorted(FORMS)
-['tracking']
+['relative-orbit']
 >>> design_form({"case": {"design": "ma_so3"}}, "x.toml") is None
 True
 >>> design_form({"case": {"design": "zhang2014_flyaround"}}, "x.toml").name
-'tracking'
+'relative-orbit'
 """
 
 from __future__ import annotations
@@ -35,9 +37,9 @@ from formsync_design.errors import FormsyncError
 
 __all__ = ["EngineForm", "FORMS", "design_form"]
 
-#: A design's ``KIND`` -> ``"module:attribute"`` of its engine form.
+#: A design's ``PLANT`` -> ``"module:attribute"`` of its engine form.
 FORMS: dict[str, str] = {
-    "tracking": "formsync_design.verify.engine_tracking:FORM",
+    "relative-orbit": "formsync_design.verify.engine_tracking:FORM",
 }
 
 
@@ -65,7 +67,8 @@ class EngineForm(Protocol):
 
 def design_form(data: dict, path: str, design: Any = None) -> EngineForm | None:
     """The form of the case's design (``design``: overrides ``[case] design``), ``None`` for
-    an agent design, or one that does not load (the agent case parser reports it)."""
+    a design on the attitude plant, or one that does not load (the agent case parser reports
+    it)."""
     from formsync_design.resources import design_names
     from formsync_design.spec.loader import load_design
 
@@ -79,9 +82,9 @@ def design_form(data: dict, path: str, design: Any = None) -> EngineForm | None:
             ref = load_design(ref)
     except FormsyncError:
         return None
-    kind = getattr(getattr(ref, "decl", None), "kind", None)
-    if getattr(ref, "form", None) == "agent" or kind not in FORMS:
+    plant = getattr(getattr(ref, "decl", None), "plant", None)
+    if plant not in FORMS:
         return None
-    module, _, attr = FORMS[kind].partition(":")
+    module, _, attr = FORMS[plant].partition(":")
     form: EngineForm = getattr(importlib.import_module(module), attr)
     return form

@@ -1,8 +1,9 @@
-"""Metrics of a tracking design's run: errors, fuel, pulses, allocation, certificates.
+"""Metrics of a run on the relative-orbit plant: errors, fuel, pulses, allocation,
+certificates.
 
 Registered in :data:`~formsync_design.verify.metrics.METRICS` for the engine cases whose
-design is a tracking design (``KIND = "tracking"``: one spacecraft flying a relative orbit
-about a target with thrusters, :mod:`formsync_design.verify.engine_tracking`); a metric here
+design is on the relative-orbit plant (``PLANT = "relative-orbit"``: one spacecraft flying a
+relative orbit about a target with thrusters, :mod:`formsync_design.verify.engine_tracking`); a metric here
 names the measurement, never a paper.  The run of a scenario is
 :func:`~formsync_design.sim.tracking.simulate_flyaround`'s; its measurements are
 :func:`~formsync_design.verify.tracking_measures.run_metrics` (the rules are in that module:
@@ -51,10 +52,11 @@ __all__ = ["tracking_only", "measures", "certificates", "lp_recheck", "RUN_METRI
 
 
 def tracking_only(design: Any) -> str | None:
-    """``None`` when ``design`` is a tracking design, else why a tracking metric does not apply."""
-    kind = getattr(getattr(design, "decl", None), "kind", None)
-    return None if kind == "tracking" else (
-        f"design {getattr(design, 'name', design)} is not a tracking design")
+    """``None`` when ``design`` is on the relative-orbit plant, else why a fly-around metric
+    does not apply."""
+    plant = getattr(getattr(design, "decl", None), "plant", None)
+    return None if plant == "relative-orbit" else (
+        f"design {getattr(design, 'name', design)} is not on the relative-orbit plant")
 
 
 def measures(ctx: MetricContext) -> dict[str, float]:

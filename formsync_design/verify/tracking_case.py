@@ -1,13 +1,14 @@
-"""The base case of a fly-around engine case (a tracking design), read and validated strictly.
+"""The base case of a fly-around engine case (a design on the relative-orbit plant), read and
+validated strictly.
 
 An engine case (``[case] kind = "engine"``, :mod:`formsync_design.verify.enginecase`) whose
-design is a tracking design (``KIND = "tracking"``) has this base case; its
+design is on the relative-orbit plant (``PLANT = "relative-orbit"``) has this base case; its
 ``[[scenarios]]``, ``[[metrics]]``, ``[[claims]]`` are read by
 :mod:`formsync_design.verify.engine_tracking` (a scenario's overrides: :func:`parse_variant`,
 :func:`apply_variant`).  Layout (``verification/zhang2014_flyaround.toml`` is the paper's
 case)::
 
-    [case]          name, kind = "engine", design (a shipped tracking design or a .py
+    [case]          name, kind = "engine", design (a shipped relative-orbit design or a .py
                     file relative to the case file), title, source, assumptions = [...]
     [target]        a (m), e, i_deg, u_deg (argument of latitude), optional raan_deg
     [chaser]        the same
@@ -46,8 +47,9 @@ from formsync_design.models.relative_reference import FlyaroundParams
 from formsync_design.models.thrusters import zhang2014_layout
 from formsync_design.ranges import check_range, quantity_of
 from formsync_design.sim.tracking_scenario import ALLOCATIONS, FlyaroundOptions, FlyaroundScenario
+from formsync_design.spec.agent import AgentDesign
 from formsync_design.spec.declarations import GainKind
-from formsync_design.spec.loader import Spec, load_spec
+from formsync_design.spec.loader import load_design
 from formsync_design.tomlio import load_toml
 
 __all__ = ["FlyaroundCase", "Variant", "load_flyaround_case", "parse_flyaround_case",
@@ -121,8 +123,8 @@ class FlyaroundCase:
     digest: str = ""
 
     @property
-    def spec(self) -> Spec:
-        return load_spec(self.design)
+    def spec(self) -> AgentDesign:
+        return load_design(self.design)
 
 
 def _table(data: dict, name: str, where: str, required: bool = True) -> dict:
@@ -177,7 +179,7 @@ def _orbit(t: dict, name: str, where: str) -> KeplerElements:
         raan=_num(t, "raan_deg", name, where, default=0.0))
 
 
-def _gains(spec: Spec, t: dict, where: str) -> dict[str, tuple[float, ...]]:
+def _gains(spec: AgentDesign, t: dict, where: str) -> dict[str, tuple[float, ...]]:
     names = [g.name for g in spec.decl.gains]
     unknown = sorted(set(t) - set(names))
     if unknown:
@@ -235,7 +237,7 @@ def _options(sim: dict, thr: dict, where: str) -> FlyaroundOptions:
         raise InputError(f"{where}: {e}") from None
 
 
-def parse_variant(row: dict, spec: Spec, where: str, label: str) -> Variant:
+def parse_variant(row: dict, spec: AgentDesign, where: str, label: str) -> Variant:
     """A scenario row's overrides (``gains``, ``thrusters``, ``simulation``, ``spacecraft =
     {inertia_scale}``), their keys checked (their values: :func:`apply_variant`)."""
     for part in _VARIANT:
@@ -306,10 +308,11 @@ def parse_flyaround_case(data: dict, where: str = "<memory>", design: Any = None
         raise InputError(f"expected [case] kind = 'engine' in {where}, received "
                          f"{meta.get('kind')!r}")
     design = _design_ref(meta, where, design)
-    spec = load_spec(design)
-    if spec.decl.kind != "tracking":
-        raise InputError(f"expected case.design a tracking design in {where}, received "
-                         f"{spec.name} ({spec.decl.kind})")
+    spec = load_design(design)
+    plant = getattr(spec.decl, "plant", "attitude")
+    if plant != "relative-orbit":
+        raise InputError(f"expected case.design a design on the relative-orbit plant in {where}, "
+                         f"received {spec.name} (on the {plant} plant)")
     sc_t = _table(data, "spacecraft", where)
     ref = _table(data, "reference", where)
     thr = _table(data, "thrusters", where)
