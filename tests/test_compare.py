@@ -18,7 +18,6 @@ import pytest
 from formsync_design.derive.closed_form import required_kv
 from formsync_design.derive.compare import (
     all_findings,
-    disagreement_witness,
     lyapunov_findings,
     model_findings,
 )
@@ -26,6 +25,7 @@ from formsync_design.derive.conditions import derive_conditions, paper_condition
 from formsync_design.derive.families import FamilyTerm, MatrixFamily
 from formsync_design.derive.findings import VERDICTS, Verdict, compare_families
 from formsync_design.derive.printed import load_printed
+from formsync_design.derive.witness import disagreement_witness
 from formsync_design.graphs.build import make_graph
 
 from .helpers import cross, model_numeric, random_inertia, random_quaternion

@@ -179,7 +179,7 @@ def test_engine_case_end_to_end(tmp_path, capsys):
     from formsync_design.gains import GainBox
     from formsync_design.sim.agents import simulate_agents
     from formsync_design.verify.agentcase import parse_agent_case
-    from formsync_design.verify.enginecase import directed_cycle
+    from formsync_design.verify.enginegraphs import directed_cycle
 
     data = tomllib.loads(CASE)
     for k in ("formations", "scenarios", "montecarlo", "metrics", "claims"):

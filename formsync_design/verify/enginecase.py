@@ -77,7 +77,7 @@ from formsync_design.ranges import check_range
 from formsync_design.tomlio import load_toml
 from formsync_design.verify import metric_modules  # noqa: F401 (registers the metrics)
 from formsync_design.verify.agentcase import ENGINE_TABLES, AgentCase, parse_agent_case
-from formsync_design.verify.case import case_path
+from formsync_design.verify.enginegraphs import formation_graph
 from formsync_design.verify.enginekeys import (
     MonteCarloSpec,
     check_torque_matching,
@@ -90,7 +90,7 @@ from formsync_design.verify.metrics import METRICS, MetricSpec, check_metric_arg
 from formsync_design.verify.predicates import KEYWORDS, Node, parse_predicate
 
 __all__ = ["FormationSpec", "ScenarioSpec", "MetricRow",
-           "ClaimRow", "EngineCase", "load_engine_case", "parse_engine_case", "directed_cycle"]
+           "ClaimRow", "EngineCase", "load_engine_case", "parse_engine_case"]
 
 _ID = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,39}")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,39}")
@@ -212,19 +212,6 @@ class EngineCase:
         return c
 
 
-def directed_cycle(n: int) -> Any:
-    """The directed cycle on ``n`` spacecraft (``i`` receives from ``i - 1``, 1 from ``n``).
-
-    >>> g = directed_cycle(4)
-    >>> g.name, g.n, g.is_undirected
-    ('cycle:4', 4, False)
-    """
-    from formsync_design.graphs.digraph_io import digraph_from_edges
-
-    return digraph_from_edges([(i, i - 1 if i > 1 else n, 1) for i in range(1, n + 1)], n=n,
-                              name=f"cycle:{n}")
-
-
 def _rows(data: dict, key: str, path: str) -> list[dict]:
     v = data.get(key, [])
     if not isinstance(v, list) or not all(isinstance(r, dict) for r in v):
@@ -261,50 +248,6 @@ def _check_keys(row: dict, table: str, where: str) -> None:
         raise InputError(f"expected keys {sorted(_KEYS[table])} in {where}, received unknown {extra}")
 
 
-def _graph(row: dict, where: str, base: AgentCase, path: str) -> tuple[Any, str]:
-    from formsync_design.graphs.digraph_io import digraph_from_edges, make_digraph
-
-    pin = row.get("pinning")
-    if pin is not None:
-        if not isinstance(pin, list) or not pin:
-            raise InputError(f"expected {where}.pinning = [b_1, ..., b_N], received {pin!r:.60}")
-        for k, b in enumerate(pin, 1):
-            if isinstance(b, bool) or not isinstance(b, (int, float)):
-                raise InputError(f"expected numbers in {where}.pinning, received {b!r:.30}")
-            check_range(b, "weight", f"{where}.pinning[{k}]")
-    if "arcs" in row:
-        if "graph" in row:
-            raise InputError(f"expected one of {where}.graph or {where}.arcs, received both")
-        arcs = row["arcs"]
-        if not isinstance(arcs, list) or not all(isinstance(a, list) for a in arcs):
-            raise InputError(f"expected {where}.arcs = [[i, j, a_ij], ...], received {arcs!r:.60}")
-        n = row.get("n")
-        if n is not None and (isinstance(n, bool) or not isinstance(n, int)):
-            raise InputError(f"expected {where}.n as an integer, received {n!r:.30}")
-        return digraph_from_edges([tuple(a) for a in arcs], n=n, pinning=pin,
-                                  name=str(row["name"])), "arcs"
-    if "n" in row:
-        raise InputError(f"expected {where}.n only with {where}.arcs, received it with a graph")
-    spec = row.get("graph", "case")
-    if not isinstance(spec, str) or not spec.strip():
-        raise InputError(f"expected {where}.graph as a graph spec or file, received {spec!r:.60}")
-    spec = spec.strip()
-    if spec == "case":
-        g = base.graph()
-        return (g if pin is None else make_digraph(g, pinning=pin)), "the case's graph"
-    m = re.fullmatch(r"cycle:(\d{1,9})", spec)
-    if m:
-        from formsync_design.graphs.build import check_size
-
-        n = int(m.group(1))
-        if n < 2:
-            raise InputError(f"expected cycle:N with N >= 2 in {where}.graph, received {spec!r}")
-        check_size(n, spec)
-        g = directed_cycle(n)
-        return (g if pin is None else make_digraph(g, pinning=pin)), spec
-    return make_digraph(case_path(spec, path), pinning=pin), spec
-
-
 def _formations(data: dict, base: AgentCase, path: str) -> tuple[FormationSpec, ...]:
     rows = _rows(data, "formations", path)
     if not rows:
@@ -315,7 +258,7 @@ def _formations(data: dict, base: AgentCase, path: str) -> tuple[FormationSpec, 
         where = f"formations[{k}]"
         _check_keys(row, "formations", where)
         name = _unique(row, "name", where, _NAME, seen)
-        g, src = _graph(row, where, base, path)
+        g, src = formation_graph(row, where, base.graph, path)
         d = base.design
         if d.decl.leader and not g.has_leader:
             raise InputError(f"expected {where}.pinning (design {d.name} has a leader), received "
