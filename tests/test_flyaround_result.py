@@ -122,6 +122,13 @@ def test_fuel_and_velocity_increments_from_the_pulses_by_hand(run: SimResult) ->
 def test_every_run_keeps_one_schema(run: SimResult) -> None:
     other = replace(run, orbit=None)  # the fields of a run without an orbit record
     assert list(run.to_dict()) == list(other.to_dict()) and other.to_dict()["orbit"] is None
+    md = run._repr_markdown_()
+    assert md.startswith("**Fly-around simulation**") and "| fuel |" in md
+    frame = run.to_pandas()
+    assert list(frame.columns) == ["t", "reference_error_deg", "rate_error", "position_error_m",
+                                   "u1_1", "u2_1", "u3_1"]
+    assert np.array_equal(frame["position_error_m"], np.linalg.norm(
+        run.orbit.outputs["dX"][:, :3], axis=1))
 
 
 def test_a_diverged_run_is_the_status_diverged_with_its_time() -> None:
