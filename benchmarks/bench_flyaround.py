@@ -84,7 +84,7 @@ def main() -> int:
         t0 = time.perf_counter()
         run = F.simulate_flyaround(sc, opt, spec)
         times.append(time.perf_counter() - t0)
-    print(f"  best of 3: {min(times):.2f} s (target < 30 s) {_load()}; fuel {run.fuel:.4f} kg")
+    print(f"  best of 3: {min(times):.2f} s (target < 30 s) {_load()}; fuel {run.orbit.fuel:.4f} kg")
 
     h = replace(opt, tf=args.horizon)
     k = h.samples
@@ -98,11 +98,11 @@ def main() -> int:
         t0 = time.perf_counter()
         mine = F.simulate_flyaround(sc, h, spec)
         ours_times.append(time.perf_counter() - t0)
-    dev = _deviation(mine.states, ref)
+    dev = _deviation(mine.orbit.states, ref)
     partial = int(((ref_tau > 0) & (ref_tau < opt.sample_period)).sum())
     print(f"  ours: deviation pos {dev[0]:.2e} m, vel {dev[1]:.2e} m/s, MRP {dev[2]:.2e}, "
           f"rate {dev[3]:.2e} rad/s; on-times agree to "
-          f"{np.abs(mine.outputs['on_time'][:, :16] - ref_tau).max():.1e} s "
+          f"{np.abs(mine.orbit.outputs['on_time'][:, :16] - ref_tau).max():.1e} s "
           f"({partial} partial pulses); time {min(ours_times):.3f} s")
 
     print("== baseline: the same model in scipy (numpy RHS), equal accuracy")

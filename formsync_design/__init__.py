@@ -34,8 +34,9 @@ data flows through the stages:
   :class:`SimOptions`: the Lagrangian view on the compiled whole-horizon driver; an
   :class:`AgentFormation` with :class:`AgentOptions`, :class:`Reference`, gyro models
   :class:`RateSensors`: the design's agent form, continuous or sampled; a
-  :class:`FlyaroundScenario`: a design on the relative-orbit plant), one result type :class:`SimResult` for
-  every attitude-formation run; :class:`Gains`, :func:`simulate_sampled` (a Lagrangian
+  :class:`FlyaroundScenario`: a design on the relative-orbit plant), one result type
+  :class:`SimResult` for every run (a fly-around's relative orbit and thrusters in its
+  :class:`OrbitRecord`); :class:`Gains`, :func:`simulate_sampled` (a Lagrangian
   design's per-spacecraft sample-and-hold and trigger rules), :func:`metric_figure`,
   :func:`torque_figures`, :func:`monte_carlo` (one :class:`MonteCarloResult`),
   :func:`measured_l2_gain`; the paths themselves are exported too
@@ -48,10 +49,11 @@ data flows through the stages:
   :class:`MetricValue`); sampled designs: :func:`sampling_variant`, :func:`rule_variant`
   (a design under another sampling rule: an engine scenario's ``sampling``),
   :func:`interevent_bound` (the certified inter-event lower bound of a self-trigger rule);
-* tracking designs (the fly-around of Zhang et al. 2014): :func:`load_flyaround_case`,
+* the relative-orbit plant (the fly-around of Zhang et al. 2014): :func:`load_flyaround_case`,
   :class:`FlyaroundScenario`, :class:`FlyaroundOptions`, :func:`simulate_flyaround`
-  (-> :class:`FlyaroundRun`), :func:`flyaround_figures`, :func:`derive_tracking_attitude`,
-  :func:`attitude_certificate` (verified by the engine: ``formsync verify zhang2014_flyaround``);
+  (-> :class:`SimResult` with an :class:`OrbitRecord`), :func:`flyaround_figures`,
+  :func:`derive_tracking_attitude`, :func:`attitude_certificate` (verified by the engine:
+  ``formsync verify zhang2014_flyaround``);
 * campaigns: :func:`load_campaign`, :func:`run_sweep`;
 * numbers: :func:`parse_number` (the exact-number parser) and
   :func:`json_number` (the JSON number convention);
@@ -185,7 +187,7 @@ _LAZY: dict[str, str | tuple[str, str]] = {
     "load_flyaround_case": "formsync_design.verify.tracking_case",
     "FlyaroundScenario": "formsync_design.sim.tracking_scenario",
     "FlyaroundOptions": "formsync_design.sim.tracking_scenario",
-    "FlyaroundRun": "formsync_design.sim.tracking_scenario",
+    "OrbitRecord": "formsync_design.sim.orbit_record",
     "simulate_flyaround": "formsync_design.sim.tracking",
     "flyaround_figures": "formsync_design.sim.tracking_figures",
     "derive_tracking_attitude": "formsync_design.derive.tracking",

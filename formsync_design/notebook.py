@@ -20,6 +20,7 @@ The ``to_pandas()`` columns of each type:
 
 * :class:`SimResult` of the Lagrangian simulator: The time series (``t``, ``q_m``, ``omega_m``, torques ``u<axis>_<spacecraft>``)
 * :class:`SimResult` of an agent design: The time series (``t``, ``attitude_error_deg``, ``rate_error``, ``reference_error_deg`` with a leader, torques ``u<axis>_<spacecraft>``)
+* :class:`SimResult` of a fly-around: The time series (``t``, ``reference_error_deg`` the attitude tracking error, ``rate_error``, ``position_error_m``, torques ``u<axis>_1``)
 * :class:`MonteCarloResult`: One row per run (the columns of ``runs.csv``, those of the campaign's path)
 * :class:`RegionMap`: One row per box of the subdivision (``<gain>_lo``, ``<gain>_hi``, ``status``, ``family``, ``reason``)
 * :class:`CertificationResult`: One row per matrix family (``family``, ``size``, ``status``, bounds of its smallest eigenvalue)
@@ -207,14 +208,38 @@ def _verification_frame(v: Any) -> list[dict[str, Any]]:
              "deciding": ", ".join(c.deciding), "scope": "; ".join(c.scope)} for c in v.claims]
 
 
+def _flyaround(r: Any) -> tuple[str, list[tuple[str, str]]]:
+    rec = r.orbit
+    last = rec.position_error[-1] if r.t.size else None
+    rows = [("status", str(r.status)), ("design", r.design),
+            ("convergence time", _num(r.convergence_time, ".4g", "s")),
+            ("final attitude tracking error",
+             _num(r.reference_error[-1] if r.t.size else None, ".3e", "deg")),
+            ("final position error", _num(last, ".3e", "m")),
+            ("fuel", _num(rec.fuel, ".4g", "kg")), ("delta-V", _num(rec.delta_v, ".4g", "m/s")),
+            ("peak torque", _num(float(np.max(r.peak_torque)), ".4g", "N m")),
+            ("message", r.message)]
+    return "Fly-around simulation", rows
+
+
+def _flyaround_frame(r: Any) -> dict[str, Any]:
+    return {"t": r.t, "reference_error_deg": r.reference_error, "rate_error": r.rate_error,
+            "position_error_m": r.orbit.position_error,
+            **_torque_columns(r.torques.reshape(len(r.t), -1), 1)}
+
+
 def _run(r: Any) -> tuple[str, list[tuple[str, str]]]:
     """A :class:`~formsync_design.sim.result.SimResult`: the Lagrangian simulator's headline
-    (its ``Q_m``/``Omega_m``) or an agent design's."""
-    return _sim(r) if r.omega_m is not None else _agent(r)
+    (its ``Q_m``/``Omega_m``), a fly-around's (its orbit record) or an agent design's."""
+    if r.omega_m is not None:
+        return _sim(r)
+    return _flyaround(r) if r.orbit is not None else _agent(r)
 
 
 def _run_frame(r: Any) -> dict[str, Any]:
-    return _sim_frame(r) if r.omega_m is not None else _agent_frame(r)
+    if r.omega_m is not None:
+        return _sim_frame(r)
+    return _flyaround_frame(r) if r.orbit is not None else _agent_frame(r)
 
 
 _VIEWS: dict[str, tuple[Any, Any]] = {

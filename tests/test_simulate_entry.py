@@ -107,9 +107,9 @@ def test_a_flyaround_scenario_runs_the_tracking_design() -> None:
     a = simulate(case.scenario, opt)
     b = simulate_flyaround(case.scenario, opt, case.spec)
     assert type(a) is type(b) and str(a.status) == str(b.status)
-    assert np.array_equal(a.states, b.states) and np.array_equal(a.t, b.t)
-    for k in b.outputs:
-        assert np.array_equal(a.outputs[k], b.outputs[k]), k
+    assert np.array_equal(a.orbit.states, b.orbit.states) and np.array_equal(a.t, b.t)
+    for k in b.orbit.outputs:
+        assert np.array_equal(a.orbit.outputs[k], b.orbit.outputs[k]), k
 
 
 def test_what_a_path_cannot_take_is_refused_in_one_line(small) -> None:

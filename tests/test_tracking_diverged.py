@@ -18,6 +18,7 @@ import pytest
 from formsync_design.cli.main import main
 from formsync_design.resources import case_file
 from formsync_design.sim import tracking as F
+from formsync_design.sim.result import SimResult, SimStatus
 from formsync_design.verify.tracking_case import load_flyaround_case
 from formsync_design.verify.tracking_measures import METRICS, diverged_time, run_metrics
 
@@ -27,35 +28,35 @@ SHORT = replace(CASE.options, tf=200.0)
 
 
 @pytest.fixture(scope="module")
-def diverged() -> F.FlyaroundRun:
+def diverged() -> SimResult:
     return F.simulate_flyaround(TINY, SHORT, CASE.spec)
 
 
 def test_a_non_finite_state_is_the_status_diverged_with_its_time(diverged) -> None:
     r = diverged
-    assert r.status == F.FlyaroundStatus.DIVERGED and str(r.status) == "diverged"
+    assert r.status == SimStatus.DIVERGED and str(r.status) == "diverged"
     dt = SHORT.sample_period
     assert 0 < r.diverged_time < SHORT.tf
     # the run ends at the last finite state, one sample before the divergence time
-    assert r.states.shape == (r.t.size + 1, 12) and np.isfinite(r.states).all()
+    assert r.orbit.states.shape == (r.t.size + 1, 12) and np.isfinite(r.orbit.states).all()
     assert math.isclose(r.diverged_time, (r.t.size + 1) * dt)
-    assert all(v.shape[0] == r.t.size for v in r.outputs.values())
-    assert "diverged at t = " in r.message
+    assert all(v.shape[0] == r.t.size for v in r.orbit.outputs.values())
+    assert "diverged at t = " in r.message and r.convergence_time is None
     d = r.to_dict()
     assert d["status"] == "diverged" and d["diverged_time"] == r.diverged_time
     # independent of the truncation: the same loop stopped at the last finite state
     # completes, with the same trajectory; one sample more is not finite
     upto = F.simulate_flyaround(TINY, replace(SHORT, tf=r.t.size * dt), CASE.spec)
-    assert upto.status == F.FlyaroundStatus.COMPLETED and upto.diverged_time is None
-    assert np.array_equal(upto.states, r.states)
+    assert not upto.stopped_early and upto.diverged_time is None
+    assert np.array_equal(upto.orbit.states, r.orbit.states)
     more = F.simulate_flyaround(TINY, replace(SHORT, tf=(r.t.size + 1) * dt), CASE.spec)
     assert more.status == "diverged" and more.diverged_time == r.diverged_time
 
 
 def test_the_lp_allocation_run_diverges_the_same_way(diverged) -> None:
     r = F.simulate_flyaround(TINY, replace(SHORT, allocation="lp"), CASE.spec)
-    assert r.status == "diverged" and np.isfinite(r.states).all()
-    assert r.states.shape[0] == r.t.size + 1
+    assert r.status == "diverged" and np.isfinite(r.orbit.states).all()
+    assert r.orbit.states.shape[0] == r.t.size + 1
     assert math.isclose(r.diverged_time, (r.t.size + 1) * SHORT.sample_period)
 
 
@@ -68,7 +69,7 @@ def test_a_diverged_run_measures_nothing(diverged) -> None:
 
 def test_a_completed_run_measures_every_metric() -> None:
     run = F.simulate_flyaround(CASE.scenario, replace(CASE.options, tf=160.0), CASE.spec)
-    assert run.status == "completed" and diverged_time(run) is None
+    assert not run.stopped_early and diverged_time(run) is None
     m = run_metrics(run, 120.0)
     assert list(m) == list(METRICS) and math.isfinite(m["fuel_kg"])
 

@@ -56,11 +56,11 @@ def test_compiled_simulation_matches_the_numpy_oracle():
     opt = replace(CASE.options, tf=20.0)
     states, taus, errs = simulate_numpy(CASE.scenario, opt, CASE.spec, opt.samples)
     run = F.simulate_flyaround(CASE.scenario, opt, CASE.spec)
-    d = np.abs(states - run.states).max(axis=0)
+    d = np.abs(states - run.orbit.states).max(axis=0)
     assert d[:3].max() < 1e-7 and d[3:6].max() < 1e-9 and d[6:].max() < 1e-10, d
-    assert np.abs(taus - run.outputs["on_time"][:, :16]).max() < 1e-8
-    assert np.abs(errs[:, :6] - run.outputs["dX"]).max() < 1e-7
-    assert np.abs(errs[:, 6:9] - run.outputs["sigma_sd"]).max() < 1e-10
+    assert np.abs(taus - run.orbit.outputs["on_time"][:, :16]).max() < 1e-8
+    assert np.abs(errs[:, :6] - run.orbit.outputs["dX"]).max() < 1e-7
+    assert np.abs(errs[:, 6:9] - run.orbit.outputs["sigma_sd"]).max() < 1e-10
 
 
 @pytest.mark.slow
@@ -69,9 +69,9 @@ def test_compiled_simulation_matches_the_numpy_oracle_through_partial_pulses():
     states, taus, _ = simulate_numpy(CASE.scenario, opt, CASE.spec, opt.samples)
     run = F.simulate_flyaround(CASE.scenario, opt, CASE.spec)
     assert ((taus > 0) & (taus < opt.sample_period)).sum() > 1000
-    d = np.abs(states - run.states).max(axis=0)
+    d = np.abs(states - run.orbit.states).max(axis=0)
     assert d[:3].max() < 1e-6 and d[6:].max() < 1e-8, d
-    assert np.abs(taus - run.outputs["on_time"][:, :16]).max() < 1e-7
+    assert np.abs(taus - run.orbit.outputs["on_time"][:, :16]).max() < 1e-7
 
 
 @pytest.mark.parametrize("t", [0.0, 13.0, 950.0, 4321.0, 17000.0])
@@ -218,9 +218,9 @@ def test_lp_run_matches_the_explicit_allocation_and_fuel_bookkeeping():
     opt = replace(CASE.options, tf=6.0, allocation="lp", compile=False)  # the VM: no build
     run = F.simulate_flyaround(CASE.scenario, opt, CASE.spec)
     m = LAYOUT.count
-    f = run.outputs["thrust_cmd"][:, :m]
+    f = run.orbit.outputs["thrust_cmd"][:, :m]
     assert np.all(f >= 0) and np.all(f <= LAYOUT.thrust + 1e-9)
-    assert math.isclose(run.fuel, run.total_impulse / 2900.0)
-    assert math.isclose(run.delta_v, run.total_impulse / 2000.0)
+    assert math.isclose(run.orbit.fuel, run.orbit.total_impulse / 2900.0)
+    assert math.isclose(run.orbit.delta_v, run.orbit.total_impulse / 2000.0)
     base = F.simulate_flyaround(CASE.scenario, replace(opt, allocation="pinv-shift"), CASE.spec)
-    assert run.fuel < base.fuel  # the LP never spends more than the shifted pseudo-inverse
+    assert run.orbit.fuel < base.orbit.fuel  # the LP never spends more than the pseudo-inverse

@@ -143,11 +143,11 @@ def test_the_form_measures_a_short_run_as_the_run_itself():
         c = ver.case.scenario(sc).case
         runs[sc] = r = simulate_flyaround(c.scenario, c.options, c.spec)
         # independent: the impulses summed here, over the mass
-        assert math.isclose(v[key], float(r.impulses.sum()) / c.scenario.mass, rel_tol=1e-12)
+        assert math.isclose(v[key], float(r.orbit.impulses.sum()) / c.scenario.mass, rel_tol=1e-12)
     assert v["dv_clip"] != v["dv"]
     assert math.isclose(v["fuel"], v["dv"] * 2000.0 / 2900.0, rel_tol=1e-12)
     assert math.isclose(v["gap"], 2000.0 / 2900.0, rel_tol=1e-12)
-    t, x = runs["base"].t, runs["base"].outputs["dX"]
+    t, x = runs["base"].t, runs["base"].orbit.outputs["dX"]
     assert v["pos"] == float(np.abs(x[t >= 20.0][:, :3]).max())
     assert [c.verdict for c in ver.claims] == ["holds"] and ver.claims[0].basis == "evidence"
     assert ver.results.simulated == ["base", "clip"]

@@ -57,6 +57,7 @@ __all__ = [
     "mrp_rhs",
     "mrp_from_quat",
     "mrp_to_quat",
+    "mrp_to_quat_array",
     "mrp_to_matrix",
     "mrp_from_matrix",
     "mrp_shadow",
@@ -191,6 +192,21 @@ def mrp_to_quat(sigma: Any) -> np.ndarray:
     s = as_vector(sigma, 3, "sigma")
     n2 = float(s @ s)
     return np.concatenate(([1.0 - n2], 2.0 * s)) / (1.0 + n2)
+
+
+def mrp_to_quat_array(sigma: Any) -> np.ndarray:
+    """Unit quaternions (scalar first) of MRPs ``(..., 3)``, shape ``(..., 4)``:
+    :func:`mrp_to_quat` row by row (the same formula), vectorized.
+
+    >>> mrp_to_quat_array([[0, 0, 1], [0, 0, 0]])
+    array([[0., 0., 0., 1.],
+           [1., 0., 0., 0.]])
+    """
+    s = np.asarray(sigma, dtype=float)
+    if s.shape[-1:] != (3,):
+        raise InputError(f"expected MRPs as an array (..., 3), received shape {s.shape}")
+    n2 = np.sum(s * s, axis=-1, keepdims=True)
+    return np.concatenate([1.0 - n2, 2.0 * s], axis=-1) / (1.0 + n2)
 
 
 def mrp_to_matrix(sigma: Any) -> np.ndarray:

@@ -11,8 +11,8 @@ so that the body-rate kinematics ``q' = 1/2 q (x) (0, omega)`` (vector part
 the same motion.  ``q`` and ``-q`` are the same attitude.
 
 These are plain numpy functions on single 3-vectors/4-vectors and 3x3
-matrices; malformed input raises a one-line
-:class:`~formsync_design.errors.InputError`.
+matrices (:func:`quat_multiply_array`: on arrays of quaternions); malformed input
+raises a one-line :class:`~formsync_design.errors.InputError`.
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ __all__ = [
     "cross_matrix",
     "as_rotation_input",
     "quat_multiply",
+    "quat_multiply_array",
     "quat_conjugate",
     "quat_normalize",
     "quat_to_matrix",
@@ -112,6 +113,25 @@ def quat_multiply(p: Any, q: Any) -> np.ndarray:
     p0, pv = p[0], p[1:]
     q0, qv = q[0], q[1:]
     return np.concatenate(([p0 * q0 - pv @ qv], p0 * qv + q0 * pv + np.cross(pv, qv)))
+
+
+def quat_multiply_array(p: Any, q: Any) -> np.ndarray:
+    """Hamilton products ``p (x) q`` of quaternion arrays ``(..., 4)`` (scalar first, shapes
+    broadcast): :func:`quat_multiply` row by row, vectorized and without its checks.
+
+    >>> quat_multiply_array([[0, 1, 0, 0], [1, 0, 0, 0]], [0, 0, 1, 0])
+    array([[0., 0., 0., 1.],
+           [0., 0., 1., 0.]])
+    """
+    p = np.asarray(p, dtype=float)
+    q = np.asarray(q, dtype=float)
+    if p.shape[-1:] != (4,) or q.shape[-1:] != (4,):
+        raise InputError(f"expected quaternion arrays (..., 4), received shapes {_shape(p)} and "
+                         f"{_shape(q)}")
+    p0, pv = p[..., :1], p[..., 1:]
+    q0, qv = q[..., :1], q[..., 1:]
+    return np.concatenate([p0 * q0 - np.sum(pv * qv, axis=-1, keepdims=True),
+                           p0 * qv + q0 * pv + np.cross(pv, qv)], axis=-1)
 
 
 def quat_conjugate(q: Any) -> np.ndarray:

@@ -1,21 +1,26 @@
 """The result of every attitude-formation simulation run: a frozen :class:`SimResult` and its
 status :class:`SimStatus`.
 
-One type for both producers: the Lagrangian simulator
-(:func:`~formsync_design.sim.simulator.simulate` of a quaternion specification) and the agent
+One type for the three producers: the Lagrangian simulator
+(:func:`~formsync_design.sim.simulator.simulate` of a quaternion specification), the agent
 designs' drivers (:func:`~formsync_design.sim.agents.simulate_agents`, continuous and sampled;
-``simulate`` of an agent design dispatches there).  The fields every run has (the trajectory,
-torques, the attitude and rate disagreement, peak torque, effort, ...) are filled by both;
-the Lagrangian simulator's measures (``omega_m``, ``q_m``, ``min_q0``, the singular stop,
-``stats``, ...) are ``None``/empty in an agent run, and an agent design's controller states,
-reference, monitors and transmissions are empty/``None`` in a Lagrangian run.
+``simulate`` of an agent design dispatches there) and the fly-around of a design on the
+relative-orbit plant (:func:`~formsync_design.sim.tracking.simulate_flyaround`; ``simulate`` of a
+``FlyaroundScenario``), a formation of one spacecraft.  The fields every run has (the
+trajectory, torques, the attitude and rate disagreement, peak torque, effort, ...) are filled
+by all; the Lagrangian simulator's measures (``omega_m``, ``q_m``, ``min_q0``, the singular
+stop, ...) are ``None`` in the other runs, an agent design's controller states, reference,
+monitors and transmissions are empty/``None`` in a Lagrangian run, and only a fly-around has
+``orbit`` (:class:`~formsync_design.sim.orbit_record.OrbitRecord`: the relative orbit, the
+per-sample outputs of the loop, the thrusters' fuel and velocity increments).
 
 The convergence criterion is the producer's, stated in its options: ``Q_m <= q_tol`` and
 ``Omega_m <= omega_tol`` (:class:`~formsync_design.sim.formation.SimOptions`) for the
 Lagrangian simulator, the attitude and rate disagreement (and the errors to the reference)
 within ``angle_tol``/``rate_tol`` (:class:`~formsync_design.sim.agents.AgentOptions`) for an
-agent design.  (The fly-around tracking run and the Monte-Carlo summaries have types of their
-own.)
+agent design, the attitude tracking error angle and the relative-position error within
+``angle_tol``/``position_tol`` (:class:`~formsync_design.sim.tracking_scenario.
+FlyaroundOptions`) for a fly-around.  (The Monte-Carlo summaries have types of their own.)
 """
 
 from __future__ import annotations
@@ -24,7 +29,7 @@ import enum
 from dataclasses import dataclass, field, fields
 from functools import cached_property
 from pathlib import Path
-from typing import Any, Generic, TypeVar, overload
+from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 
 import numpy as np
 
@@ -32,6 +37,9 @@ from formsync_design.gains import json_number
 from formsync_design.notebook import NotebookViews
 from formsync_design.sim.disagreement import attitude_disagreement, rate_disagreement, settle_time
 from formsync_design.sim.formation import SimOptions, state_names
+
+if TYPE_CHECKING:
+    from formsync_design.sim.orbit_record import OrbitRecord
 
 __all__ = ["SimResult", "SimStatus", "STATUSES"]
 
@@ -41,12 +49,15 @@ class SimStatus(enum.StrEnum):
 
     ``converged``: the run's criterion (its options: ``Q_m``/``Omega_m`` within
     ``q_tol``/``omega_tol`` for the Lagrangian simulator; the attitude and rate disagreement,
-    and the errors to the reference, within ``angle_tol``/``rate_tol`` for an agent design)
-    holds from ``convergence_time`` to the horizon; ``not-converged``: the horizon was reached
-    without that (``convergence_time`` is None); ``singular`` (Lagrangian simulator): stopped
-    early at the ``q0 -> 0`` singularity (``singular_spacecraft``, ``singular_time``; every
-    measure describes the trajectory up to the stop only); ``diverged``: the state became
-    non-finite (away from the singularity; ``diverged_time``, the trajectory ends before it);
+    and the errors to the reference, within ``angle_tol``/``rate_tol`` for an agent design;
+    the attitude tracking error angle ``4 atan|sigma_sd|`` within ``angle_tol`` (deg) and the
+    relative-position error within ``position_tol`` (m) for a fly-around) holds from
+    ``convergence_time`` to the horizon (a fly-around: to its last sample); ``not-converged``:
+    the horizon was reached without that (``convergence_time`` is None); ``singular``
+    (Lagrangian simulator): stopped early at the ``q0 -> 0`` singularity
+    (``singular_spacecraft``, ``singular_time``; every measure describes the trajectory up to
+    the stop only); ``diverged``: the state became non-finite (away from the singularity;
+    ``diverged_time``, the trajectory ends before it);
     ``stopped`` (sampled agent designs): the hybrid integrator stopped (Zeno protection or too
     many triggers, ``message`` says which).
     """
@@ -110,7 +121,8 @@ class SimResult(NotebookViews):
     ----------
     status : SimStatus; message : str (one line a user can act on; empty for an agent run
         that converged or did not)
-    design : str (the specification's or agent design's name); graph : str (its name)
+    design : str (the specification's or agent design's name); graph : str (its name; a
+        fly-around: ``none (one spacecraft tracking a target)``)
     t : (T,) output grid (s); quaternions : (T, N, 4) ``(q1, q2, q3, q0)``; rates : (T, N, 3)
         body rates (rad/s); states : (T, N, nz) controller states (``nz = 0`` for the
         Lagrangian simulator); torques : (T, N, 3) control torques (N m, limited; ``torques[k]``
@@ -135,6 +147,16 @@ class SimResult(NotebookViews):
     trigger_times : per spacecraft or None (sampled agent designs)
     state_names : tuple of str (the producer's state order); integrator : str (the method used)
     diverged_time : float or None, when the state became non-finite (status ``diverged``)
+
+    A fly-around (one spacecraft, :mod:`~formsync_design.sim.orbit_record`): ``t`` the
+    control instants ``t_k`` (the state at the end of the last sample is in
+    ``orbit.states``); quaternions and rates the truth attitude (from its MRP) and body rate
+    at ``t_k``; torques the torque the PWM pulses realise, averaged over the sample (held on
+    ``[t_k, t_k + dt)``; effort ``sum_k |u_k|^2 dt`` of these averages); reference the desired
+    attitude ``q_d = q (x) q_sd^*``; reference_error the tracking error angle
+    ``4 atan|sigma_sd|`` (deg); rate_error ``|omega_sd|`` (rad/s); states ``(T, 1, 0)``.
+    orbit : OrbitRecord or None
+        The relative orbit and the thrusters of a fly-around (None in every other run).
 
     The Lagrangian simulator's extras (None/empty in an agent run):
 
@@ -182,6 +204,7 @@ class SimResult(NotebookViews):
     stats: dict[str, Any] = field(default_factory=dict)
     options: Any = None
     spec_key: str = ""
+    orbit: OrbitRecord | None = None
 
     @property
     def n(self) -> int:
@@ -262,10 +285,12 @@ class SimResult(NotebookViews):
         """JSON-ready summary (no trajectories), numbers through :func:`json_number`.
 
         The same keys for every run: the Lagrangian simulator's measures are None (``stats``
-        empty) in an agent run.  ``convergence_time`` is None when not reached (or stopped
-        early); ``singular_spacecraft``/``singular_time`` are None unless ``status`` is
-        ``singular``; ``torque_limit``/``sample_period`` None mean no limit / continuous
-        control.
+        empty) in an agent run; ``orbit`` is a fly-around's summary (``samples``,
+        ``fuel_kg``, ``delta_v_m_s``, ``delta_v_net_m_s``, ``allocation``, ``lp_fallbacks``:
+        :meth:`~formsync_design.sim.orbit_record.OrbitRecord.to_dict`), None in every other
+        run.  ``convergence_time`` is None when not reached (or stopped early);
+        ``singular_spacecraft``/``singular_time`` are None unless ``status`` is ``singular``;
+        ``torque_limit``/``sample_period`` None mean no limit / continuous control.
         """
         def arr(a: Any) -> Any:
             return None if a is None else [json_number(float(x)) for x in np.ravel(a)]
@@ -306,6 +331,7 @@ class SimResult(NotebookViews):
             "common_rate": _jsonable(self.common_rate),
             "options": _options(self.options),
             "stats": _jsonable(self.stats),
+            "orbit": None if self.orbit is None else self.orbit.to_dict(),
         }
 
     def to_npz(self, path: str | Path) -> Path:

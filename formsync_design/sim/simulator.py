@@ -146,10 +146,12 @@ def simulate(
       ``sensors`` (a :class:`~formsync_design.sim.sensors.RateSensors` gyro model) and
       ``torque_input`` (``(steps, N, 3)`` held torques) are taken here;
     * a :class:`~formsync_design.sim.tracking_scenario.FlyaroundScenario` (options
-      :class:`~formsync_design.sim.tracking_scenario.FlyaroundOptions`): a tracking design's
-      orbit and attitude closed loop with thrusters, allocation and PWM
-      (:func:`~formsync_design.sim.tracking.simulate_flyaround`; default design
-      ``zhang2014_flyaround``), returning its :class:`~formsync_design.sim.tracking_scenario.FlyaroundRun`.
+      :class:`~formsync_design.sim.tracking_scenario.FlyaroundOptions`): the orbit and
+      attitude closed loop of a design on the relative-orbit plant with thrusters,
+      allocation and PWM (:func:`~formsync_design.sim.tracking.simulate_flyaround`; default design
+      ``zhang2014_flyaround``), a formation of one spacecraft whose result also holds the
+      relative orbit and the thrusters (``orbit``, an
+      :class:`~formsync_design.sim.orbit_record.OrbitRecord`).
 
     Parameters
     ----------
@@ -170,13 +172,16 @@ def simulate(
     Returns
     -------
     SimResult
-        For both attitude-formation paths (one type): status ``converged`` /
-        ``not-converged`` / ``singular`` / ``diverged`` / ``stopped``, a finding, not an
-        error.  A Lagrangian run's ``convergence_time`` is the criterion of its options
-        (``Q_m <= q_tol`` and ``Omega_m <= omega_tol`` to the end), an agent run's that of
-        :class:`~formsync_design.sim.agents.AgentOptions` (``angle_tol``, ``rate_tol``);
-        ``attitude_error``/``rate_error`` are the largest pairwise principal angle and
-        body-rate difference in both.  A fly-around returns a ``FlyaroundRun``.
+        For every path (one type): status ``converged`` / ``not-converged`` / ``singular`` /
+        ``diverged`` / ``stopped``, a finding, not an error.  A Lagrangian run's
+        ``convergence_time`` is the criterion of its options (``Q_m <= q_tol`` and
+        ``Omega_m <= omega_tol`` to the end), an agent run's that of
+        :class:`~formsync_design.sim.agents.AgentOptions` (``angle_tol``, ``rate_tol``), a
+        fly-around's that of :class:`~formsync_design.sim.tracking_scenario.FlyaroundOptions`
+        (the attitude tracking error within ``angle_tol``, the relative-position error within
+        ``position_tol``); ``attitude_error``/``rate_error`` are the largest pairwise
+        principal angle and body-rate difference of a formation (a fly-around's one
+        spacecraft: no pair, and ``rate_error`` is its rate tracking error ``|omega_sd|``).
 
     Raises
     ------

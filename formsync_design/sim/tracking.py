@@ -22,15 +22,22 @@ attitude is the desired attitude at ``t = 0`` rotated by the 3-2-1 angles
 >>> isinstance(sc, FlyaroundScenario), sc.gains["k_p"]
 (True, (807.0,))
 >>> run = simulate_flyaround(sc, FlyaroundOptions(tf=2.0))
->>> run.t.shape, run.states.shape, round(run.fuel, 4) > 0, str(run.status)
-((10,), (11, 12), True, 'completed')
+>>> run.t.shape, run.quaternions.shape, run.orbit.states.shape, run.orbit.fuel > 0
+((10,), (10, 1, 4), (11, 12), True)
+
+The run is a :class:`~formsync_design.sim.result.SimResult` of one spacecraft; ``converged``
+needs the attitude and position errors within ``angle_tol`` and ``position_tol`` to the end
+(2 s is too short: the initial attitude error is 1.7 deg):
+
+>>> str(run.status), run.convergence_time is None
+('not-converged', True)
 
 A state that goes non-finite is a finding, not an error: the run ends at the last finite
 state with the status ``diverged`` and the time (a plant of almost no inertia):
 
 >>> from dataclasses import replace
 >>> bad = simulate_flyaround(replace(sc, inertia=1e-9 * np.eye(3)), FlyaroundOptions(tf=200.0))
->>> str(bad.status), bad.diverged_time > 0, bool(np.isfinite(bad.states).all())
+>>> str(bad.status), bad.diverged_time > 0, bool(np.isfinite(bad.orbit.states).all())
 ('diverged', True, True)
 """
 
@@ -58,6 +65,8 @@ from formsync_design.models.relative_reference import (
 from formsync_design.models.thrusters import (
     positive_null_vector,
 )
+from formsync_design.sim.orbit_record import OrbitRecord, flyaround_result
+from formsync_design.sim.result import SimResult
 from formsync_design.sim.tracking_model import (
     N_THRUSTERS_MAX,
     OUTPUTS,
@@ -66,9 +75,7 @@ from formsync_design.sim.tracking_model import (
 )
 from formsync_design.sim.tracking_scenario import (
     FlyaroundOptions,
-    FlyaroundRun,
     FlyaroundScenario,
-    FlyaroundStatus,
     euler321,
 )
 from formsync_design.spec.agent import AgentDesign
@@ -249,7 +256,7 @@ def _params(spec: AgentDesign, sc: FlyaroundScenario, opt: FlyaroundOptions,
 
 def simulate_flyaround(scenario: FlyaroundScenario,
                        options: FlyaroundOptions | None = None,
-                       spec: AgentDesign | str | None = None) -> FlyaroundRun:
+                       spec: AgentDesign | str | None = None) -> SimResult:
     """Simulate the fly-around closed loop (module docstring).
 
     Parameters
@@ -263,8 +270,12 @@ def simulate_flyaround(scenario: FlyaroundScenario,
 
     Returns
     -------
-    FlyaroundRun
-        A non-finite state is the status ``diverged`` with its time (no exception).
+    SimResult
+        One spacecraft (:mod:`formsync_design.sim.orbit_record`): its attitude, body rate and
+        applied torque at the control instants, the attitude tracking error, and in
+        ``orbit`` the relative orbit, the per-sample outputs and the fuel.  ``converged`` or
+        ``not-converged`` by ``options.angle_tol`` and ``options.position_tol``; a
+        non-finite state is the status ``diverged`` with its time (no exception).
     """
     sc = scenario
     opt = options if options is not None else FlyaroundOptions()
@@ -300,18 +311,25 @@ def simulate_flyaround(scenario: FlyaroundScenario,
                 bad = k0 + 1 + int(rows[0])
                 break
     seconds = time.perf_counter() - t0
-    status, tdiv = FlyaroundStatus.COMPLETED, None
+    tdiv = None
     if bad is not None:
         # states[bad] (at t_bad) is the first non-finite one: keep the samples before it,
         # whose states (t_0 .. t_{bad-1}) are all finite
-        status, tdiv = FlyaroundStatus.DIVERGED, float(bad * opt.sample_period)
+        tdiv = float(bad * opt.sample_period)
         t, out, states = t[:bad - 1], out[:bad - 1], states[:bad]
     outputs, pos = {}, 0
     for name, w in OUTPUTS:
         outputs[name] = out[:, pos:pos + w] if w > 1 else out[:, pos]
         pos += w
-    return FlyaroundRun(t, states, outputs, lqr, opt, sc, seconds, kern.seconds, fallbacks,
-                        status, tdiv)
+    record = OrbitRecord(t=t, states=states, outputs=outputs, lqr=lqr, scenario=sc, options=opt,
+                         lp_fallbacks=fallbacks)
+    lp = opt.allocation == "lp"
+    stats = {"integrator": "rk4", "compiled": bool(kern.lp_compiled if lp else kern.compiled),
+             "step": opt.sample_period / opt.substeps, "substeps_per_sample": opt.substeps,
+             "steps": int(t.size) * opt.substeps, "wall_seconds": seconds,
+             "build_seconds": kern.seconds}
+    return flyaround_result(design=sp_.name, spec_key=sp_.key, record=record, diverged_time=tdiv,
+                            stats=stats)
 
 
 def _run_lp(kern: _Kernel, sc: FlyaroundScenario, p: np.ndarray, x0: np.ndarray,

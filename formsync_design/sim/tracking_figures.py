@@ -1,4 +1,5 @@
-"""Figures of a fly-around run, like the paper's Figs. 5-9 (Zhang et al. 2014).
+"""Figures of a fly-around run (a :class:`~formsync_design.sim.result.SimResult` with an
+``orbit`` record), like the paper's Figs. 5-9 (Zhang et al. 2014).
 
 Fig. 5: thruster on-times of A1-A16 over the first period; Fig. 6: attitude-rate and
 attitude tracking errors; Fig. 7: relative-velocity and position tracking errors; Fig. 8:
@@ -19,12 +20,12 @@ objects without pyplot (no backend is selected); save them with
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 from matplotlib.figure import Figure
 
 from formsync_design.errors import InputError
+from formsync_design.sim.orbit_record import orbit_of
+from formsync_design.sim.result import SimResult
 
 __all__ = ["thruster_figure", "attitude_error_figure", "orbit_error_figure",
            "position_figure", "trajectory_figure", "transition_figure", "fuel_figure",
@@ -33,18 +34,19 @@ __all__ = ["thruster_figure", "attitude_error_figure", "orbit_error_figure",
 _AX = ("x", "y", "z")
 
 
-def _span(run: Any, t_end: float | None) -> np.ndarray:
+def _span(run: SimResult, t_end: float | None) -> np.ndarray:
     if t_end is not None and t_end <= 0:
         raise InputError(f"expected t_end > 0 s, received {t_end:g}")
     return run.t <= (run.t[-1] if t_end is None else t_end)
 
 
-def thruster_figure(run: Any, t_end: float | None = 7200.0) -> Figure:
+def thruster_figure(run: SimResult, t_end: float | None = 7200.0) -> Figure:
     """On-time of every thruster per sample (ms), one panel each (paper Fig. 5)."""
-    m = run.scenario.layout.count
+    rec = orbit_of(run)
+    m = rec.scenario.layout.count
     sel = _span(run, t_end)
     t = run.t[sel]
-    tau = run.outputs["on_time"][sel, :m] * 1e3
+    tau = rec.outputs["on_time"][sel, :m] * 1e3
     cols = 4
     rows = (m + cols - 1) // cols
     fig = Figure(figsize=(9.0, 1.6 * rows + 0.6))
@@ -56,20 +58,20 @@ def thruster_figure(run: Any, t_end: float | None = 7200.0) -> Figure:
             continue
         on = tau[:, i] > 0
         ax.vlines(t[on], 0, tau[on, i], lw=0.4, color="C0")
-        ax.set_title(run.scenario.layout.names[i], fontsize=7, pad=2)
+        ax.set_title(rec.scenario.layout.names[i], fontsize=7, pad=2)
         ax.tick_params(labelsize=6)
         ax.grid(True, alpha=0.3)
     for ax in axes[:, 0]:
         ax.set_ylabel("on (ms)", fontsize=7)
     for ax in axes[-1]:
         ax.set_xlabel("t (s)", fontsize=7)
-    fig.suptitle(f"Thruster on-times per {run.options.sample_period:g} s sample (paper Fig. 5)",
+    fig.suptitle(f"Thruster on-times per {rec.options.sample_period:g} s sample (paper Fig. 5)",
                  fontsize=10)
     fig.tight_layout()
     return fig
 
 
-def _error_figure(run: Any, t_end: float | None, top: np.ndarray, bottom: np.ndarray,
+def _error_figure(run: SimResult, t_end: float | None, top: np.ndarray, bottom: np.ndarray,
                   labels: tuple[str, str], title: str) -> Figure:
     sel = _span(run, t_end)
     fig = Figure(figsize=(6.4, 5.0))
@@ -88,30 +90,30 @@ def _error_figure(run: Any, t_end: float | None, top: np.ndarray, bottom: np.nda
     return fig
 
 
-def attitude_error_figure(run: Any, t_end: float | None = 7200.0) -> Figure:
+def attitude_error_figure(run: SimResult, t_end: float | None = 7200.0) -> Figure:
     """Rate error ``omega_sd`` (deg/s) and attitude error (rotation vector, deg) (Fig. 6)."""
     from formsync_design.sim.tracking import rotation_vectors
 
-    o = run.outputs
+    o = orbit_of(run).outputs
     return _error_figure(run, t_end, np.degrees(o["omega_sd"]),
                          np.degrees(rotation_vectors(o["sigma_sd"])),
                          ("rate error (deg/s)", "attitude error (deg)"),
                          "Attitude tracking errors (paper Fig. 6)")
 
 
-def orbit_error_figure(run: Any, t_end: float | None = 7200.0) -> Figure:
+def orbit_error_figure(run: SimResult, t_end: float | None = 7200.0) -> Figure:
     """Relative-velocity (m/s) and position (m) tracking errors (paper Fig. 7)."""
-    dx = run.outputs["dX"]
+    dx = orbit_of(run).outputs["dX"]
     return _error_figure(run, t_end, dx[:, 3:], dx[:, :3],
                          ("velocity error (m/s)", "position error (m)"),
                          "Relative orbit tracking errors (paper Fig. 7)")
 
 
-def position_figure(run: Any, every: int = 25) -> Figure:
+def position_figure(run: SimResult, every: int = 25) -> Figure:
     """The relative position components in the relative orbit frame (paper Fig. 8)."""
     fig = Figure(figsize=(6.4, 3.6))
     ax = fig.subplots()
-    x = run.states[:-1:every, :3]
+    x = orbit_of(run).states[:-1:every, :3]
     for k in range(3):
         ax.plot(run.t[::every], x[:, k], lw=0.8, label=f"{_AX[k]}_T")
     ax.set_xlabel("t (s)")
@@ -123,15 +125,16 @@ def position_figure(run: Any, every: int = 25) -> Figure:
     return fig
 
 
-def trajectory_figure(run: Any, every: int = 25) -> Figure:
+def trajectory_figure(run: SimResult, every: int = 25) -> Figure:
     """3-D relative trajectory with the target and the 70 deg circle (paper Figs. 8-9)."""
     from formsync_design.models.relative_reference import rotation_rT
 
+    rec = orbit_of(run)
     fig = Figure(figsize=(6.0, 5.4))
     ax = fig.add_subplot(projection="3d")
-    x = run.states[::every, :3]
+    x = rec.states[::every, :3]
     ax.plot(x[:, 0], x[:, 1], x[:, 2], lw=0.7, color="C0", label="chaser")
-    ref = run.scenario.reference
+    ref = rec.scenario.reference
     th = np.linspace(0, 2 * np.pi, 361)
     circ = np.stack([ref.a * np.cos(th), ref.b * np.sin(th), np.zeros_like(th)], axis=1)
     circ_t = circ @ rotation_rT(ref)
@@ -178,7 +181,7 @@ def fuel_figure(series: dict[str, tuple[np.ndarray, np.ndarray]]) -> Figure:
     return fig
 
 
-def flyaround_figures(run: Any) -> dict[str, Figure]:
+def flyaround_figures(run: SimResult) -> dict[str, Figure]:
     """The run's figures by file stem (Figs. 5-9)."""
     return {"fig5-thrusters": thruster_figure(run), "fig6-attitude": attitude_error_figure(run),
             "fig7-orbit": orbit_error_figure(run), "fig8-position": position_figure(run),

@@ -1,12 +1,13 @@
-"""The inputs and the result of a fly-around simulation (:func:`~formsync_design.sim.tracking.
+"""The inputs of a fly-around simulation (:func:`~formsync_design.sim.tracking.
 simulate_flyaround`): the scenario (orbits, spacecraft, fly-around reference, thrusters,
-gains), the options (horizon, sample period, allocation rule, PWM), the run and its status,
-and the 3-2-1 Euler angles of the initial attitude.
+gains), the options (horizon, sample period, allocation rule, PWM, the convergence
+tolerances), and the 3-2-1 Euler angles of the initial attitude.  The run is a
+:class:`~formsync_design.sim.result.SimResult` whose ``orbit`` holds the relative orbit and
+the thrusters (:class:`~formsync_design.sim.orbit_record.OrbitRecord`).
 """
 
 from __future__ import annotations
 
-import enum
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -14,13 +15,11 @@ from typing import Any
 import numpy as np
 
 from formsync_design.errors import InputError
-from formsync_design.gains import json_number
 from formsync_design.models.orbit import (
     MU_EARTH,
     ZHANG2014_CHASER,
     ZHANG2014_TARGET,
     KeplerElements,
-    LQRDesign,
     mean_motion,
 )
 from formsync_design.models.relative_reference import (
@@ -42,8 +41,6 @@ __all__ = [
     "euler321",
     "FlyaroundScenario",
     "FlyaroundOptions",
-    "FlyaroundStatus",
-    "FlyaroundRun",
 ]
 
 #: Allocation rules: pseudo-inverse with a null-space shift, pseudo-inverse clipped, LP.
@@ -162,6 +159,16 @@ class FlyaroundOptions:
         ``corrected`` (``phi_r`` with ``exp(-t/P1)``) or ``printed`` (``exp(-1/P1)``).
     compile : bool
         Compile the kernel to C (else the CasADi virtual machine).
+    angle_tol : float
+        Attitude tolerance (deg, default 1) of the convergence criterion: a completed run is
+        ``converged`` when from some sample to the last one the attitude tracking error angle
+        ``4 atan|sigma_sd|`` is at most ``angle_tol`` and the relative-position error
+        ``|rho - l_T|`` at most ``position_tol`` (the run's ``convergence_time`` is the first
+        such sample), else ``not-converged``.  The rate and velocity errors are not part of
+        it.  The shipped case (``verification/zhang2014_flyaround.toml``) meets the defaults
+        from t = 70.4 s.
+    position_tol : float
+        Relative-position tolerance (m, default 1) of that criterion.
     """
 
     tf: float = 18000.0
@@ -173,6 +180,8 @@ class FlyaroundOptions:
     exhaust_velocity: float = EXHAUST_VELOCITY
     reading: str = "corrected"
     compile: bool = True
+    angle_tol: float = 1.0
+    position_tol: float = 1.0
 
     def __post_init__(self) -> None:
         if self.allocation not in ALLOCATIONS:
@@ -181,7 +190,7 @@ class FlyaroundOptions:
         if self.reading not in ("corrected", "printed"):
             raise InputError(f"expected reading 'corrected' or 'printed', received "
                              f"{self.reading!r}")
-        for name in ("tf", "sample_period", "exhaust_velocity"):
+        for name in ("tf", "sample_period", "exhaust_velocity", "angle_tol", "position_tol"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise InputError(f"expected {name} > 0, received {v:g}")
@@ -199,105 +208,3 @@ class FlyaroundOptions:
     @property
     def samples(self) -> int:
         return int(round(self.tf / self.sample_period))
-
-
-class FlyaroundStatus(enum.StrEnum):
-    """How a fly-around run ended: ``completed`` (every sample to ``tf``) or ``diverged``
-    (a non-finite state at ``diverged_time``; the run ends at the last finite state)."""
-
-    COMPLETED = "completed"
-    DIVERGED = "diverged"
-
-
-@dataclass(frozen=True)
-class FlyaroundRun:
-    """A simulated fly-around.
-
-    Attributes
-    ----------
-    t : numpy.ndarray
-        Sample times ``t_k`` (the control instants), ``(K,)``.
-    states : numpy.ndarray
-        ``(K + 1, 12)`` truth states at ``t_k`` and the final time:
-        ``(rho, rho', sigma, omega)``.
-    outputs : dict of numpy.ndarray
-        Per-sample outputs (:data:`~formsync_design.sim.tracking_model.OUTPUTS`): ``dX``,
-        ``sigma_sd``, ``omega_sd`` (at ``t_k``), ``on_time``, ``wrench_cmd``, ``wrench_pwm``,
-        ``raw_min``, ``frame_status``, ``switched``, ``thrust_cmd``.
-    lqr : LQRDesign
-    options : FlyaroundOptions
-    scenario : FlyaroundScenario
-    seconds : float
-        Wall time of the integration (the compiled kernel build excluded).
-    build_seconds : float
-        Kernel build (generation + compilation, or the cache hit).
-    lp_fallbacks : int
-        Samples of an ``lp`` run solved by the bounded LP (upper bounds binding).
-    status : FlyaroundStatus
-        ``completed``, or ``diverged``: the state was non-finite at ``diverged_time``, and
-        ``t``, ``states`` and ``outputs`` end at the last finite state before it.
-    diverged_time : float or None
-        The first sample time with a non-finite state (status ``diverged``).
-    """
-
-    t: np.ndarray
-    states: np.ndarray
-    outputs: dict
-    lqr: LQRDesign
-    options: FlyaroundOptions
-    scenario: FlyaroundScenario
-    seconds: float
-    build_seconds: float
-    lp_fallbacks: int = 0
-    status: FlyaroundStatus = FlyaroundStatus.COMPLETED
-    diverged_time: float | None = None
-
-    @property
-    def message(self) -> str:
-        """One line on how the run ended (``diverged at t = ...`` for a diverged run)."""
-        if self.status == FlyaroundStatus.DIVERGED:
-            return (f"diverged at t = {self.diverged_time:g} s (non-finite state; the run ends at "
-                    f"t = {float(self.states.shape[0] - 1) * self.options.sample_period:g} s): "
-                    "check the gains, the inertia and the sample period")
-        return f"completed {self.t.size} samples to t = {self.options.tf:g} s"
-
-    @property
-    def impulses(self) -> np.ndarray:
-        """Per-sample, per-thruster impulse (N s), ``(K, m)``."""
-        m = self.scenario.layout.count
-        return self.scenario.layout.thrust * self.outputs["on_time"][:, :m]
-
-    @property
-    def total_impulse(self) -> float:
-        return float(self.impulses.sum())
-
-    @property
-    def fuel(self) -> float:
-        """Propellant (kg): total impulse over the exhaust velocity."""
-        return self.total_impulse / self.options.exhaust_velocity
-
-    @property
-    def delta_v(self) -> float:
-        """Thruster velocity increment (m/s): total impulse over the mass."""
-        return self.total_impulse / self.scenario.mass
-
-    @property
-    def delta_v_net(self) -> float:
-        """Net velocity increment (m/s): ``sum_k |F_net,k| dt / m`` (opposed pulses cancel)."""
-        f = self.outputs["wrench_pwm"][:, :3]
-        return float(np.linalg.norm(f, axis=1).sum() * self.options.sample_period
-                     / self.scenario.mass)
-
-    def window(self, t0: float, t1: float | None = None) -> np.ndarray:
-        """Boolean mask of the samples with ``t0 <= t_k <= t1``."""
-        hi = self.t[-1] if t1 is None else t1
-        return (self.t >= t0) & (self.t <= hi)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"samples": int(self.t.size), "fuel_kg": json_number(self.fuel),
-                "delta_v_m_s": json_number(self.delta_v),
-                "delta_v_net_m_s": json_number(self.delta_v_net),
-                "allocation": self.options.allocation, "seconds": json_number(self.seconds),
-                "lp_fallbacks": self.lp_fallbacks, "status": str(self.status),
-                "diverged_time": None if self.diverged_time is None
-                else json_number(self.diverged_time)}

@@ -272,12 +272,14 @@ class TrackingResults:
 
 def _series(run: Any, every: int = 50) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """The figure data of a run: the cumulative fuel and the elevation above the plane."""
+    from formsync_design.sim.orbit_record import orbit_of
     from formsync_design.verify.tracking_measures import plane_normal
 
+    rec = orbit_of(run)
     n = run.t.size
-    cum = np.cumsum(run.impulses.sum(axis=1)) / run.options.exhaust_velocity
-    rho = run.states[:n:every, :3]
-    e = np.degrees(np.arcsin(np.clip(rho @ plane_normal(run.scenario.reference)
+    cum = np.cumsum(rec.impulses.sum(axis=1)) / rec.options.exhaust_velocity
+    rho = rec.states[:n:every, :3]
+    e = np.degrees(np.arcsin(np.clip(rho @ plane_normal(rec.scenario.reference)
                                      / np.linalg.norm(rho, axis=1), -1, 1)))
     return {"fuel": (run.t[::every].copy(), cum[::every].copy()),
             "elevation": (run.t[::every].copy(), e)}

@@ -37,7 +37,7 @@ True
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -47,6 +47,9 @@ from formsync_design.verify.metrics import (
     MetricValue,
     register_metric,
 )
+
+if TYPE_CHECKING:
+    from formsync_design.sim.result import SimResult
 
 __all__ = ["tracking_only", "measures", "certificates", "lp_recheck", "RUN_METRICS"]
 
@@ -158,20 +161,24 @@ def _axis(ctx: MetricContext) -> MetricValue:
 def _lp_fallbacks(ctx: MetricContext) -> MetricValue:
     if ctx.case.options.allocation != "lp":
         return ctx.value(None, f"allocation {ctx.case.options.allocation} (not lp)")
-    return ctx.value(float(ctx.run().lp_fallbacks))
+    from formsync_design.sim.orbit_record import orbit_of
+
+    return ctx.value(float(orbit_of(ctx.run()).lp_fallbacks))
 
 
-def lp_recheck(run: Any, samples: int) -> float:
+def lp_recheck(run: SimResult, samples: int) -> float:
     """Largest relative difference between the fuel of ``samples`` evenly spaced samples of
     an ``lp`` run and the bounded LP re-solved by cvxpy + Clarabel."""
     from formsync_design.models.allocation import BoundedLP
+    from formsync_design.sim.orbit_record import orbit_of
 
-    lay = run.scenario.layout
+    rec = orbit_of(run)
+    lay = rec.scenario.layout
     lp = BoundedLP(lay)
     diff = 0.0
     for k in np.linspace(0, run.t.size - 1, samples).astype(int):
-        ref = lp.solve(run.outputs["wrench_cmd"][k])
-        ours = float(run.outputs["thrust_cmd"][k, :lay.count].sum())
+        ref = lp.solve(rec.outputs["wrench_cmd"][k])
+        ours = float(rec.outputs["thrust_cmd"][k, :lay.count].sum())
         diff = max(diff, abs(ours - ref.fuel_thrust) / max(1.0, ref.fuel_thrust))
     return diff
 

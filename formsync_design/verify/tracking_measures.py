@@ -1,4 +1,6 @@
-"""The measurements of a fly-around run (a tracking design's), for the metrics of
+"""The measurements of a fly-around run (the relative-orbit plant's
+:class:`~formsync_design.sim.result.SimResult`, read from its
+:class:`~formsync_design.sim.orbit_record.OrbitRecord`), for the metrics of
 :mod:`formsync_design.verify.metrics_tracking`.
 
 Rules (every number computed from the run)
@@ -26,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from formsync_design.sim.orbit_record import orbit_of
+from formsync_design.sim.result import SimResult
 from formsync_design.sim.tracking import rotation_vectors
 
 __all__ = ["METRICS", "MIN_PULSE_AFTER", "diverged_time", "run_metrics", "pointing_errors",
@@ -46,11 +50,12 @@ def _mrp_matrices(sigma: np.ndarray) -> np.ndarray:
     return np.eye(3)[None] + (8 * sx2 + 4 * (1 - n2)[:, None, None] * sx) / den
 
 
-def pointing_errors(run: Any) -> np.ndarray:
+def pointing_errors(run: SimResult) -> np.ndarray:
     """Angle (rad) between the body ``x`` axis and the line of sight to the target, per
     sample ``t_k``."""
-    sc = run.scenario
-    x = run.states[:-1]
+    rec = orbit_of(run)
+    sc = rec.scenario
+    x = rec.states[:-1]
     u = sc.target.argp + sc.target.nu + sc.mean_motion * run.t
     c, s = np.cos(u), np.sin(u)
     los_t = -x[:, :3] / np.linalg.norm(x[:, :3], axis=1)[:, None]
@@ -83,19 +88,20 @@ METRICS = ("rate_error_deg_s", "attitude_error_deg", "attitude_error_axis", "vel
            "allocation_shortfall_after_100s", "saturated_samples", "fallback_frames")
 
 
-def diverged_time(run: Any) -> float | None:
+def diverged_time(run: SimResult) -> float | None:
     """The time a run's state went non-finite (None: the run completed)."""
     return run.diverged_time if str(getattr(run, "status", "")) == "diverged" else None
 
 
-def run_metrics(run: Any, steady_from: float) -> dict[str, float]:
+def run_metrics(run: SimResult, steady_from: float) -> dict[str, float]:
     """Every measurement of :data:`METRICS` for a run (all nan for a diverged run)."""
     if diverged_time(run) is not None:
         return dict.fromkeys(METRICS, math.nan)
-    o = run.outputs
-    sc = run.scenario
-    opt = run.options
-    ss = run.window(steady_from)
+    rec = orbit_of(run)
+    o = rec.outputs
+    sc = rec.scenario
+    opt = rec.options
+    ss = rec.window(steady_from)
     rv = np.degrees(np.abs(rotation_vectors(o["sigma_sd"][ss])))
     rate = np.degrees(np.abs(o["omega_sd"][ss]))
     dx = np.abs(o["dX"][ss])
@@ -105,7 +111,7 @@ def run_metrics(run: Any, steady_from: float) -> dict[str, float]:
     fired = tau[after] > 0
     n_fired = int(fired.sum())
     is_min = np.abs(tau[after] - opt.min_pulse) <= 1e-9
-    x = run.states[:-1]
+    x = rec.states[:-1]
     rho = x[:, :3]
     r = np.linalg.norm(rho, axis=1)
     last = run.t >= run.t[-1] - sc.reference.period
@@ -125,14 +131,14 @@ def run_metrics(run: Any, steady_from: float) -> dict[str, float]:
         "attitude_error_axis": float(np.argmax(rv.max(axis=0))) if rv.size else math.nan,
         "velocity_error_m_s": _max(dx[:, 3:]),
         "position_error_m": _max(dx[:, :3]),
-        "delta_v_m_s": run.delta_v,
-        "fuel_kg": run.fuel,
+        "delta_v_m_s": rec.delta_v,
+        "fuel_kg": rec.fuel,
         "min_pulse_fraction": float(is_min[fired].sum() / n_fired) if n_fired else math.nan,
         "final_plane_error_deg": abs(tilt - math.degrees(sc.reference.alpha)),
         "final_radius_error_m": float(np.max(np.abs(r[last] - sc.reference.a))),
         "transition_overshoot_deg": overshoot,
         "pointing_error_deg": _max(point[after]),
-        "delta_v_net_m_s": run.delta_v_net,
+        "delta_v_net_m_s": rec.delta_v_net,
         "pulses_after_100s": float(n_fired),
         "final_elevation_deg": float(elev[-1]),
         "initial_elevation_deg": float(elev[0]),
