@@ -153,8 +153,9 @@ def test_a_claim_over_a_diverged_run_is_never_decided_by_it(metric: str) -> None
 def test_lagrangian_diverged_result_message_and_summary() -> None:
     from dataclasses import replace
 
+    from formsync_design.sim.lagrangian_outcome import lagrangian_message
     from formsync_design.sim.result import SimStatus
-    from formsync_design.sim.simulator import lagrangian_message, simulate
+    from formsync_design.sim.simulator import simulate
     from formsync_design.verify.case import load_case
 
     case = load_case()

@@ -18,8 +18,9 @@ from formsync_design.graphs.build import make_graph
 from formsync_design.sim import agents as agents_module
 from formsync_design.sim.agents import AGENT_STATUSES, AgentFormation, AgentOptions, simulate_agents
 from formsync_design.sim.formation import Formation, Gains, SimOptions, pack_state
+from formsync_design.sim.lagrangian_outcome import lagrangian_message
 from formsync_design.sim.result import SimResult, SimStatus
-from formsync_design.sim.simulator import lagrangian_message, simulate
+from formsync_design.sim.simulator import simulate
 from formsync_design.spec.loader import load_design
 from formsync_design.verify.case import load_case, make_disturbance
 
