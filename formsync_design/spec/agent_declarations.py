@@ -148,12 +148,13 @@ def check_agent_functions(attrs: Mapping[str, Any], decl: AgentDeclarations, whe
         fns[fn] = f
     if "controller" not in fns:
         raise DerivationError(f"{where}: expected a function controller(view), received none")
-    if decl.states and "states" not in fns:
-        raise DerivationError(f"{where}: expected a function states(view) for STATES "
-                              f"{[n for n, _ in decl.states]}, received none")
-    if not decl.states and "states" in fns:
-        raise DerivationError(f"{where}: expected STATES declared for the function states(view), "
-                              "received none")
+    for attr, sized, fn in (("STATES", decl.states, "states"), ("HOLD", decl.hold, "hold")):
+        if sized and fn not in fns:
+            raise DerivationError(f"{where}: expected a function {fn}(view) for {attr} "
+                                  f"{[n for n, _ in sized]}, received none")
+        if not sized and fn in fns:
+            raise DerivationError(f"{where}: expected {attr} declared for the function "
+                                  f"{fn}(view), received none")
     need = {"event": "event", "self-triggered": "next_interval"}.get(decl.sampling)
     if need is not None and need not in fns:
         raise DerivationError(f"{where}: expected a function {need}(view) for SAMPLING "
@@ -162,12 +163,6 @@ def check_agent_functions(attrs: Mapping[str, Any], decl: AgentDeclarations, whe
         if fn in fns and decl.sampling != rule:
             raise DerivationError(f"{where}: expected SAMPLING = {rule!r} with a function "
                                   f"{fn}(view), received SAMPLING = {decl.sampling!r}")
-    if decl.hold and "hold" not in fns:
-        raise DerivationError(f"{where}: expected a function hold(view) for HOLD "
-                              f"{[n for n, _ in decl.hold]}, received none")
-    if not decl.hold and "hold" in fns:
-        raise DerivationError(f"{where}: expected HOLD declared for the function hold(view), "
-                              "received none")
     if decl.states and decl.sampling != "continuous":
         raise DerivationError(f"{where}: expected SAMPLING 'continuous' for a design with "
                               f"controller STATES, received {decl.sampling!r}")
