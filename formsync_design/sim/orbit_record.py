@@ -1,7 +1,7 @@
 """What a fly-around run records beyond a formation's attitude: the relative orbit, the
-thrusters and the allocation (:class:`OrbitRecord`), and the fly-around's
-:class:`~formsync_design.sim.result.SimResult` built from the compiled loop's samples
-(:func:`flyaround_result`).
+thrusters and the allocation (:class:`OrbitRecord`); the fly-around's
+:class:`~formsync_design.sim.result.SimResult` is built from it by
+:func:`~formsync_design.sim.tracking.flyaround_result`.
 
 A fly-around (:func:`~formsync_design.sim.tracking.simulate_flyaround`) is a formation of
 one spacecraft: its :class:`~formsync_design.sim.result.SimResult` holds the chaser's
@@ -35,14 +35,10 @@ import numpy as np
 
 from formsync_design.errors import InputError
 from formsync_design.gains import json_number
-from formsync_design.models.mrp import mrp_to_quat_array
 from formsync_design.models.orbit import LQRDesign
-from formsync_design.models.quaternion import quat_multiply_array
-from formsync_design.sim.disagreement import settle_time
-from formsync_design.sim.result import SimResult, SimStatus
 from formsync_design.sim.tracking_scenario import FlyaroundOptions, FlyaroundScenario
 
-__all__ = ["GRAPH", "OrbitRecord", "orbit_of", "flyaround_result"]
+__all__ = ["GRAPH", "OrbitRecord", "orbit_of"]
 
 #: The ``graph`` of a fly-around run.
 GRAPH = "none (one spacecraft tracking a target)"
@@ -136,64 +132,3 @@ def orbit_of(run: Any) -> OrbitRecord:
         raise InputError(f"expected a fly-around run (a SimResult with an orbit record), "
                          f"received {type(run).__name__} without one")
     return rec
-
-
-def _scalar_last(q: np.ndarray) -> np.ndarray:
-    """``(..., 4)`` scalar-first quaternions as ``(q1, q2, q3, q0)`` with ``q0 >= 0``."""
-    q = np.concatenate([q[..., 1:], q[..., :1]], axis=-1)
-    return np.where(q[..., 3:] < 0, -q, q)
-
-
-def flyaround_result(*, design: str, spec_key: str, record: OrbitRecord,
-                     diverged_time: float | None, stats: dict[str, Any]) -> SimResult:
-    """The :class:`~formsync_design.sim.result.SimResult` of a fly-around run (module
-    docstring) from its record.
-
-    Parameters
-    ----------
-    design, spec_key : str
-        The design's name and content key (a design on the relative-orbit plant).
-    record : OrbitRecord
-        The samples (a diverged run's end at the last finite state).
-    diverged_time : float or None
-        The first sample time with a non-finite state (None: the run completed).
-    stats : dict
-        The integrator's statistics (``SimResult.stats``).
-    """
-    opt, o = record.options, record.outputs
-    k = record.t.size
-    truth = record.states[:k]
-    q = _scalar_last(mrp_to_quat_array(truth[:, 6:9]))
-    # q_b = q_d (x) q_sd (R(sigma_sd): body to desired), so q_d = q_b (x) q_sd^*
-    qsd = mrp_to_quat_array(o["sigma_sd"]) * np.array([1.0, -1.0, -1.0, -1.0])
-    reference = _scalar_last(quat_multiply_array(mrp_to_quat_array(truth[:, 6:9]), qsd))
-    angle = np.degrees(4.0 * np.arctan(np.linalg.norm(o["sigma_sd"], axis=1)))
-    torques = np.array(o["wrench_pwm"][:, 3:6])[:, None, :]
-    position = record.position_error
-    if diverged_time is not None:
-        status, conv = SimStatus.DIVERGED, None
-        message = (f"diverged at t = {diverged_time:g} s (non-finite state; the run ends at "
-                   f"t = {float(record.states.shape[0] - 1) * opt.sample_period:g} s): "
-                   "check the gains, the inertia and the sample period")
-    else:
-        conv = settle_time(record.t, (angle <= opt.angle_tol) & (position <= opt.position_tol))
-        status = SimStatus.CONVERGED if conv is not None else SimStatus.NOT_CONVERGED
-        head = f"completed {k} samples to t = {opt.tf:g} s"
-        if conv is not None:
-            message = (f"{head}; attitude error <= {opt.angle_tol:g} deg and position error "
-                       f"<= {opt.position_tol:g} m from t = {conv:g} s")
-        else:
-            message = (f"{head} without converging: at the end the attitude error is "
-                       f"{angle[-1]:.3g} deg (angle_tol {opt.angle_tol:g}), the position error "
-                       f"{position[-1]:.3g} m (position_tol {opt.position_tol:g})")
-    return SimResult(
-        status=status, message=message, design=design, graph=GRAPH, t=record.t,
-        quaternions=q[:, None, :], rates=np.array(truth[:, 9:12])[:, None, :],
-        states=np.zeros((k, 1, 0)), torques=torques, reference=reference,
-        reference_error=angle, rate_error=np.linalg.norm(o["omega_sd"], axis=1),
-        convergence_time=conv,
-        peak_torque=np.abs(torques).max(axis=0) if k else np.zeros((1, 3)),
-        effort=np.sum(torques * torques, axis=(0, 2)) * opt.sample_period,
-        monitors={}, integrator=str(stats.get("integrator", "rk4")),
-        diverged_time=diverged_time, stats=dict(stats), options=opt, spec_key=spec_key,
-        orbit=record)
