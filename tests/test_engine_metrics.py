@@ -201,3 +201,30 @@ def test_a_copied_design_file_registers_its_metric_again_a_different_one_is_refu
             exec(compile(src.format(2.0), str(tmp_path / "other.py"), "exec"), {})  # noqa: S102
     finally:
         METRICS.pop("test_copied_metric", None)
+
+
+def test_a_copy_whose_metric_calls_a_changed_helper_is_refused_not_run_as_the_first(tmp_path):
+    """The same metric text calling a helper of its file that differs in the copy is another
+    metric: refused in one line (before, the first file's metric ran for the copy)."""
+    from formsync_design.errors import InputError
+    from formsync_design.verify.metrics import METRICS
+
+    src = ('from formsync_design.verify.metrics import register_metric\n'
+           'SCALE = {scale}\n'
+           'def helper(x):\n    return {body}\n'
+           '@register_metric("test_helper_metric", unit="1", evidence="simulation", doc="d")\n'
+           'def m(ctx):\n    return ctx.value(helper(1.0))\n')
+    try:
+        exec(compile(src.format(scale=1, body="x * SCALE"), str(tmp_path / "a" / "d.py"),
+                     "exec"), {})  # noqa: S102 (test code)
+        # an identical copy elsewhere: accepted, the first kept
+        exec(compile(src.format(scale=1, body="x * SCALE"), str(tmp_path / "b" / "d.py"),
+                     "exec"), {})  # noqa: S102
+        assert "/a/" in METRICS["test_helper_metric"].fn.__code__.co_filename
+        for scale, body in ((1, "x * SCALE + 1"), (2, "x * SCALE")):  # helper or its constant
+            with pytest.raises(InputError, match="registered once") as e:
+                exec(compile(src.format(scale=scale, body=body), str(tmp_path / "c" / "d.py"),
+                             "exec"), {})  # noqa: S102
+            assert "\n" not in str(e.value)
+    finally:
+        METRICS.pop("test_helper_metric", None)

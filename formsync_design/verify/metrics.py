@@ -79,6 +79,7 @@ import numpy as np
 from formsync_design.errors import InputError
 from formsync_design.gains import json_number
 from formsync_design.ranges import check_range
+from formsync_design.verify.metric_identity import origin, same_metric
 from formsync_design.verify.predicates import Interval
 
 __all__ = ["Evidence", "MetricValue", "MetricArg", "MetricSpec", "Results", "MetricContext",
@@ -203,34 +204,14 @@ def register_metric(name: str, *, unit: str, evidence: str, doc: str, value: str
         old = METRICS.get(name)
         spec = MetricSpec(name, fn, unit, str(evidence), doc, value, tuple(args), applies,
                           families)
-        if old is not None and _origin(old.fn) != _origin(fn) and not _same_metric(old, spec):
+        if old is not None and origin(old.fn) != origin(fn) and not same_metric(old, spec):
             raise InputError(f"expected metric {name!r} registered once, received a second one "
-                             f"({_origin(fn)[1]}; the first: {_origin(old.fn)[1]})")
-        if old is None or _origin(old.fn) == _origin(fn):
+                             f"({origin(fn)[1]}; the first: {origin(old.fn)[1]})")
+        if old is None or origin(old.fn) == origin(fn):
             METRICS[name] = spec
         return fn
 
     return deco
-
-
-def _same_metric(a: MetricSpec, b: MetricSpec) -> bool:
-    """Whether two registrations are one metric: a copy of a design file (a user's folder)
-    registering the same function text with the same declarations.  Code objects compare
-    by their bytecode, constants and names, not by the file they came from; the first
-    registration is kept."""
-    code_a, code_b = getattr(a.fn, "__code__", None), getattr(b.fn, "__code__", None)
-    return (code_a is not None and code_a == code_b
-            and (a.unit, a.evidence, a.doc, a.value, a.args, a.needs_families)
-            == (b.unit, b.evidence, b.doc, b.value, b.args, b.needs_families)
-            and (a.applies is None) == (b.applies is None)
-            and getattr(a.applies, "__code__", None) == getattr(b.applies, "__code__", None))
-
-
-def _origin(fn: Callable[..., Any]) -> tuple[str, str]:
-    """Where a metric function is defined (a reloaded file registers it again: accepted)."""
-    code = getattr(fn, "__code__", None)
-    return (getattr(fn, "__qualname__", repr(fn)),
-            f"{getattr(code, 'co_filename', '?')}:{getattr(fn, '__qualname__', '?')}")
 
 
 def check_metric_args(spec: MetricSpec, raw: Mapping[str, Any], where: str) -> dict[str, Any]:
