@@ -198,3 +198,19 @@ def test_the_summary_takes_the_final_disagreement_from_the_last_time_alone(
     assert r.__dict__.get("_attitude_error") is None and r.__dict__.get("_rate_error") is None
     assert d["final_attitude_error_deg"] == float(r.attitude_error[-1])
     assert d["final_rate_error"] == float(r.rate_error[-1])
+
+
+def test_a_triggered_runs_options_name_the_integrator_that_ran(
+        ring4: tuple[Formation, AgentFormation]) -> None:
+    """A Lagrangian design's triggered run integrates with the hybrid integrator: its summary's
+    options say so (and give no fixed step), like its top-level ``integrator``."""
+    from formsync_design.sim.sampled import parse_trigger
+
+    f, _ = ring4
+    opt = SimOptions(tf=4.0, integrator="dopri5")
+    r = simulate(f, opt, trigger=parse_trigger("periodic:0.5"))
+    d = r.to_dict()
+    assert d["integrator"] == d["options"]["integrator"] == "hybrid-dop853"
+    assert d["options"]["step"] is None
+    cont = simulate(f, opt).to_dict()  # a continuous run keeps the method it resolved to
+    assert cont["options"]["integrator"] == "dopri5" == cont["integrator"]

@@ -329,7 +329,7 @@ class SimResult(NotebookViews):
             "saturation_end_time": num(self.saturation_end_time),
             "final_rates": _jsonable(self.final_rates),
             "common_rate": _jsonable(self.common_rate),
-            "options": _options(self.options),
+            "options": _options(self.options, self.integrator),
             "stats": _jsonable(self.stats),
             "orbit": None if self.orbit is None else self.orbit.to_dict(),
         }
@@ -362,19 +362,21 @@ class SimResult(NotebookViews):
         return p
 
 
-def _options(o: Any) -> Any:
+def _options(o: Any, integrator: str) -> Any:
     """The options of a run as JSON: the Lagrangian simulator's (with the step and the method
-    it resolved to), else every field of the options dataclass."""
+    it resolved to; a triggered run's ``integrator`` is the hybrid integrator it ran, which
+    has no fixed step), else every field of the options dataclass."""
     if o is None:
         return None
     if isinstance(o, SimOptions):
+        hybrid = integrator.startswith("hybrid")
         return _jsonable({
             "switch": o.switch,
             "phi": o.phi,
             "torque_limit": o.torque_limit,
             "sample_period": o.sample_period,
-            "integrator": o.method,
-            "step": o.interval / o.substeps if o.method == "rk4" else None,
+            "integrator": integrator if hybrid else o.method,
+            "step": o.interval / o.substeps if o.method == "rk4" and not hybrid else None,
             "output_step": o.interval,
             "rtol": o.rtol,
             "atol": o.atol,
