@@ -201,7 +201,7 @@ def _generic(R, W, J, gains):
     R, W, J = sp.Matrix(3, 3, R), sp.Matrix(W), sp.Matrix(3, 3, J)
     g = dict(gains)
     g["K1"], g["K2"], g["P1"], g["P2"] = (sp.diag(*g[k]) for k in ("K1", "K2", "P1", "P2"))
-    from formsync_design.spec.agent import sgn_of
+    from formsync_design.spec.agent_view import sgn_of
 
     g["sgn"] = sgn_of
     Rd, Wd, Wdd, cond = command_from_columns()

@@ -27,7 +27,8 @@ from formsync_design.sim.agents import (
     simulate_agents_sampled,
 )
 from formsync_design.sim.formation import Gains
-from formsync_design.spec.agent import agent_design_from_functions, mrp_G, rule_variant
+from formsync_design.spec.agent import agent_design_from_functions, rule_variant
+from formsync_design.spec.agent_view import mrp_G
 from formsync_design.spec.loader import load_design
 
 

@@ -39,7 +39,7 @@ def _rot(rng):
 
 
 def _lambdify_command(design, m):
-    from formsync_design.spec.agent import AgentView
+    from formsync_design.spec.agent_view import AgentView
 
     v = AgentView(design.decl, m)
     Rd, Wd, Wdd, cond = design.module["command"]([(n.a, n.R, n.w) for n in v.nbrs])

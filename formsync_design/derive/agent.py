@@ -2,7 +2,7 @@
 design's certificate conditions as matrix families in the gains.
 
 :func:`agent_closed_loop` gives, for a spacecraft with ``m`` in-neighbours, the time
-derivative of every quantity of the view (:class:`~formsync_design.spec.agent.AgentView`):
+derivative of every quantity of the view (:class:`~formsync_design.spec.agent_view.AgentView`):
 
 * own attitude by its kinematics (``q' = E(q) w``, ``q0' = -q.w/2``; ``sigma' = G(sigma) w``;
   ``R' = R w^``), own rate by Euler's equation with the design's torque
@@ -42,7 +42,8 @@ import sympy as sp
 
 from formsync_design.derive.families import MatrixFamily, family_from_sympy
 from formsync_design.errors import DerivationError
-from formsync_design.spec.agent import AgentDesign, AgentView, AttitudeSymbols, agent_expressions
+from formsync_design.spec.agent import AgentDesign, agent_expressions
+from formsync_design.spec.agent_view import AgentView, AttitudeSymbols
 
 __all__ = [
     "AgentClosedLoop",
@@ -63,7 +64,7 @@ def _kinematics(a: AttitudeSymbols) -> dict[sp.Symbol, sp.Expr]:
             rates[a.q[k]] = qd[k]
         rates[a.q0] = -(a.q.T * w)[0, 0] / 2
     elif a.representation == "mrp":
-        from formsync_design.spec.agent import mrp_G
+        from formsync_design.spec.agent_view import mrp_G
 
         sd = mrp_G(a.sigma) * w
         for k in range(3):

@@ -18,7 +18,8 @@ import sympy as sp
 
 from formsync_design.derive.agent import AgentConditions, agent_closed_loop, agent_conditions
 from formsync_design.outdir import write_text
-from formsync_design.spec.agent import QUANTITIES, AgentDesign, agent_expressions
+from formsync_design.spec.agent import AgentDesign, agent_expressions
+from formsync_design.spec.agent_view import QUANTITIES
 
 __all__ = ["AgentDerivation", "agent_derivation", "write_agent_derivation_report",
            "quantities_used"]
@@ -29,7 +30,7 @@ LATEX_LIMIT = 2500
 
 def quantities_used(design: AgentDesign, m: int = 1) -> dict[str, list[str]]:
     """Per function (controller, states, event, next_interval), the quantity classes of
-    :data:`~formsync_design.spec.agent.QUANTITIES` whose symbols it contains.
+    :data:`~formsync_design.spec.agent_view.QUANTITIES` whose symbols it contains.
 
     >>> from formsync_design.spec.agent import agent_design_from_functions
     >>> d = agent_design_from_functions(lambda v: -v.k * v.w, gains={"k": {}})

@@ -43,7 +43,8 @@ from formsync_design.models.disturbances import (
 from formsync_design.sim.bridge import sympy_to_casadi
 from formsync_design.sim.layout import param_slices
 from formsync_design.sim.reference_rate import reference_rate_expressions, reference_rate_function
-from formsync_design.spec.agent import AgentDesign, AgentView, agent_expressions, sgn
+from formsync_design.spec.agent import AgentDesign, agent_expressions
+from formsync_design.spec.agent_view import AgentView, sgn
 from formsync_design.spec.dag import replace_function
 from formsync_design.spec.declarations import GainKind, GainRole
 

@@ -35,7 +35,8 @@ from typing import Any
 import casadi as ca
 
 from formsync_design.sim.agent_kernel import law_inputs
-from formsync_design.spec.agent import AgentDesign, AgentView
+from formsync_design.spec.agent import AgentDesign
+from formsync_design.spec.agent_view import AgentView
 
 __all__ = ["KeptTriggers", "kept_trigger_functions", "kept_size"]
 

@@ -1,7 +1,8 @@
 """Stage 3 — designs: the plug-in contract (controller, Lyapunov candidate, declared gains,
 representation, graph class, sampling) and its loader."""
 
-from formsync_design.spec.agent import AgentDeclarations, AgentDesign, AgentView
+from formsync_design.spec.agent import AgentDesign
+from formsync_design.spec.agent_view import AgentDeclarations, AgentView
 from formsync_design.spec.declarations import (
     CLASSIC,
     Declarations,

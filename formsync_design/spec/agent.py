@@ -77,9 +77,10 @@ Functions (``v`` is an :class:`AgentView` of spacecraft ``i`` with ``m`` in-neig
 Under a sampled rule the torque is held between the spacecraft's own updates, and the
 neighbours' quantities are their last broadcasts (see :mod:`formsync_design.sim.agents`).
 
-Helpers for the expressions: :func:`hat`, :func:`vee`, :func:`sgn` (the switching function:
-``sign`` in a derivation, ``sgn``/``sat``/``tanh`` with a boundary layer at simulation time),
-:func:`sig` (``|x|^p sgn(x)`` componentwise), :func:`mrp_G`, :func:`quat_E`.
+Helpers for the expressions (:mod:`formsync_design.spec.agent_view`, also on every view:
+``v.hat``, ``v.sgn``, ...): ``hat``, ``vee``, ``sgn`` (the switching function: ``sign`` in
+a derivation, ``sgn``/``sat``/``tanh`` with a boundary layer at simulation time), ``sig``
+(``|x|^p sgn(x)`` componentwise), ``mrp_G``, ``quat_E``.
 
 >>> d = agent_design_from_functions(lambda v: -v.k * v.w, name="damper", gains={"k": {}})
 >>> d.name, d.decl.representation, d.decl.controller_gains
@@ -104,25 +105,7 @@ from formsync_design.spec.agent_declarations import (
     check_agent_functions,
     parse_agent_declarations,
 )
-
-# re-exported: a design file imports what its law is written in from here
-from formsync_design.spec.agent_view import (
-    ACTUATORS as ACTUATORS,
-    AGENT_REPRESENTATIONS as AGENT_REPRESENTATIONS,
-    PLANTS as PLANTS,
-    QUANTITIES as QUANTITIES,
-    AgentDeclarations as AgentDeclarations,
-    AgentView as AgentView,
-    AttitudeSymbols as AttitudeSymbols,
-    hat as hat,
-    mrp_G as mrp_G,
-    quat_E as quat_E,
-    quat_to_R as quat_to_R,
-    sgn as sgn,
-    sgn_of as sgn_of,
-    sig as sig,
-    vee as vee,
-)
+from formsync_design.spec.agent_view import QUANTITIES, AgentDeclarations, AgentView, sgn
 from formsync_design.spec.dag import free_symbols as dag_free_symbols
 
 __all__ = [
@@ -135,6 +118,7 @@ __all__ = [
     "rule_variant",
     "SAMPLING_RULES",
 ]
+
 
 @dataclass(frozen=True)
 class AgentDesign:

@@ -4,7 +4,8 @@ helper functions of the expressions (:func:`sgn`, :func:`sig`, :func:`hat`, :fun
 :func:`mrp_G`, :func:`quat_E`, :func:`quat_to_R`).
 
 The designs themselves (loading, validation, the expressions of every function) are in
-:mod:`formsync_design.spec.agent`, which re-exports these names.
+:mod:`formsync_design.spec.agent`; a design file reaches these helpers through its view
+(``v.hat``, ``v.sgn``, ...) or imports them from here.
 
 >>> v = AgentView(AgentDeclarations(representation="mrp"), 1)
 >>> sorted(v.symbols_by_class())[:3]

@@ -47,7 +47,7 @@ def lagrangian_model(v: Any) -> dict[str, Any]:
     """The model quantities of spacecraft ``v`` (an agent view) the Lagrangian view names:
     ``E``, ``Q``, its derivative ``Qd``, ``qd``, ``A``, ``B`` and ``s`` (module docstring).
 
-    >>> from formsync_design.spec.agent import AgentDeclarations
+    >>> from formsync_design.spec.agent_view import AgentDeclarations
     >>> from formsync_design.spec.agent_view import AgentView
     >>> m = lagrangian_model(AgentView(AgentDeclarations(), 1))
     >>> q0, q = 2 * m["E"][0, 0], m["q"]
