@@ -29,13 +29,13 @@ from formsync_design.models.thrusters import (
     SpanStatus,
     ThrusterLayout,
     check_positive_spanning,
+    cube_pairs_layout,
     lp_allocation,
     pinv_allocation,
     positive_null_vector,
-    zhang2014_layout,
 )
 
-LAYOUT = zhang2014_layout()
+LAYOUT = cube_pairs_layout()
 A = LAYOUT.matrix
 
 

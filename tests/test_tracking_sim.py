@@ -30,10 +30,10 @@ from formsync_design.models.pwm import pwm
 from formsync_design.models.relative_reference import attitude_frame, desired_attitude
 from formsync_design.models.thrusters import (
     AllocationStatus,
+    cube_pairs_layout,
     lp_allocation,
     pinv_allocation,
     positive_null_vector,
-    zhang2014_layout,
 )
 from formsync_design.sim import tracking as F
 from formsync_design.sim.tracking_model import N_THRUSTERS_MAX, dcm_to_mrp_ca
@@ -41,7 +41,7 @@ from formsync_design.verify.tracking_case import load_flyaround_case
 from tests.tracking_numpy import simulate_numpy
 
 CASE = load_flyaround_case()
-LAYOUT = zhang2014_layout()
+LAYOUT = cube_pairs_layout()
 ALLOCATOR = MinFuelAllocator(LAYOUT)
 
 

@@ -19,8 +19,8 @@ The LP of one sample (thrusts ``f``, configuration matrix ``A`` of
 * **cvxpy + Clarabel** (:func:`lp_allocation_cvxpy`): the bounded LP itself, with the
   shortfall minimized first when ``w`` is not reachable within the bounds.
 
->>> from formsync_design.models.thrusters import zhang2014_layout
->>> al = MinFuelAllocator(zhang2014_layout())
+>>> from formsync_design.models.thrusters import cube_pairs_layout
+>>> al = MinFuelAllocator(cube_pairs_layout())
 >>> r = al.allocate([10.0, 0, 0, 0, 0, 5.0])
 >>> r.method, round(r.fuel_thrust, 9), r.certified
 ('explicit', 10.0, True)
@@ -141,8 +141,8 @@ class BoundedLP:
     """The two-stage bounded LP of :func:`lp_allocation_cvxpy` for one layout, built once
     (cvxpy parameters: a re-solve only updates the wrench).
 
-    >>> from formsync_design.models.thrusters import zhang2014_layout
-    >>> r = BoundedLP(zhang2014_layout()).solve(np.array([10.0, 0, 0, 0, 0, 5.0]))
+    >>> from formsync_design.models.thrusters import cube_pairs_layout
+    >>> r = BoundedLP(cube_pairs_layout()).solve(np.array([10.0, 0, 0, 0, 0, 5.0]))
     >>> r.method, round(r.fuel_thrust, 5)
     ('cvxpy', 10.0)
     """
@@ -189,8 +189,8 @@ def lp_allocation_cvxpy(layout: ThrusterLayout, wrench: Any) -> LPAllocation:
     fuel among allocations reaching that wrench.  A solver failure raises
     :class:`~formsync_design.errors.SolverError` (exit 3).
 
-    >>> from formsync_design.models.thrusters import zhang2014_layout
-    >>> r = lp_allocation_cvxpy(zhang2014_layout(), [150.0, 0, 0, 0, 0, 0])
+    >>> from formsync_design.models.thrusters import cube_pairs_layout
+    >>> r = lp_allocation_cvxpy(cube_pairs_layout(), [150.0, 0, 0, 0, 0, 0])
     >>> r.method, round(r.shortfall, 4), round(r.fuel_thrust, 4)
     ('cvxpy', 50.0, 100.0)
     """

@@ -15,7 +15,7 @@ matrix ``A``, so ``w = A f``.
 
 Assumptions (the layout figure, Fig. 4, is lost; every item below is ours)
 --------------------------------------------------------------------------
-* :func:`zhang2014_layout`: eight opposed pairs on the faces of a cube of
+* :func:`cube_pairs_layout`: eight opposed pairs on the faces of a cube of
   half-edge ``h = 1 m`` (the paper's dimensions are lost; the radius of
   gyration of ``J = diag(3256, 2922, 3505) kg m^2`` at 2000 kg is about
   1.3 m).  Pairs (direction of the force, offset axis):
@@ -64,7 +64,7 @@ __all__ = [
     "EXHAUST_VELOCITY",
     "SAMPLE_PERIOD_S",
     "ThrusterLayout",
-    "zhang2014_layout",
+    "cube_pairs_layout",
     "SpanStatus",
     "SpanningResult",
     "check_positive_spanning",
@@ -95,7 +95,7 @@ class ThrusterLayout:
 
     Examples
     --------
-    >>> lay = zhang2014_layout()
+    >>> lay = cube_pairs_layout()
     >>> lay.matrix.shape, lay.names[0], lay.names[-1]
     ((6, 16), 'A1', 'A16')
     >>> lay.matrix[:, 0].tolist()  # A1: +x at (-1, 1, 0): torque -1 N m/N about z
@@ -150,10 +150,12 @@ class ThrusterLayout:
         }
 
 
-def zhang2014_layout(half_size: float = 1.0, thrust: float = THRUST_N) -> ThrusterLayout:
-    """The reconstructed 16-thruster layout (module docstring): 8 opposed pairs on a cube.
+def cube_pairs_layout(half_size: float = 1.0, thrust: float = THRUST_N) -> ThrusterLayout:
+    """The 16-thruster layout ``cube-pairs`` of a case's ``[thrusters]`` (module docstring):
+    8 opposed pairs on the faces of a cube (the reconstruction of the fly-around case's lost
+    Fig. 4).
 
-    >>> lay = zhang2014_layout()
+    >>> lay = cube_pairs_layout()
     >>> bool(np.allclose(lay.matrix.sum(axis=1), 0))  # every thruster has an opposed twin
     True
     """
@@ -243,13 +245,13 @@ def check_positive_spanning(layout: ThrusterLayout) -> SpanningResult:
 
     Examples
     --------
-    >>> res = check_positive_spanning(zhang2014_layout())
+    >>> res = check_positive_spanning(cube_pairs_layout())
     >>> str(res.status), res.rank, res.combinations[0]  # +F_x: A1 and A2 together
     ('positively-spanning', 6, {0: Fraction(1, 2), 1: Fraction(1, 2)})
 
     Half of the layout (only +x, +y, +z thrusters) cannot pull:
 
-    >>> half = zhang2014_layout()
+    >>> half = cube_pairs_layout()
     >>> keep = [0, 1, 4, 5, 8, 9, 12, 13]
     >>> sub = ThrusterLayout(half.positions[keep], half.directions[keep])
     >>> r = check_positive_spanning(sub)
@@ -306,7 +308,7 @@ def positive_null_vector(layout: ThrusterLayout) -> np.ndarray:
     Exists with ``min z > 0`` iff the layout positively spans (with full rank);
     raises :class:`InputError` otherwise.
 
-    >>> positive_null_vector(zhang2014_layout()).round(12).tolist() == [1.0] * 16
+    >>> positive_null_vector(cube_pairs_layout()).round(12).tolist() == [1.0] * 16
     True
     """
     a = layout.matrix
@@ -424,7 +426,7 @@ def pinv_allocation(
 
     Examples
     --------
-    >>> lay = zhang2014_layout()
+    >>> lay = cube_pairs_layout()
     >>> w = [10.0, 0, 0, 0, 0, 5.0]
     >>> raw = pinv_allocation(lay, w, "none")
     >>> round(raw.total_thrust, 12) + 0.0, raw.raw_min < 0  # sums to zero: negative thrusts
@@ -461,7 +463,7 @@ def lp_allocation(layout: ThrusterLayout, wrench: Any, tol: float = 1e-9) -> All
 
     Examples
     --------
-    >>> lay = zhang2014_layout()
+    >>> lay = cube_pairs_layout()
     >>> a = lp_allocation(lay, [10.0, 0, 0, 0, 0, 5.0])
     >>> str(a.status), round(a.total_thrust, 9)
     ('exact', 10.0)

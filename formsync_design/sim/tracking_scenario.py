@@ -30,7 +30,7 @@ from formsync_design.models.thrusters import (
     EXHAUST_VELOCITY,
     MIN_PULSE_S,
     ThrusterLayout,
-    zhang2014_layout,
+    cube_pairs_layout,
 )
 from formsync_design.sim.tracking_model import (
     N_THRUSTERS_MAX,
@@ -127,7 +127,7 @@ class FlyaroundScenario:
         """The paper's case (section 4) with the design's ``gains`` (the paper prints none;
         the shipped case file ``verification/zhang2014_flyaround.toml`` chooses them)."""
         return cls(ZHANG2014_TARGET, ZHANG2014_CHASER, 2000.0,
-                   np.diag([3256.0, 2922.0, 3505.0]), ZHANG2014_FLYAROUND, zhang2014_layout(),
+                   np.diag([3256.0, 2922.0, 3505.0]), ZHANG2014_FLYAROUND, cube_pairs_layout(),
                    dict(gains))
 
     @property

@@ -44,7 +44,7 @@ from formsync_design.errors import InputError
 from formsync_design.gains import parse_real
 from formsync_design.models.orbit import KeplerElements
 from formsync_design.models.relative_reference import FlyaroundParams
-from formsync_design.models.thrusters import zhang2014_layout
+from formsync_design.models.thrusters import cube_pairs_layout
 from formsync_design.ranges import check_range, quantity_of
 from formsync_design.sim.tracking_scenario import ALLOCATIONS, FlyaroundOptions, FlyaroundScenario
 from formsync_design.spec.agent import AgentDesign
@@ -208,7 +208,7 @@ def _layout(t: dict, where: str) -> Any:
     if name not in LAYOUTS:
         raise InputError(f"expected thrusters.layout one of {list(LAYOUTS)} in {where}, "
                          f"received {name!r}")
-    return zhang2014_layout(_num(t, "half_size", "thrusters", where, 1.0, positive=True),
+    return cube_pairs_layout(_num(t, "half_size", "thrusters", where, 1.0, positive=True),
                             _num(t, "thrust", "thrusters", where, 25.0, positive=True))
 
 
