@@ -140,6 +140,16 @@ def test_a_diverged_run_is_the_status_diverged_with_its_time() -> None:
     assert np.isfinite(r.quaternions).all() and np.isfinite(r.orbit.states).all()
     assert r.message.startswith(f"diverged at t = {r.diverged_time:g} s")
     assert r.to_dict()["diverged_time"] == r.diverged_time
+    # the trajectory ends at the last finite state: one sample after the last output time
+    last = (r.orbit.states.shape[0] - 1) * SHORT.sample_period
+    assert r.stop_time == r.to_dict()["tf"] == last < r.diverged_time
+
+
+def test_a_completed_run_ends_at_the_horizon(run: SimResult) -> None:
+    """The outputs are at the control instants (the last one tf - dt); the run's end, in
+    stop_time and the summary's tf, is the horizon, where its last state is."""
+    assert math.isclose(run.t[-1], SHORT.tf - SHORT.sample_period)
+    assert run.stop_time == run.to_dict()["tf"] == SHORT.tf
 
 
 def test_converged_and_not_converged_follow_the_stated_tolerances(run: SimResult) -> None:

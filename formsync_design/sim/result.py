@@ -266,7 +266,12 @@ class SimResult(NotebookViews):
 
     @property
     def stop_time(self) -> float:
-        """Last time of the trajectory: the horizon, or the early stop's grid time."""
+        """Last time of the trajectory: the horizon, or the early stop's grid time.  A
+        fly-around's outputs are at its control instants; its last state (the horizon, or
+        the last finite one) is one sample period after the last of them
+        (:class:`~formsync_design.sim.orbit_record.OrbitRecord` ``states``)."""
+        if self.orbit is not None:
+            return float((self.orbit.states.shape[0] - 1) * self.options.sample_period)
         return float(self.t[-1])
 
     def time_to(self, angle_deg: float) -> float | None:
@@ -301,7 +306,7 @@ class SimResult(NotebookViews):
         return {
             "status": str(self.status), "message": self.message, "design": self.design,
             "graph": self.graph, "integrator": self.integrator,
-            "tf": json_number(float(self.t[-1])) if self.t.size else None,
+            "tf": json_number(self.stop_time) if self.t.size else None,
             "diverged_time": num(self.diverged_time),
             "convergence_time": num(self.convergence_time),
             "final_attitude_error_deg": json_number(self._final(
