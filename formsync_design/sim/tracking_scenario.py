@@ -17,20 +17,16 @@ import numpy as np
 from formsync_design.errors import InputError
 from formsync_design.models.orbit import (
     MU_EARTH,
-    ZHANG2014_CHASER,
-    ZHANG2014_TARGET,
     KeplerElements,
     mean_motion,
 )
 from formsync_design.models.relative_reference import (
-    ZHANG2014_FLYAROUND,
     FlyaroundParams,
 )
 from formsync_design.models.thrusters import (
     EXHAUST_VELOCITY,
     MIN_PULSE_S,
     ThrusterLayout,
-    cube_pairs_layout,
 )
 from formsync_design.sim.tracking_model import (
     N_THRUSTERS_MAX,
@@ -121,14 +117,6 @@ class FlyaroundScenario:
                              f"{self.layout.count}")
         object.__setattr__(self, "attitude0_deg", np.asarray(self.attitude0_deg, dtype=float))
         object.__setattr__(self, "rate0", np.asarray(self.rate0, dtype=float))
-
-    @classmethod
-    def paper(cls, gains: dict) -> FlyaroundScenario:
-        """The paper's case (section 4) with the design's ``gains`` (the paper prints none;
-        the shipped case file ``verification/zhang2014_flyaround.toml`` chooses them)."""
-        return cls(ZHANG2014_TARGET, ZHANG2014_CHASER, 2000.0,
-                   np.diag([3256.0, 2922.0, 3505.0]), ZHANG2014_FLYAROUND, cube_pairs_layout(),
-                   dict(gains))
 
     @property
     def mean_motion(self) -> float:
