@@ -221,11 +221,6 @@ def simulate(
         raise InputError(f"expected a trigger rule only for a Formation (an agent design "
                          f"declares its sampling rule), received one with a "
                          f"{type(formation).__name__}")
-    if not _is_flyaround(formation) and spec is not None:
-        plant = getattr(getattr(load_design(spec), "decl", None), "plant", "attitude")
-        if plant != "attitude":
-            raise InputError(f"expected a FlyaroundScenario for a design on the {plant} plant, "
-                             f"received a {type(formation).__name__}")
     if _is_flyaround(formation):
         if measured:
             raise InputError("expected sensors and torque_input only for an AgentFormation, "
@@ -233,6 +228,11 @@ def simulate(
         from formsync_design.sim.tracking import simulate_flyaround
 
         return simulate_flyaround(formation, options, spec)
+    if spec is not None:
+        plant = getattr(getattr(load_design(spec), "decl", None), "plant", "attitude")
+        if plant != "attitude":
+            raise InputError(f"expected a FlyaroundScenario for a design on the {plant} plant, "
+                             f"received a {type(formation).__name__}")
     if isinstance(formation, AgentFormation):
         from formsync_design.sim.agents import AgentOptions, simulate_agents
         from formsync_design.spec.lagrangian_agent import agent_of
