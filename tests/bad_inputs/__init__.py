@@ -1,0 +1,1 @@
+"""The bad-input table, one module per area (``ROWS``); see ``tests/badinput.py``."""
