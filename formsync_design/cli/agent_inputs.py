@@ -188,8 +188,10 @@ def graph_and_box(design: Any, graph_arg: Any, gains: Any, defaults: Any, *,
                    free: int) -> tuple[Any, Any]:
     """The graph (``graph_arg``, else the design's case's) and the gain box (``--gain``, the
     case's values for the gains not given, ``free`` of them over their declared ranges) of
-    an agent certificate, the defaults said in ``defaults``."""
-    from formsync_design.cli.defaults import agent_box
+    an agent certificate, the defaults said in ``defaults``; a leader design's ``graph_arg``
+    without pinning gains takes its case's pinning rule
+    (:func:`~formsync_design.cli.defaults.case_pinning`)."""
+    from formsync_design.cli.defaults import agent_box, agent_case, case_pinning
     from formsync_design.graphs.theorem import load_graph
 
     named = parse_gain_assignments(gains)
@@ -200,6 +202,7 @@ def graph_and_box(design: Any, graph_arg: Any, gains: Any, defaults: Any, *,
         assert case is not None
         graph = case.graph()
         defaults.add(f"graph from the case {case.name}: {graph.name} ({graph.n} spacecraft)")
-    else:
-        graph = load_graph(graph_arg)
+    else:  # a leader design keeps the case's pinning rule on --graph (said in defaults)
+        graph = case_pinning(design, case if case is not None else agent_case(design, None, None, None),
+                             load_graph(graph_arg), defaults)
     return graph, agent_box(design, gains, case, defaults, free=free)
