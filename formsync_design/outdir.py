@@ -158,6 +158,16 @@ class FolderLock:
 
 def _make_folder(folder: Path) -> list[Path]:
     """Create ``folder`` (and parents); return the folders created, outermost first."""
+    for a in (folder, *folder.parents):
+        if a.is_symlink() and not a.exists():  # dangling, or a loop: not a file, not a folder
+            try:
+                target = os.readlink(a)
+            except OSError:
+                target = "?"
+            raise InputError(f"expected an output folder, received {str(folder)!r}"
+                             + ("" if a == folder else f" under {str(a)!r}")
+                             + f", a symbolic link to {target[:80]!r}, which does not resolve "
+                             "(a missing target or a loop)")
     if folder.exists() and not folder.is_dir():
         raise InputError(f"expected an output folder, received the file {str(folder)!r}")
     missing = [a for a in (folder, *folder.parents) if not a.exists()]

@@ -39,6 +39,7 @@ from formsync_design.cli.options import (
     closing_lines,
     emit_json,
     parse_gain_assignments,
+    parse_positive,
     write_summary_and_runs,
 )
 from formsync_design.errors import DerivationError, InputError
@@ -202,6 +203,8 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
     note += "".join(f"; {ln}" for ln in defaults.lines if ln.startswith("pinning for --graph"))
     switch = getattr(args, "switch", None) or "sat"
     phi = getattr(args, "boundary_layer", None) or "1/100"
+    if getattr(args, "boundary_layer", None) is not None:
+        parse_positive(args.boundary_layer, "--boundary-layer")
     ctrl = GainBox(tuple(r for r in box.ranges if r.name not in design.decl.multipliers))
     form = certify_formation(design, g, inertias, ctrl, switch=switch, phi=phi)
     evidence = None
@@ -213,7 +216,7 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
         case = agent_case_for(design, None, [f"{k}={v}" for k, v in point.items()])
         evidence = falsify_formation(case, g, switch=getattr(args, "switch", None),
                                      phi=None if getattr(args, "boundary_layer", None) is None
-                                     else float(parse_number(args.boundary_layer, "phi")))
+                                     else float(parse_number(args.boundary_layer, "--boundary-layer")))
     res = None
     not_applicable = ""
     if callable(design.module.get("conditions")):

@@ -235,9 +235,9 @@ def parse_margin(text: str) -> Fraction:
     """
     from formsync_design.gains import parse_number
 
-    m = parse_number(text, "margin")
+    m = parse_number(text, "--margin")
     if m < 0:
-        raise InputError(f"expected a non-negative margin EPS, received {text!r}")
+        raise InputError(f"expected a non-negative margin EPS (--margin), received {text!r}")
     return m
 
 
