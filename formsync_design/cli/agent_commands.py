@@ -182,6 +182,7 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
     hook's reason, and the formation certificate still decides."""
     from formsync_design.certify.agent import certify_agent
     from formsync_design.certify.formation import certify_formation, conditions_scope
+    from formsync_design.cli.certify import certify_activity
     from formsync_design.derive.agent import agent_conditions
     from formsync_design.gains import GainBox, parse_number
     from formsync_design.graphs.theorem import check_theorem_graph
@@ -205,29 +206,32 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
     phi = getattr(args, "boundary_layer", None) or "1/100"
     if getattr(args, "boundary_layer", None) is not None:
         parse_positive(args.boundary_layer, "--boundary-layer")
-    ctrl = GainBox(tuple(r for r in box.ranges if r.name not in design.decl.multipliers))
-    form = certify_formation(design, g, inertias, ctrl, switch=switch, phi=phi)
-    evidence = None
-    if str(form.status) == "undecided" and "not differentiable" in form.scope.covers:
-        # no proof decides: a seeded falsification search in simulation, reported as evidence
-        from formsync_design.verify.falsify import falsify_formation
+    with certify_activity(g, args.format) as bar:
+        bar.note("the formation certificate")
+        ctrl = GainBox(tuple(r for r in box.ranges if r.name not in design.decl.multipliers))
+        form = certify_formation(design, g, inertias, ctrl, switch=switch, phi=phi)
+        evidence = None
+        if str(form.status) == "undecided" and "not differentiable" in form.scope.covers:
+            # no proof decides: a seeded falsification search in simulation, reported as evidence
+            from formsync_design.verify.falsify import falsify_formation
 
-        point = {r.name: (r.lo + r.hi) / 2 for r in ctrl.ranges}
-        case = agent_case_for(design, None, [f"{k}={v}" for k, v in point.items()])
-        evidence = falsify_formation(case, g, switch=getattr(args, "switch", None),
-                                     phi=None if getattr(args, "boundary_layer", None) is None
-                                     else float(parse_number(args.boundary_layer, "--boundary-layer")))
-    res = None
-    not_applicable = ""
-    if callable(design.module.get("conditions")):
-        try:
-            conds = agent_conditions(design, graph)
-        except (InputError, DerivationError) as e:
-            if theorem.inside:  # inside the theorem the hook must apply: a real refusal
-                raise
-            not_applicable = " ".join(str(e).split())
-        else:
-            res = certify_agent(design, conds, box, margin=getattr(args, "margin", None) or 0)
+            point = {r.name: (r.lo + r.hi) / 2 for r in ctrl.ranges}
+            case = agent_case_for(design, None, [f"{k}={v}" for k, v in point.items()])
+            evidence = falsify_formation(case, g, switch=getattr(args, "switch", None),
+                                         phi=None if getattr(args, "boundary_layer", None) is None
+                                         else float(parse_number(args.boundary_layer, "--boundary-layer")))
+        res = None
+        not_applicable = ""
+        if callable(design.module.get("conditions")):
+            try:
+                conds = agent_conditions(design, graph)
+            except (InputError, DerivationError) as e:
+                if theorem.inside:  # inside the theorem the hook must apply: a real refusal
+                    raise
+                not_applicable = " ".join(str(e).split())
+            else:
+                bar.note("the design's conditions(c)")
+                res = certify_agent(design, conds, box, margin=getattr(args, "margin", None) or 0)
     if args.format == "json":
         doc: dict[str, Any] = {**({"outside_theorem": theorem.to_dict()} if not theorem.inside
                                   else {}), "design": design.name, "status": str(form.status),
