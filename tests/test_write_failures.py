@@ -34,14 +34,14 @@ def _kernel_entries(cache: Path) -> list[str]:
 
 
 @pytest.mark.parametrize("limit, where", [
-    (20_000, "our write of the C source"),
-    (200_000, "the compiler's write of its output"),
+    (20_000, "the C source of the simulation kernel fsd_kernel "),  # CasADi's generated file
+    (200_000, "the simulation kernel fsd_kernel (C source and object) into the cache "),  # gcc's
 ])
 def test_a_kernel_build_under_a_file_size_limit_is_exit_3_naming_the_write(
         tmp_path: Path, limit: int, where: str) -> None:
-    """The whole-horizon kernel's C source is larger than 20 kB (our own write fails) and its
-    assembly larger than 200 kB (the compiler's write fails): both are exit 3, one line naming
-    the kernel file and EFBIG, never the compiler; the cache holds no entry afterwards."""
+    """The whole-horizon kernel's generated C source is larger than 20 kB (CasADi's write is cut
+    short) and its assembly larger than 200 kB (the compiler's write fails): both are exit 3,
+    one line naming the file and EFBIG, never the compiler; the cache holds no entry after."""
     cache = tmp_path / "cache"
     env = {**os.environ, "FORMSYNC_CACHE_DIR": str(cache)}
     env.pop("FORMSYNC_NO_COMPILE", None)
@@ -52,10 +52,50 @@ def test_a_kernel_build_under_a_file_size_limit_is_exit_3_naming_the_write(
     assert r.returncode == 3, (where, err)
     assert len(err.splitlines()) == 1 and "Traceback" not in err, err
     assert "WriteError" in err and "EFBIG" in err and "File too large" in err, err
-    assert f"{cache / 'kernels'}/fsd_kernel_" in err and ".so" in err, err
+    assert f"writing {where}" in err, err
+    if limit == 200_000:
+        assert f"{cache / 'kernels'}/fsd_kernel_" in err and ".so failed" in err, err
+    else:
+        assert "fsk.c failed" in err, err
     assert f"ulimit -f) is {limit} bytes" in err, err
     assert "CompilerError" not in err and "gcc failed" not in err and "internal compiler" not in err
     assert _kernel_entries(cache) == [], "a half-built kernel was left in the cache"
+
+
+def test_a_generated_c_source_cut_short_is_a_write_error_not_the_compilers(tmp_path: Path) -> None:
+    """CasADi's code generator does not report a failed write: under a 20 kB limit it left the
+    agent kernel's C source cut short and gcc was blamed ("expected expression at end of
+    input").  Now the short file is the write's failure, named, EFBIG; the cache holds nothing."""
+    cache = tmp_path / "cache"
+    env = {**os.environ, "FORMSYNC_CACHE_DIR": str(cache)}
+    env.pop("FORMSYNC_NO_COMPILE", None)
+    r = subprocess.run([sys.executable, "-c", _LIMITED, "20000", "simulate", "--design", "ma_so3",
+                        "--tf", "1", "--figures", "none"],
+                       capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
+    err = r.stderr.strip().splitlines()[-1]
+    assert r.returncode == 3, r.stderr
+    assert "WriteError: writing the C source of the simulation kernel agent_chunk" in err, err
+    assert "agent_chunk.c failed: File too large (EFBIG)" in err, err
+    assert "CompilerError" not in r.stderr and "gcc" not in r.stderr
+    assert _kernel_entries(cache) == []
+
+
+def test_generated_source_checks_the_file_casadi_wrote(monkeypatch: pytest.MonkeyPatch) -> None:
+    import casadi as ca
+
+    x = ca.SX.sym("x")
+    cg = ca.CodeGenerator("f.c", {"with_header": False})
+    cg.add(ca.Function("f", [x], [2 * x]))
+    whole = ccompile.generated_source(cg, "f.c", "f")
+    assert whole.rstrip().endswith('} /* extern "C" */\n#endif')
+
+    class Short:  # writes the file as a full disk leaves it: cut short, no error
+        def generate(self, prefix: str) -> None:
+            Path(prefix, "f.c").write_text(whole[: len(whole) // 2])
+
+    monkeypatch.setattr(ccompile.os, "statvfs", lambda p: os.statvfs_result((4096,) * 2 + (0,) * 8))
+    with pytest.raises(WriteError, match=r"the C source of f .*f\.c failed: .*\(ENOSPC\)"):
+        ccompile.generated_source(Short(), "f.c", "f")  # type: ignore[arg-type]
 
 
 def test_a_compiler_that_reports_a_full_disk_is_a_write_error(

@@ -18,7 +18,9 @@ A write that fails for want of room while building (the C source, or the compile
 own output: disk full, the file-size limit) raises
 :class:`~formsync_design.errors.WriteError` (exit status 3) naming the kernel and the
 errno, not the compiler; the build folder is removed, and build folders left by a
-killed process are removed by the next build.
+killed process are removed by the next build.  CasADi's code generator does not report a
+failed write (it leaves a file cut short): :func:`generated_source` checks that the file
+it wrote ends as CasADi ends one, and reports a short one as that write's failure.
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ __all__ = [
     "c_compiler",
     "host_tag",
     "build_shared",
+    "generated_source",
     "warn_no_compiler",
 ]
 
@@ -133,6 +136,42 @@ def _room_errno(said: str, returncode: int) -> int | None:
     if returncode == -signal.SIGXFSZ:
         return errno.EFBIG
     return next((code for code, texts in _ROOM_TEXTS.items() if any(t in said for t in texts)), None)
+
+
+#: The last lines of every C file CasADi's code generator writes.
+_CASADI_END = '} /* extern "C" */\n#endif'
+
+
+def _short_write_errno(path: Path) -> int:
+    """Why a file was cut short: the file-size limit (EFBIG), a full disk (ENOSPC), else EIO."""
+    import resource
+
+    soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    if soft != resource.RLIM_INFINITY and path.stat().st_size >= soft:
+        return errno.EFBIG
+    fs = os.statvfs(path.parent)
+    return errno.ENOSPC if fs.f_bavail * fs.f_frsize < (1 << 20) else errno.EIO
+
+
+def generated_source(cg: ca.CodeGenerator, filename: str, what: str) -> str:
+    """The C source CasADi's code generator ``cg`` writes as ``filename`` (in a private
+    temporary folder, read back), checked whole: a file cut short (CasADi does not report a
+    failed write) raises the :class:`~formsync_design.errors.WriteError` of that file.
+
+    >>> x = ca.SX.sym("x")
+    >>> cg = ca.CodeGenerator("f.c", {"with_header": False})
+    >>> cg.add(ca.Function("f", [x], [2 * x]))
+    >>> "casadi_real" in generated_source(cg, "f.c", "a test function")
+    True
+    """
+    with tempfile.TemporaryDirectory() as td:
+        p = Path(td, filename)
+        cg.generate(td + os.sep)
+        text = p.read_text() if p.is_file() else ""
+        if not text.rstrip().endswith(_CASADI_END):
+            code = _short_write_errno(p) if p.is_file() else errno.EIO
+            raise write_error(p, OSError(code, os.strerror(code)), f"the C source of {what}")
+    return text
 
 
 def _remove_stale_builds(d: Path) -> None:
