@@ -179,3 +179,22 @@ def test_an_i_j_pair_file_still_lists_each_link_once(tmp_path: Path) -> None:
 
     with pytest.raises(GraphError, match="twice"):
         make_graph(_write(tmp_path, "g.txt", "1 2\n2 1\n"))
+
+
+def test_simulate_and_region_keep_the_case_pinning_too(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The simulations' graph (``agent_graph``) and every graph of an agent region map take the
+    same rule: ring:6 for lv2012 has every spacecraft pinned with b = 1, and the case resized."""
+    from formsync_design.cli.defaults import agent_case, agent_graph
+    from formsync_design.spec.loader import load_design
+    from formsync_design.verify.defaults import Defaults
+
+    lv = load_design("lv2012")
+    d = Defaults()
+    case, g = agent_graph(agent_case(lv, None, None, None), "ring:6", d, lv)
+    assert case.n == 6 and [str(b) for b in g.pinning] == ["1"] * 6 and g.leader_reachable
+    np.testing.assert_array_equal(g.laplacian, make_graph("ring:6").laplacian)
+    assert any(ln.startswith("pinning for --graph ring:6: every spacecraft") for ln in d.lines)
+    rc = main(["region", "--design", "lv2012", "--graph", "ring:4", "--graph", "ring:5",
+               "--resolution", "2", "--format", "json", "--out", str(tmp_path / "r")])
+    assert rc == 0, capsys.readouterr().err

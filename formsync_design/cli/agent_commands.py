@@ -414,7 +414,12 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     from formsync_design.certify.formation import conditions_scope
     from formsync_design.certify.plots import plot_slices
     from formsync_design.certify.subdivision import map_to_dict
-    from formsync_design.cli.defaults import default_out, refuse_uncertified
+    from formsync_design.cli.defaults import (
+        agent_case,
+        case_pinning,
+        default_out,
+        refuse_uncertified,
+    )
     from formsync_design.cli.options import to_json_value
     from formsync_design.derive.agent import agent_conditions
     from formsync_design.graphs.theorem import check_theorem_graph, load_graph
@@ -437,7 +442,8 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     graph0, box = graph_and_box(design, args.graph[0] if args.graph else None, args.gain,
                                  defaults, free=2)
     mult = agent_multipliers(design, box)
-    graphs = list(args.graph) if args.graph else [graph0]
+    graphs = [graph0, *(case_pinning(design, agent_case(design, None, None, None), load_graph(g),
+                                     defaults) for g in args.graph[1:])] if args.graph else [graph0]
     out = Path(args.out) if args.out else default_out("region", design, graph0.name)
     if not args.out:
         defaults.add(f"output folder {out} (give --out DIR for another)")
