@@ -417,7 +417,7 @@ def parse_agent_case(data: dict, path: str = "<memory>", design: Any = None) -> 
         if not graph_input.strip():
             raise InputError(f"expected [case] graph as a graph spec or a graph file in {path}, "
                              "received ''")
-        graph_input = case_path(graph_input.strip(), path)
+        graph_input = case_path(graph_input.strip(), path, "case.graph")
     elif not isinstance(graph_input, dict):
         raise InputError(f"expected [case] graph as a graph spec or a graph file (or a [graph] "
                          f"table) in {path}, received {repr(graph_input)[:60]}")

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -60,6 +61,7 @@ from formsync_design.models.disturbances import (
 from formsync_design.ranges import check_range, quantity_of
 from formsync_design.sim.formation import Formation, Gains, SimOptions
 from formsync_design.spec.loader import load_spec
+from formsync_design.textio import check_ascii, confined_path, cut
 from formsync_design.tomlio import load_toml
 
 __all__ = ["Case", "load_case", "default_case_path", "parse_case", "make_disturbance",
@@ -223,17 +225,26 @@ def _matrix(v: Any, what: str) -> np.ndarray:
     return np.array([[_num(x, what) for x in r] for r in v])
 
 
-def case_path(text: str, path: str) -> str:
-    """A graph named in the case file at ``path``: a graph spec (``ring:8``, it has a ``:``)
-    or an absolute path as written, else a file relative to the case file's folder (never
-    to the current folder).
+def case_path(text: str, path: str, key: str = "case.graph") -> str:
+    """A graph named in the case file at ``path`` (under ``key``): a graph spec (``ring:8``:
+    a word, a ``:``, no ``/``) as written, else a file inside the case file's folder (never
+    the current folder; an absolute path or one leaving the folder is refused:
+    :func:`~formsync_design.textio.confined_path`).
 
     >>> case_path("ring:8", "cases/c.toml"), case_path("edges.txt", "cases/c.toml")
     ('ring:8', 'cases/edges.txt')
+    >>> case_path("/etc/passwd", "cases/c.toml")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected case.graph as a path inside the folder of cases/c.toml ... (an absolute path)
     """
-    if ":" in text or Path(text).is_absolute():
-        return text
-    return str(Path(path).parent / text)
+    if _SPEC_LIKE.fullmatch(text) and not (Path(path).parent / text).is_file():
+        return check_ascii(text, f"{key} {cut(text, 40)}")
+    return str(confined_path(text, path, key))
+
+
+#: A graph spec as a case file writes it (``ring:8``, ``cycle:5``): never a path out of a folder.
+_SPEC_LIKE = re.compile(r"[A-Za-z]+:[^/\\]*")
 
 
 #: The case files' value checks, public for the other case readers (one line on bad input).
