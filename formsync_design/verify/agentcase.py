@@ -67,6 +67,7 @@ from formsync_design.sim.reference_rate import reference_rate_expressions
 from formsync_design.tomlio import load_toml
 from formsync_design.verify.case import (
     case_matrix,
+    case_name,
     case_number,
     case_numbers,
     case_orbit,
@@ -422,7 +423,7 @@ def parse_agent_case(data: dict, path: str = "<memory>", design: Any = None) -> 
         raise InputError(f"expected [case] graph as a graph spec or a graph file (or a [graph] "
                          f"table) in {path}, received {repr(graph_input)[:60]}")
     case = AgentCase(
-        name=str(meta.get("name", Path(path).stem)), title=str(meta.get("title", "")),
+        name=case_name(meta, path), title=str(meta.get("title", "")),
         source=str(meta.get("source", "")), path=path, kind=str(meta.get("kind", "agents")),
         design=d, design_ref=str(ref), graph_input=graph_input, inertias=np.array(J),
         attitudes=np.array(A), rates=np.array(W),

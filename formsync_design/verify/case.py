@@ -66,7 +66,7 @@ from formsync_design.tomlio import load_toml
 
 __all__ = ["Case", "load_case", "default_case_path", "parse_case", "make_disturbance",
            "case_number", "case_numbers", "case_matrix", "case_orbit", "check_case_tables",
-           "case_path"]
+           "case_path", "case_name"]
 
 _TABLES = {
     "case": {"name", "title", "source", "graph", "assumptions", "spec", "design", "kind"},
@@ -241,6 +241,30 @@ def case_path(text: str, path: str, key: str = "case.graph") -> str:
     if _SPEC_LIKE.fullmatch(text) and not (Path(path).parent / text).is_file():
         return check_ascii(text, f"{key} {cut(text, 40)}")
     return str(confined_path(text, path, key))
+
+
+#: A case's ``name``: ASCII letters, digits, ``_``, ``.``, ``-``, no separator.
+_CASE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,99}")
+
+
+def case_name(meta: dict, path: str) -> str:
+    """``[case] name`` of the case file at ``path`` (default: the file's stem): ASCII
+    ``[A-Za-z0-9][A-Za-z0-9_.-]*``, at most 100 characters, never a path (``"../../x"``).
+
+    >>> case_name({"name": "small3"}, "c.toml"), case_name({}, "cases/my case.toml")
+    ('small3', 'my case')
+    >>> case_name({"name": "../../../x"}, "c.toml")
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected case.name in c.toml as ASCII letters, digits, '_', '.', '-' (a letter or digit first, no '/'), received '../../../x'
+    """
+    if "name" not in meta:
+        return Path(path).stem
+    name = meta["name"]
+    if not isinstance(name, str) or not _CASE_NAME.fullmatch(name):
+        raise InputError(f"expected case.name in {path} as ASCII letters, digits, '_', '.', '-' "
+                         f"(a letter or digit first, no '/'), received {cut(name, 40)}")
+    return name
 
 
 #: A graph spec as a case file writes it (``ring:8``, ``cycle:5``): never a path out of a folder.
@@ -433,7 +457,7 @@ def parse_case(data: dict, path: str = "<memory>") -> Case:
     graph_spec = case_path(graph.strip(), path)
     inertias = np.array(J)
     case = Case(
-        name=str(meta.get("name", Path(path).stem)),
+        name=case_name(meta, path),
         title=str(meta.get("title", "")),
         source=str(meta.get("source", "")),
         path=path,

@@ -51,6 +51,7 @@ from formsync_design.spec.agent import AgentDesign
 from formsync_design.spec.declarations import GainKind
 from formsync_design.spec.loader import load_design
 from formsync_design.tomlio import load_toml
+from formsync_design.verify.case import case_name
 
 __all__ = ["FlyaroundCase", "Variant", "load_flyaround_case", "parse_flyaround_case",
            "parse_variant", "apply_variant", "LAYOUTS", "ENGINE_TABLES"]
@@ -349,7 +350,7 @@ def parse_flyaround_case(data: dict, where: str = "<memory>", design: Any = None
     if not (isinstance(assumptions, list) and all(isinstance(a, str) for a in assumptions)):
         raise InputError(f"expected case.assumptions a list of strings in {where}")
     return FlyaroundCase(
-        name=str(meta.get("name", Path(where).stem)), title=str(meta.get("title", Path(where).stem)),
+        name=case_name(meta, where), title=str(meta.get("title", Path(where).stem)),
         source=str(meta.get("source", "")), path=where, design=design, scenario=scenario,
         options=options, steady_from=steady, thrusters=dict(thr),
         assumptions=tuple(assumptions),
