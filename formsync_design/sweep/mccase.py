@@ -15,7 +15,7 @@ from typing import Any
 
 from formsync_design.errors import InputError
 from formsync_design.sweep.schema import rational_text
-from formsync_design.textio import confined_path
+from formsync_design.textio import confined_path, read_text
 
 __all__ = ["MonteCarloSpec", "case_text"]
 
@@ -101,7 +101,7 @@ def case_text(mc: MonteCarloSpec, design: Any = None) -> tuple[str, str]:
     if mc.switching is not None and mc.K_v is None and not case.gains.K_v:
         raise InputError(f"expected montecarlo.{mc.switching} (the case {mc.case or p.name} gives "
                          "no switching gain), received none")
-    return str(p), p.read_text(encoding="utf-8")
+    return str(p), read_text(p, "case TOML file")
 
 
 def _named_case(case: str, base: str = ".", source: str = "") -> Path:
@@ -140,4 +140,4 @@ def _agent_case_text(mc: MonteCarloSpec, design: Any) -> tuple[str, str]:
     # the campaign's options must be valid for the case (AgentOptions validates; exit 2)
     replace(case.options, **{k: v for k in ("tf", "step", "output_step")
                              if (v := getattr(mc, k)) is not None})
-    return str(p), p.read_text(encoding="utf-8")
+    return str(p), read_text(p, "case TOML file")

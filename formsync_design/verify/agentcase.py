@@ -64,6 +64,7 @@ from formsync_design.models.disturbances import Orbit
 from formsync_design.sim.agents import AgentFormation, AgentOptions, Reference
 from formsync_design.sim.formation import Gains
 from formsync_design.sim.reference_rate import reference_rate_expressions
+from formsync_design.textio import read_bytes
 from formsync_design.tomlio import load_toml
 from formsync_design.verify.case import (
     case_matrix,
@@ -207,7 +208,7 @@ def load_agent_case(path: str | Path, design: Any = None) -> AgentCase:
     if isinstance(meta, dict) and meta.get("kind") == "engine":  # its base case (the engine's
         data = {k: v for k, v in data.items() if k not in ENGINE_TABLES}  # tables: enginecase)
     case = parse_agent_case(data, str(p), design=design)
-    return replace(case, digest=hashlib.sha256(p.read_bytes()).hexdigest())
+    return replace(case, digest=hashlib.sha256(read_bytes(p, "case TOML file")).hexdigest())
 
 
 def case_design_ref(path: str | Path) -> str | None:

@@ -61,7 +61,7 @@ from formsync_design.models.disturbances import (
 from formsync_design.ranges import check_range, quantity_of
 from formsync_design.sim.formation import Formation, Gains, SimOptions
 from formsync_design.spec.loader import load_spec
-from formsync_design.textio import check_ascii, confined_path, cut
+from formsync_design.textio import check_ascii, confined_path, cut, read_bytes
 from formsync_design.tomlio import load_toml
 
 __all__ = ["Case", "load_case", "default_case_path", "parse_case", "make_disturbance",
@@ -308,7 +308,7 @@ def load_case(path: str | Path | None = None) -> Case:
     p = Path(path) if path is not None else default_case_path()
     data = load_toml(p, "case TOML file")
     case = parse_case(data, str(p))
-    return replace(case, digest=hashlib.sha256(p.read_bytes()).hexdigest())
+    return replace(case, digest=hashlib.sha256(read_bytes(p, "case TOML file")).hexdigest())
 
 
 def _case_design(meta: dict, path: str) -> str | None:

@@ -74,6 +74,7 @@ from typing import Any
 
 from formsync_design.errors import InputError
 from formsync_design.ranges import check_range
+from formsync_design.textio import read_bytes
 from formsync_design.tomlio import load_toml
 from formsync_design.verify import metric_modules  # noqa: F401 (registers the metrics)
 from formsync_design.verify.agentcase import ENGINE_TABLES, AgentCase, parse_agent_case
@@ -543,4 +544,4 @@ def load_engine_case(path: str | Path, design: Any = None) -> EngineCase:
 
     p = Path(path)
     case = parse_engine_case(load_toml(p, "case TOML file"), str(p), design=design)
-    return replace(case, digest=hashlib.sha256(p.read_bytes()).hexdigest())
+    return replace(case, digest=hashlib.sha256(read_bytes(p, "case TOML file")).hexdigest())

@@ -50,6 +50,7 @@ from formsync_design.sim.tracking_scenario import ALLOCATIONS, FlyaroundOptions,
 from formsync_design.spec.agent import AgentDesign
 from formsync_design.spec.declarations import GainKind
 from formsync_design.spec.loader import load_design
+from formsync_design.textio import read_bytes
 from formsync_design.tomlio import load_toml
 from formsync_design.verify.case import case_name
 
@@ -283,7 +284,7 @@ def load_flyaround_case(path: str | Path | None = None, design: Any = None) -> F
 
     p = Path(path) if path is not None else case_file("zhang2014_flyaround")
     return replace(parse_flyaround_case(load_toml(p, "case TOML file"), str(p), design),
-                   digest=hashlib.sha256(p.read_bytes()).hexdigest())
+                   digest=hashlib.sha256(read_bytes(p, "case TOML file")).hexdigest())
 
 
 def _design_ref(meta: dict, where: str, design: Any) -> str:
