@@ -134,3 +134,85 @@ def test_non_ascii_characters_are_refused_with_their_column(text, col, code):
     with pytest.raises(InputError, match=f"at column {col}") as e:
         check_ascii(text, "the predicate")
     assert code in str(e.value)
+
+
+# -- the same refusals through the command line (tests/badinput.py's harness) --------------
+
+def _special(kind: str, p: Path) -> None:
+    if kind == "fifo":
+        os.mkfifo(p)
+    elif kind == "loop":
+        p.symlink_to(p.name)
+    elif kind == "dangling":
+        p.symlink_to("nowhere.txt")
+    elif kind == "device":
+        p.symlink_to("/dev/zero")
+    else:  # a 2 GB sparse file
+        with open(p, "wb") as f:
+            f.truncate(2 * 1024**3)
+
+
+@pytest.mark.parametrize("kind, reason", [
+    ("fifo", "a FIFO (named pipe), not a regular file"),
+    ("loop", "a symlink loop"),
+    ("dangling", "a dangling symlink"),
+    ("device", "it leaves the folder"),
+    ("sparse", "of at most 64 MiB"),
+])
+def test_special_graph_files_named_by_a_case_are_refused(tmp_path, capsys, kind, reason):
+    from tests.bad_inputs.readers import _CASE
+    from tests.badinput import BadInput, run_bad_input
+
+    _special(kind, tmp_path / "g.txt")
+    row = BadInput(id=f"special-{kind}", argv=("verify", "c.toml", "--out", "o"), exit=2,
+                   files={"c.toml": _CASE.replace('graph = "path:3"', 'graph = "g.txt"', 1)},
+                   stderr=(reason, "g.txt"))
+    run_bad_input(row, tmp_path, capsys)
+
+
+@pytest.mark.parametrize("kind, reason", [
+    ("fifo", "a FIFO (named pipe), not a regular file"),
+    ("device", "a device, not a regular file"),
+    ("sparse", "of at most 64 MiB"),
+])
+def test_special_files_on_the_command_line_are_refused(tmp_path, capsys, kind, reason):
+    from tests.badinput import BadInput, run_bad_input
+
+    _special(kind, tmp_path / "g.txt")
+    row = BadInput(id=f"cli-{kind}", argv=("certify", "--graph", "g.txt"), exit=2,
+                   stderr=(reason,))
+    run_bad_input(row, tmp_path, capsys)
+
+
+def test_a_command_line_graph_outside_the_folder_is_the_users(tmp_path):
+    from formsync_design.sweep.graphsets import expand_graph_set
+
+    (tmp_path / "graphs").mkdir()
+    (tmp_path / "graphs" / "tri.txt").write_text("1 2\n2 3\n3 1\n")
+    (tmp_path / "camp").mkdir()
+    gs, _ = expand_graph_set("dir:../graphs", base=tmp_path / "camp")  # the command line's
+    assert [g.id for g in gs] == ["file:tri.txt"]
+    with pytest.raises(InputError, match="it leaves the folder"):  # a campaign file's
+        expand_graph_set("dir:../graphs", base=tmp_path / "camp",
+                         source=str(tmp_path / "camp" / "c.toml"))
+
+
+def test_a_symlink_in_a_campaign_graph_folder_cannot_leave_it(tmp_path):
+    from formsync_design.sweep.graphsets import expand_graph_set
+
+    (tmp_path / "secret.txt").write_text("1 2\n2 3\n")
+    (tmp_path / "camp" / "graphs").mkdir(parents=True)
+    (tmp_path / "camp" / "graphs" / "a.txt").symlink_to(tmp_path / "secret.txt")
+    with pytest.raises(InputError, match="it leaves the folder"):
+        expand_graph_set("dir:graphs", base=tmp_path / "camp",
+                         source=str(tmp_path / "camp" / "c.toml"))
+
+
+def test_an_unknown_metric_message_is_short():
+    from formsync_design.verify.metrics import METRICS, metric_spec
+
+    assert len(METRICS) > 50
+    for name in ("peak_torqe", "zzzz", "x" * 500):
+        with pytest.raises(InputError) as e:
+            metric_spec(name, "metrics[1]")
+        assert len(str(e.value)) < 250, str(e.value)
