@@ -216,3 +216,12 @@ def test_an_unknown_metric_message_is_short():
         with pytest.raises(InputError) as e:
             metric_spec(name, "metrics[1]")
         assert len(str(e.value)) < 250, str(e.value)
+
+
+def test_a_formula_with_fullwidth_letters_is_refused():
+    from formsync_design.safeexpr import parse_formula
+
+    # Python's parser reads the fullwidth 'ｅｘｐ' as exp (NFKC): a look-alike name, refused
+    with pytest.raises(InputError, match=r"U\+FF45\) at column 1"):
+        parse_formula("\uff45\uff58\uff50(-t)", "reference.rate[1] in c.toml")
+    assert str(parse_formula("exp(-t)", "reference.rate[1] in c.toml")) == "exp(-t)"
