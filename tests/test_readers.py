@@ -225,3 +225,23 @@ def test_a_formula_with_fullwidth_letters_is_refused():
     with pytest.raises(InputError, match=r"U\+FF45\) at column 1"):
         parse_formula("\uff45\uff58\uff50(-t)", "reference.rate[1] in c.toml")
     assert str(parse_formula("exp(-t)", "reference.rate[1] in c.toml")) == "exp(-t)"
+
+
+def test_a_metric_text_argument_is_ascii():
+    import formsync_design.verify.metrics_scope  # noqa: F401  (registers large_angle_scope)
+    from formsync_design.verify.metrics import METRICS, check_metric_args
+
+    spec = METRICS["large_angle_scope"]
+    with pytest.raises(InputError, match=r"metrics\[2\]\.angles.*U\+09ED\) at column 6"):
+        check_metric_args(spec, {"angles": "120,1\u09ed0"}, "metrics[2]")
+    assert check_metric_args(spec, {"angles": "120,170"}, "metrics[2]")["angles"] == "120,170"
+
+
+def test_a_metric_spacecraft_within_the_formation_is_accepted():
+    from formsync_design.verify.metrics import METRICS, check_metric_args
+
+    spec = METRICS["peak_torque"]
+    assert check_metric_args(spec, {"spacecraft": 3}, "metrics[1]", n=3)["spacecraft"] == 3
+    assert check_metric_args(spec, {}, "metrics[1]", n=3)["spacecraft"] == 0  # all
+    with pytest.raises(InputError, match=r"spacecraft <= 3 .* received 4"):
+        check_metric_args(spec, {"spacecraft": 4}, "metrics[1]", n=3)

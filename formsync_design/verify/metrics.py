@@ -79,8 +79,9 @@ import numpy as np
 from formsync_design.errors import InputError
 from formsync_design.gains import json_number
 from formsync_design.ranges import check_range
+from formsync_design.textio import check_ascii
 from formsync_design.verify.metric_identity import origin, same_metric
-from formsync_design.verify.predicates import Interval
+from formsync_design.verify.predicates import Interval, closest
 
 __all__ = ["Evidence", "MetricValue", "MetricArg", "MetricSpec", "Results", "MetricContext",
            "METRICS", "register_metric", "check_metric_args", "format_number", "point_gains",
@@ -224,8 +225,6 @@ def metric_spec(name: Any, where: str) -> MetricSpec:
     ...
     formsync_design.errors.InputError: expected metrics[1].metric among the registered metrics (closest: peak_torque...), received 'peak_torqe'
     """
-    from formsync_design.verify.predicates import closest
-
     if not isinstance(name, str) or name not in METRICS:
         near = closest(name, METRICS) if isinstance(name, str) else f"{len(METRICS)} names"
         raise InputError(f"expected {where}.metric among the registered metrics ({near}), "
@@ -262,6 +261,7 @@ def check_metric_args(spec: MetricSpec, raw: Mapping[str, Any], where: str,
             if not isinstance(v, str) or (a.choices and v not in a.choices):
                 raise InputError(f"expected {where}.{a.name} one of {list(a.choices)}, "
                                  f"received {v!r:.60}")
+            check_ascii(v, f"{where}.{a.name}")  # numbers in a text ('angles') are ASCII
         else:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or (
                     a.kind == "int" and not isinstance(v, int)):
