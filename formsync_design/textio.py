@@ -36,7 +36,8 @@ from pathlib import Path
 
 from formsync_design.errors import InputError
 
-__all__ = ["MAX_FILE_BYTES", "read_bytes", "read_text", "confined_path", "cut", "check_ascii"]
+__all__ = ["MAX_FILE_BYTES", "read_bytes", "read_text", "check_regular", "confined_path", "cut",
+           "check_ascii"]
 
 #: The largest file read (bytes): graph files, adjacency CSVs, case and campaign TOML files.
 #: A 2000-spacecraft complete graph as an edge list is about 20 MB.
@@ -117,6 +118,28 @@ def _stat(p: Path, what: str, error: type[InputError]) -> os.stat_result:
         raise error(f"expected {_an(what)}, received {str(p)!r} ({why})") from None
 
 
+def check_regular(path: str | Path, what: str, error: type[InputError] = InputError) -> int:
+    """The size of ``path`` when it is a regular file of at most :data:`MAX_FILE_BYTES`
+    (symlinks followed), without opening it; else the one-line refusal :func:`read_bytes`
+    gives (a folder, a FIFO, a device, a symlink loop, a dangling symlink, no such file,
+    too large).
+
+    >>> check_regular("/no/such.toml", "existing case TOML file")
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected an existing case TOML file, received '/no/such.toml' (no such file)
+    """
+    p = Path(path)
+    st = _stat(p, what, error)
+    why = _kind(st.st_mode)
+    if why is not None:
+        raise error(f"expected {_an(what)}, received {str(p)!r} ({why})")
+    if st.st_size > MAX_FILE_BYTES:
+        raise error(f"expected {_an(what)} of at most {MAX_FILE_BYTES // 2**20} MiB, received "
+                    f"{str(p)!r} ({st.st_size} bytes)")
+    return st.st_size
+
+
 def read_bytes(path: str | Path, what: str, error: type[InputError] = InputError) -> bytes:
     """The bytes of an existing, readable regular file of at most :data:`MAX_FILE_BYTES`.
 
@@ -141,13 +164,7 @@ def read_bytes(path: str | Path, what: str, error: type[InputError] = InputError
     formsync_design.errors.InputError: expected a graph file, received '/dev/zero' (a device, not a regular file)
     """
     p = Path(path)
-    st = _stat(p, what, error)
-    why = _kind(st.st_mode)
-    if why is not None:
-        raise error(f"expected {_an(what)}, received {str(p)!r} ({why})")
-    if st.st_size > MAX_FILE_BYTES:
-        raise error(f"expected {_an(what)} of at most {MAX_FILE_BYTES // 2**20} MiB, received "
-                    f"{str(p)!r} ({st.st_size} bytes)")
+    check_regular(p, what, error)
     try:  # O_NONBLOCK: should the path have become a FIFO since the stat, open does not block
         fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
     except OSError as e:

@@ -245,3 +245,18 @@ def test_a_metric_spacecraft_within_the_formation_is_accepted():
     assert check_metric_args(spec, {}, "metrics[1]", n=3)["spacecraft"] == 0  # all
     with pytest.raises(InputError, match=r"spacecraft <= 3 .* received 4"):
         check_metric_args(spec, {"spacecraft": 4}, "metrics[1]", n=3)
+
+
+@pytest.mark.parametrize("kind, reason", [
+    ("fifo", "a FIFO (named pipe), not a regular file"),
+    ("loop", "a symlink loop"),
+    ("device", "a device, not a regular file"),
+])
+@pytest.mark.parametrize("argv", [("verify", "g.toml"), ("simulate", "--case", "g.toml"),
+                                  ("sweep", "--campaign", "g.toml", "--out", "o")])
+def test_special_case_and_campaign_files_are_refused(tmp_path, capsys, kind, reason, argv):
+    from tests.badinput import BadInput, run_bad_input
+
+    _special(kind, tmp_path / "g.toml")
+    run_bad_input(BadInput(id=f"cli-{kind}", argv=argv, exit=2, stderr=(reason,)), tmp_path,
+                  capsys)
