@@ -260,3 +260,17 @@ def test_special_case_and_campaign_files_are_refused(tmp_path, capsys, kind, rea
     _special(kind, tmp_path / "g.toml")
     run_bad_input(BadInput(id=f"cli-{kind}", argv=argv, exit=2, stderr=(reason,)), tmp_path,
                   capsys)
+
+
+def test_a_compared_sweeps_files_cannot_be_symlinks_out_of_the_campaign_folder(tmp_path):
+    from formsync_design.sweep.campaign import load_campaign
+
+    (tmp_path / "elsewhere").mkdir()
+    (tmp_path / "elsewhere" / "results.csv").write_text("x\n")
+    (tmp_path / "camp" / "prior").mkdir(parents=True)
+    (tmp_path / "camp" / "prior" / "manifest.json").write_text("{}")
+    (tmp_path / "camp" / "prior" / "results.csv").symlink_to(tmp_path / "elsewhere" / "results.csv")
+    camp = tmp_path / "camp" / "c.toml"
+    camp.write_text('[campaign]\nname = "t"\ngraphs = ["ring:4"]\ncompare = "prior"\n')
+    with pytest.raises(InputError, match="campaign.compare.*it leaves the folder"):
+        load_campaign(camp)

@@ -98,7 +98,8 @@ def campaign_field(key: str, value: Any, base: Path, source: str = "") -> Any:
     resolve against; ``source``: the campaign file, whose ``compare`` path must stay inside
     ``base``); a one-line :class:`InputError` naming the field otherwise."""
     if key == "compare" and source and isinstance(value, str) and value.strip():
-        confined_path(value.strip(), source, "campaign.compare", base=base)
+        for rel in (value.strip(), f"{value.strip()}/manifest.json", f"{value.strip()}/results.csv"):
+            confined_path(rel, source, "campaign.compare", base=base)  # a symlink out: refused
     return CAMPAIGN_FIELDS[key](value, base)
 
 
