@@ -113,9 +113,9 @@ def _stat(p: Path, what: str, error: type[InputError]) -> os.stat_result:
         elif e.errno in (errno.ENOENT, errno.ENOTDIR):
             why = "no such file"
         else:
-            raise error(f"expected a readable {what}, received {str(p)!r} "
+            raise error(f"expected a readable {what}, received {cut(str(p), 120)} "
                         f"({e.strerror or e})") from None
-        raise error(f"expected {_an(what)}, received {str(p)!r} ({why})") from None
+        raise error(f"expected {_an(what)}, received {cut(str(p), 120)} ({why})") from None
 
 
 def check_regular(path: str | Path, what: str, error: type[InputError] = InputError) -> int:
@@ -133,10 +133,10 @@ def check_regular(path: str | Path, what: str, error: type[InputError] = InputEr
     st = _stat(p, what, error)
     why = _kind(st.st_mode)
     if why is not None:
-        raise error(f"expected {_an(what)}, received {str(p)!r} ({why})")
+        raise error(f"expected {_an(what)}, received {cut(str(p), 120)} ({why})")
     if st.st_size > MAX_FILE_BYTES:
         raise error(f"expected {_an(what)} of at most {MAX_FILE_BYTES // 2**20} MiB, received "
-                    f"{str(p)!r} ({st.st_size} bytes)")
+                    f"{cut(str(p), 120)} ({st.st_size} bytes)")
     return st.st_size
 
 
@@ -166,14 +166,14 @@ def read_bytes(path: str | Path, what: str, error: type[InputError] = InputError
     p = Path(path)
     check_regular(p, what, error)
     try:  # O_NONBLOCK: should the path have become a FIFO since the stat, open does not block
-        fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+        fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK | os.O_NOCTTY | getattr(os, "O_CLOEXEC", 0))
     except OSError as e:
-        raise error(f"expected a readable {what}, received {str(p)!r} "
+        raise error(f"expected a readable {what}, received {cut(str(p), 120)} "
                     f"({e.strerror or e})") from None
     try:
         why = _kind(os.fstat(fd).st_mode)
         if why is not None:
-            raise error(f"expected {_an(what)}, received {str(p)!r} ({why})")
+            raise error(f"expected {_an(what)}, received {cut(str(p), 120)} ({why})")
         chunks: list[bytes] = []
         size = 0
         while True:
@@ -183,11 +183,11 @@ def read_bytes(path: str | Path, what: str, error: type[InputError] = InputError
             size += len(chunk)
             if size > MAX_FILE_BYTES:
                 raise error(f"expected {_an(what)} of at most {MAX_FILE_BYTES // 2**20} MiB, "
-                            f"received {str(p)!r} (more than that, and growing)")
+                            f"received {cut(str(p), 120)} (more than that, and growing)")
             chunks.append(chunk)
         return b"".join(chunks)
     except OSError as e:
-        raise error(f"expected a readable {what}, received {str(p)!r} "
+        raise error(f"expected a readable {what}, received {cut(str(p), 120)} "
                     f"({e.strerror or e})") from None
     finally:
         os.close(fd)
@@ -207,12 +207,12 @@ def read_text(path: str | Path, what: str, error: type[InputError] = InputError)
     """
     raw = read_bytes(path, what, error)
     if b"\x00" in raw:
-        raise error(f"expected a text {what}, received {str(Path(path))!r} (a binary file)")
+        raise error(f"expected a text {what}, received {cut(str(path), 120)} (a binary file)")
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError as e:
         raise error(
-            f"expected a UTF-8 {what}, received {str(Path(path))!r} (byte {e.start} is not UTF-8)"
+            f"expected a UTF-8 {what}, received {cut(str(path), 120)} (byte {e.start} is not UTF-8)"
         ) from None
 
 
