@@ -73,11 +73,11 @@ def check_ascii(text: str, where: str, error: type[InputError] = InputError) -> 
     >>> check_ascii("peak < \u09ea", "the predicate")
     Traceback (most recent call last):
     ...
-    formsync_design.errors.InputError: expected ASCII characters (digits 0-9) in the predicate, received '৪' (U+09EA) at column 8
+    formsync_design.errors.InputError: expected ASCII characters in the predicate, received '৪' (U+09EA) at column 8
     """
     for col, ch in enumerate(text, start=1):
         if ord(ch) > 127:
-            raise error(f"expected ASCII characters (digits 0-9) in {where}, received {ch!r} "
+            raise error(f"expected ASCII characters in {where}, received {ch!r} "
                         f"(U+{ord(ch):04X}) at column {col}")
     return text
 

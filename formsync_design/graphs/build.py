@@ -469,6 +469,8 @@ def make_graph(obj: Any) -> Graph:
             return _read_csv(p) if p.suffix.lower() == ".csv" else _read_edge_list(p)
         if spec:
             return parse_graph_spec(text)
+        if ":" in text:  # a look-alike family ('ｒｉｎｇ:8') is named with its column
+            check_ascii(text, f"the graph spec {cut(text, 40)}", GraphError)
         raise GraphError(
             f"expected a graph spec ({GRAPH_SPEC_HELP}) or an existing file, received {cut(text, 40)}"
         )
