@@ -201,6 +201,16 @@ ROWS: list[BadInput] = [
         source=_SRC,
     ),
     BadInput(
+        id="readers-campaign-montecarlo-case-outside-its-folder",
+        argv=("sweep", "--campaign", "sub/c.toml", "--out", "o"),
+        exit=2,
+        files={"sub/c.toml": '[campaign]\nname = "t"\ngraphs = ["ring:3"]\n'
+                             '[montecarlo]\nruns = 2\ncase = "../case.toml"\n',
+               "case.toml": _CASE},
+        stderr=("montecarlo.case", "it leaves the folder"),
+        source=_SRC,
+    ),
+    BadInput(
         id="readers-campaign-graph-range-bengali-digit",
         argv=("sweep", "--campaign", "c.toml", "--out", "o"),
         exit=2,
