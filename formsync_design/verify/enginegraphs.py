@@ -12,6 +12,7 @@ from typing import Any
 from formsync_design.errors import InputError
 from formsync_design.graphs.digraph_io import directed_cycle, parse_cycle_spec
 from formsync_design.ranges import check_range
+from formsync_design.textio import check_ascii, cut
 from formsync_design.verify.case import case_path
 
 __all__ = ["directed_cycle", "formation_graph"]
@@ -59,7 +60,8 @@ def formation_graph(row: dict, where: str, case_graph: Callable[[], Any],
     if spec == "case":
         g = case_graph()
         return (g if pin is None else make_digraph(g, pinning=pin)), "the case's graph"
+    check_ascii(spec, f"{where}.graph {cut(spec, 40)}")
     cycle = parse_cycle_spec(spec)  # the one parser of cycle:N, also --graph's
     if cycle is not None:
         return (cycle if pin is None else make_digraph(cycle, pinning=pin)), spec
-    return make_digraph(case_path(spec, path), pinning=pin), spec
+    return make_digraph(case_path(spec, path, f"{where}.graph"), pinning=pin), spec
