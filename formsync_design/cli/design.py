@@ -115,9 +115,9 @@ def run(args: argparse.Namespace) -> int:
             rs[n] = r
         box = GainBox(tuple(rs[n] for n in spec.gains))
     margin = parse_margin(args.margin)
-    pen = parse_number(args.penalty, "penalty")
+    pen = parse_number(args.penalty, "--penalty")
     if pen < 0:
-        raise InputError(f"expected a non-negative penalty, received {args.penalty!r}")
+        raise InputError(f"expected a non-negative penalty (--penalty), received {args.penalty!r}")
     if not 1 <= args.betas <= 1000:
         raise InputError(f"expected --betas in 1..1000, received {args.betas}")
     if args.min_delay is not None or args.graphs_set is not None or args.torque_limit is not None:

@@ -115,6 +115,11 @@ def _main(argv: Sequence[str] | None) -> int:
         _fail("", "interrupted (Ctrl-C)")
         return EXIT_INTERRUPTED
     command = str(args.command)
+    out = getattr(args, "out", None)
+    if isinstance(out, str) and not out.strip():  # Path("") is the working folder: never implied
+        _fail(command, f"expected --out DIR naming a folder, received an empty name {out!r} (give "
+                       "--out . for the working folder)")
+        return EXIT_USAGE
     try:
         with outdir.session():  # every --out a command claimed is released however it ends
             return int(args.func(args))

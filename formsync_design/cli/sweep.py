@@ -372,12 +372,14 @@ def run(args: argparse.Namespace) -> int:
             if refused is not None:
                 return refused
         camp = _campaign_from_flags(args)
-    prog: Progress | None = None
+    # the bar is up before the first task ends (its elapsed time moves while a long task runs,
+    # e.g. a graph of 2000 spacecraft); the count of tasks is known from the first finished one
+    prog = Progress(None, "sweep tasks", unit="task", tick=True,
+                    enabled=not args.no_progress and args.format == "text")
 
     def progress(done: int, total: int) -> None:
-        nonlocal prog
-        if prog is None:
-            prog = Progress(total, "sweep tasks", enabled=not args.no_progress and args.format == "text")
+        if prog.total is None:
+            prog.set_total(total)
         prog.update(done - prog.done)
 
     try:
@@ -386,13 +388,14 @@ def run(args: argparse.Namespace) -> int:
             n_workers=args.workers, timeout=timeout, progress=progress, command=_command(args),
         )
     except KeyboardInterrupt:
-        if prog is not None:
-            prog.close()  # the bar's line is cleared before the message
+        prog.close()  # the bar's line is cleared before the message
         journal = Path(args.out) / "journal.jsonl"
         kept = f"finished rows are kept in {journal}; " if journal.is_file() else ""
         sys.stderr.write(f"formsync sweep: interrupted (Ctrl-C); {kept}the same command with "
                          "--resume completes the campaign\n")
         return EXIT_INTERRUPTED
+    finally:
+        prog.close()  # also when no task was pending, or a task failed
     if args.format == "json":
         emit_json({
             "out": str(res.out), "sha256": res.sha256, "design": res.design, "graphs": res.graphs,

@@ -48,7 +48,7 @@ MAX_SPACECRAFT = 2000
 
 GRAPH_SPEC_HELP = (
     "ring:N | path:N | star:N | complete:N | circulant:N:a,b,... | random:N:P:SEED "
-    "| an edge-list file (1-based 'i j' per line) | an adjacency CSV file"
+    "| cycle:N (directed) | an edge-list file (1-based 'i j' per line) | an adjacency CSV file"
 )
 
 
@@ -396,6 +396,34 @@ def _is_float(text: str) -> bool:
     return True
 
 
+def _symmetric_arc_list(path: Path) -> Graph | None:
+    """The undirected graph of an arc-list file (``i j w`` lines, the digraph format: each
+    line one arc) that lists every link both ways with weight 1 and no leader; else None.
+    A file of ``i j`` pairs alone is this reader's format, where each link is listed once.
+
+    >>> import tempfile
+    >>> p = Path(tempfile.mkdtemp()) / "g.txt"
+    >>> _ = p.write_text("1 2 1\\n2 1 1\\n2 3 1\\n3 2 1\\n")
+    >>> _symmetric_arc_list(p).edges, _symmetric_arc_list(p).name == str(p)
+    (((0, 1), (1, 2)), True)
+    """
+    from formsync_design.graphs.digraph_io import read_edge_list
+
+    lines = (ln.split("#", 1)[0].replace(",", " ").split() for ln in _read_text(path, "edge-list file").splitlines())
+    if not any(len(f) == 3 for f in lines):
+        return None
+    try:
+        d = read_edge_list(path)
+    except GraphError:
+        return None
+    if d.has_leader or not d.is_undirected or any(w != 1 for _, _, w in d.arcs):
+        return None
+    try:
+        return Graph(d.n, tuple(sorted({(i, j) for i, j, _ in d.arcs if i < j})), str(path))
+    except GraphError:  # e.g. disconnected: the digraph reader's reading stands
+        return None
+
+
 def _read_csv(path: Path) -> Graph:
     import io
 
@@ -466,7 +494,15 @@ def make_graph(obj: Any) -> Graph:
         # an existing path that is no regular file (a folder, a FIFO, a symlink loop) is
         # refused by the reader, each with its own reason
         if p.is_file() or (not spec and os.path.lexists(p)):
-            return _read_csv(p) if p.suffix.lower() == ".csv" else _read_edge_list(p)
+            if p.suffix.lower() == ".csv":
+                return _read_csv(p)
+            try:
+                return _read_edge_list(p)
+            except GraphError as first:  # an i j w arc list listing each link both ways?
+                g = _symmetric_arc_list(p) if p.is_file() else None
+                if g is None:
+                    raise first from None
+                return g
         if spec:
             return parse_graph_spec(text)
         if ":" in text:  # a look-alike family ('ｒｉｎｇ:8') is named with its column

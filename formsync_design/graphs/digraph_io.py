@@ -11,7 +11,9 @@ Accepted inputs (:func:`make_digraph`, :func:`digraph_from_edges`)
   default 1) means ``v`` receives from ``u`` (arcs from the node ``leader``
   give pinning gains); an undirected :class:`networkx.Graph` gives both arcs;
 * an undirected :class:`~formsync_design.graphs.build.Graph` or a graph spec
-  such as ``ring:6`` (every edge becomes two arcs of weight 1).
+  such as ``ring:6`` (every edge becomes two arcs of weight 1);
+* the directed cycle ``cycle:N`` (:func:`directed_cycle`: ``i`` receives from
+  ``i - 1``, spacecraft 1 from ``N``), the spec a case file's formations take too.
 
 Weights are parsed exactly with :func:`formsync_design.gains.parse_number`.
 """
@@ -32,9 +34,10 @@ from formsync_design.errors import GraphError, InputError
 from formsync_design.gains import parse_number
 from formsync_design.graphs.build import Graph, check_size, make_graph
 from formsync_design.graphs.digraph import Arc, Digraph
-from formsync_design.textio import cut, read_text
+from formsync_design.textio import check_ascii, cut, read_text
 
-__all__ = ["make_digraph", "digraph_from_edges", "read_edge_list"]
+__all__ = ["make_digraph", "digraph_from_edges", "read_edge_list", "directed_cycle",
+           "parse_cycle_spec"]
 
 
 def _pinning(pinning: Any, n: int, name: str) -> tuple[Fraction, ...]:
@@ -233,6 +236,35 @@ def _from_networkx(g: Any, pinning: Any, leader: Any) -> Digraph:
     )
 
 
+def directed_cycle(n: int) -> Digraph:
+    """The directed cycle on ``n`` spacecraft (``i`` receives from ``i - 1``, 1 from ``n``),
+    the graph of the spec ``cycle:N``.
+
+    >>> g = directed_cycle(4)
+    >>> g.name, g.n, g.is_undirected
+    ('cycle:4', 4, False)
+    """
+    return digraph_from_edges([(i, i - 1 if i > 1 else n, 1) for i in range(1, n + 1)], n=n,
+                              name=f"cycle:{n}")
+
+
+def parse_cycle_spec(text: str) -> Digraph | None:
+    """The digraph of the spec ``cycle:N`` (None for a text that is not a ``cycle:`` spec);
+    a malformed or over-size one is refused (:class:`~formsync_design.errors.GraphError`).
+
+    >>> parse_cycle_spec("cycle:3").arcs == directed_cycle(3).arcs, parse_cycle_spec("ring:3")
+    (True, None)
+    """
+    if not text.lower().startswith("cycle:"):
+        return None
+    check_ascii(text, f"the graph spec {cut(text, 40)}", GraphError)
+    m = re.fullmatch(r"cycle:([0-9]{1,9})", text.strip())
+    if m is None or int(m.group(1)) < 2:
+        raise GraphError(f"expected cycle:N with an integer N >= 2, received {cut(text, 40)}")
+    check_size(int(m.group(1)), text)
+    return directed_cycle(int(m.group(1)))
+
+
 def make_digraph(obj: Any, pinning: Any = None, *, leader: Any = None) -> Digraph:
     """Build a :class:`Digraph` from any supported input (module docstring).
 
@@ -240,7 +272,7 @@ def make_digraph(obj: Any, pinning: Any = None, *, leader: Any = None) -> Digrap
     ----------
     obj : str, os.PathLike, networkx graph, array_like, Graph or Digraph
         An edge-list or ``.csv`` adjacency file, an undirected graph spec
-        (``ring:6``), a networkx graph, a square adjacency array, an
+        (``ring:6``) or ``cycle:N``, a networkx graph, a square adjacency array, an
         undirected :class:`~formsync_design.graphs.build.Graph`.
     pinning : sequence or mapping, optional
         Pinning gains ``b_1..b_N`` or ``{i: b_i}`` (replaces any in ``obj``).
@@ -270,7 +302,8 @@ def make_digraph(obj: Any, pinning: Any = None, *, leader: Any = None) -> Digrap
             return _from_matrix(rows, pinning, str(p))
         if p.is_file():
             return read_edge_list(p, pinning)
-        return make_digraph(make_graph(os.fspath(obj)), pinning)
+        cycle = parse_cycle_spec(os.fspath(obj))
+        return make_digraph(cycle if cycle is not None else make_graph(os.fspath(obj)), pinning)
     try:
         import networkx as nx
     except ImportError:  # pragma: no cover - networkx is a dependency

@@ -60,7 +60,8 @@ def load_graph(obj: Any) -> Graph | Digraph:
             d = make_digraph(obj)
         except GraphError as second:
             # both readers refuse: the reason is the one of the reader whose format it is
-            raise (second if _weighted_edge_list(obj) else first) from None
+            cycle = isinstance(obj, str) and obj.lower().startswith("cycle:")
+            raise (second if cycle or _weighted_edge_list(obj) else first) from None
     return d
 
 

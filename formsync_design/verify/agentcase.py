@@ -175,6 +175,34 @@ class AgentCase:
                              f"received {g.name!r} with {g.n}")
         return g
 
+    def pinning_rule(self, n: int) -> tuple[tuple[Any, ...], str] | None:
+        """The case's pinning gains for a graph of ``n`` spacecraft and the rule, in words
+        (None when the case pins no spacecraft).
+
+        The case's own size keeps its gains; another size keeps the case's rule: every
+        spacecraft pinned with one gain ``b``, or spacecraft 1 alone.  Other pinnings give no
+        rule for another size (:class:`~formsync_design.errors.InputError`).
+
+        >>> from formsync_design.resources import case_file
+        >>> pins, rule = load_agent_case(case_file("lv2012")).pinning_rule(3)
+        >>> [str(b) for b in pins], rule
+        (['1', '1', '1'], 'every spacecraft pinned with b = 1 (the rule of the case lv2012)')
+        """
+        pins = tuple(self.graph().pinning)
+        if not any(b > 0 for b in pins):
+            return None
+        if n == self.n:
+            return pins, f"the pinning gains of the case {self.name}"
+        if len(set(pins)) == 1:
+            return (pins[0],) * n, f"every spacecraft pinned with b = {pins[0]} (the rule of the case {self.name})"
+        if pins[0] > 0 and not any(pins[1:]):
+            return ((pins[0],) + (pins[0] * 0,) * (n - 1),
+                    f"spacecraft 1 pinned with b = {pins[0]} (the rule of the case {self.name})")
+        raise InputError(
+            f"expected a graph with pinning gains for {n} spacecraft, received a graph without: the "
+            f"case {self.name} pins its {self.n} spacecraft with {[str(b) for b in pins]}, which "
+            "gives no rule for another size; give --graph as an edge-list file with 'i 0 b' lines")
+
     def cycled(self, n: int) -> AgentCase:
         """The case resized to ``n`` spacecraft: spacecraft ``i`` takes the inertia, initial
         attitude, rate and controller states of the case's spacecraft ``i % self.n`` (as a
