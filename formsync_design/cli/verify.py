@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from formsync_design.cli.options import add_format_option
+from formsync_design.cli.options import add_format_option, add_trust_option
 
 __all__ = ["add_parser", "run"]
 
@@ -60,6 +60,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--strict", action="store_true",
                    help="exit 1 unless every claim holds (undecided is not a pass)")
     add_format_option(p)
+    add_trust_option(p)
     p.set_defaults(func=run)
 
 
