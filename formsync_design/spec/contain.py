@@ -172,8 +172,8 @@ def contained(where: str, what: str) -> Iterator[None]:
     finally:
         if math.isfinite(limit):
             _disarm()
-            signal.signal(signal.SIGALRM, old_handler)
-        os._exit = old_exit  # type: ignore[assignment]
+            signal.signal(signal.SIGALRM, old_handler if old_handler is not None else signal.SIG_DFL)
+        os._exit = old_exit
         _STATE.depth, _STATE.deadline = 0, math.inf
 
 
