@@ -180,8 +180,9 @@ def _escape(command: str, e: BaseException, code: list[Any]) -> int:
         if isinstance(e, SystemExit):
             raise e
         return _internal(command, e)
-    _fail(command, f"expected design code to return, received {type(e).__name__}"
-                   f"{e.args!r:.40} while running {', '.join(c.text() for c in code)}")
+    args = ", ".join(repr(a) for a in e.args)[:40]
+    _fail(command, f"expected design code to return, received {type(e).__name__}({args}) "
+                   f"while running {', '.join(c.text() for c in code)}")
     return EXIT_USAGE
 
 
