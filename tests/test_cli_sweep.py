@@ -9,6 +9,7 @@ exact rationals with the Laplacian spectrum from networkx.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import signal
@@ -263,6 +264,11 @@ def test_spec_reaches_the_sweep_from_the_flag_and_from_the_campaign_file(tmp_pat
     assert [r["ref_status"] for r in fromfile] == [r["ref_status"] for r in variant]
     man = json.loads((tmp_path / "fromfile" / "manifest.json").read_text())
     assert man["spec"]["name"] == "doubled-ko"
+    # design code that is not shipped is named, with its hash, in the manifest and the summary
+    sha = hashlib.sha256(spec.read_bytes()).hexdigest()
+    assert man["design_code"] == [{"path": str(spec), "sha256": sha}]
+    assert f"(sha256 `{sha}`)" in (tmp_path / "fromfile" / "summary.md").read_text()
+    assert "design_code" not in json.loads((tmp_path / "paper" / "manifest.json").read_text())
     # --spec and a campaign spec together are ambiguous
     capsys.readouterr()
     assert main(["sweep", "--campaign", str(camp), "--spec", str(spec), "--workers", "0",
