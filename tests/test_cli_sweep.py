@@ -630,8 +630,10 @@ def test_compare_with_another_sweep_matches_graphs_up_to_relabelling(tmp_path, c
     star = tmp_path / "star6.txt"
     star.write_text("".join(f"6 {i}\n" for i in range(1, 6)))  # the centre is spacecraft 6
     camp = tmp_path / "pd.toml"
+    # the campaign names its graph file and the compared sweep beside it (a data file's paths
+    # stay inside its folder)
     camp.write_text('[campaign]\nname = "pd"\ndesign = "pd_consensus"\ngraphs = ["'
-                    + str(star) + '", "path:3"]\ncompare = "' + str(base)
+                    + star.name + '", "path:3"]\ncompare = "' + base.name
                     + '"\n[region]\nresolution = 1\n[design]\nbetas = 1\n')
     assert main(["sweep", "--campaign", str(camp), "--workers", "0", "--no-progress",
                  "--out", str(tmp_path / "pd")]) == 0
@@ -642,13 +644,13 @@ def test_compare_with_another_sweep_matches_graphs_up_to_relabelling(tmp_path, c
     from formsync_design.sweep import campaign_hash, expand_graphs, load_campaign
 
     c = load_campaign(camp)
-    gs, _ = expand_graphs(c.graphs)
+    gs, _ = expand_graphs(c.graphs, base=Path(c.base), source=c.source)
     h = campaign_hash(c, gs)
     res = base / "results.csv"
     res.write_text(res.read_text().replace(",refuted,", ",certified,"))
     assert campaign_hash(c, gs) != h
     capsys.readouterr()
-    camp.write_text(camp.read_text().replace(str(base), str(tmp_path / "nowhere")))
+    camp.write_text(camp.read_text().replace(f'compare = "{base.name}"', 'compare = "nowhere"'))
     assert main(["sweep", "--campaign", str(camp), "--workers", "0", "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err
     assert "finished sweep folder" in err

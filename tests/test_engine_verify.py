@@ -221,7 +221,7 @@ BAD = [
      "metric among"),
     ('predicate = "tconv < 11"', 'predicate = "__import__(\'os\').system(\'x\') < 1"', "column"),
     ('predicate = "tconv < 11"', 'predicate = "tconv < 11 < 12"', "one comparison"),
-    ('predicate = "tconv < 11"', 'predicate = "nothing < 11"', "metric id among"),
+    ('predicate = "tconv < 11"', 'predicate = "nothing < 11"', "metric id of the case"),
     ("max_rate = 0.01", "max_rate = 1e9", "magnitude"),
     ("runs = 2", "runs = 0", "runs"),
     ("runs = 2", "runs = 2.5", "integer"),

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import csv
 import os
+import re
 from collections.abc import Iterable, Mapping, Sequence
 from fractions import Fraction
 from pathlib import Path
@@ -31,6 +32,7 @@ from formsync_design.errors import GraphError, InputError
 from formsync_design.gains import parse_number
 from formsync_design.graphs.build import Graph, check_size, make_graph
 from formsync_design.graphs.digraph import Arc, Digraph
+from formsync_design.textio import cut, read_text
 
 __all__ = ["make_digraph", "digraph_from_edges", "read_edge_list"]
 
@@ -121,10 +123,7 @@ def read_edge_list(path: str | os.PathLike[str], pinning: Any = None) -> Digraph
     ([[2, 1, 0.5], [3, 2, 1], [1, 0, 2]], True)
     """
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise GraphError(f"expected a readable UTF-8 edge-list file, received {str(p)!r} ({e})") from None
+    text = read_text(p, "edge-list file", GraphError)
     triples: list[tuple[int, int, Any]] = []
     declared: int | None = None
     seen: dict[tuple[int, int], int] = {}  # (i, j) -> the line that gave it
@@ -134,20 +133,22 @@ def read_edge_list(path: str | os.PathLike[str], pinning: Any = None) -> Digraph
         if not line:
             c = comment.replace(" ", "").lower()
             if c.startswith("n="):
-                try:
-                    declared = int(c[2:])
-                except ValueError:
-                    raise GraphError(f"expected '# n = N' with an integer N, received {raw.strip()!r} at {p}:{lineno}") from None
+                if not re.fullmatch(r"[0-9]{1,12}", c[2:]):
+                    raise GraphError(f"expected '# n = N' with an integer N (digits 0-9), received "
+                                     f"{cut(c[2:])} at {p}:{lineno}")
+                declared = int(c[2:])
             continue
         f = line.replace(",", " ").split()
-        try:
-            if len(f) not in (2, 3):
-                raise ValueError
-            triples.append((int(f[0]), int(f[1]), f[2] if len(f) == 3 else 1))
-        except ValueError:
-            raise GraphError(f"expected 'i j' or 'i j w' with integer i, j, received {raw.strip()!r} at {p}:{lineno}") from None
+        if len(f) not in (2, 3):
+            raise GraphError(f"expected 'i j' or 'i j w' with integer i, j, received {len(f)} "
+                             f"fields {cut(line)} at {p}:{lineno}")
+        bad = next((x for x in f[:2] if not re.fullmatch(r"[0-9]{1,12}", x)), None)
+        if bad is not None:
+            raise GraphError(f"expected 'i j' or 'i j w' with integer i, j (digits 0-9), received "
+                             f"{cut(bad)} at {p}:{lineno}, column {raw.index(bad) + 1}")
+        triples.append((int(f[0]), int(f[1]), f[2] if len(f) == 3 else 1))
         i, j, w = triples[-1]
-        _check_line(i, j, w, seen, raw.strip(), f"{p}:{lineno}")
+        _check_line(i, j, w, seen, line if len(line) <= 40 else line[:39] + "…", f"{p}:{lineno}")
         seen[(i, j)] = lineno
     if not triples:
         raise GraphError(f"expected at least one arc in {str(p)!r}, received none")
@@ -264,10 +265,7 @@ def make_digraph(obj: Any, pinning: Any = None, *, leader: Any = None) -> Digrap
     if isinstance(obj, (str, os.PathLike)):
         p = Path(os.fspath(obj))
         if p.is_file() and p.suffix.lower() == ".csv":
-            try:
-                lines = p.read_text(encoding="utf-8").splitlines()
-            except (OSError, UnicodeDecodeError) as e:
-                raise GraphError(f"expected a readable UTF-8 adjacency CSV file, received {str(p)!r} ({e})") from None
+            lines = read_text(p, "adjacency CSV file", GraphError).splitlines()
             rows = [r for r in csv.reader(lines) if r and any(c.strip() for c in r) and not r[0].strip().startswith("#")]
             return _from_matrix(rows, pinning, str(p))
         if p.is_file():

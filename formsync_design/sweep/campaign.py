@@ -305,7 +305,8 @@ def _boxes(data: dict, sp: Any, schema: SweepSchema) -> list[GainBoxSpec]:
 _LAGRANGIAN_MC = ("phases", "K_v")
 
 
-def _montecarlo(m: Any, sp: Any, schema: SweepSchema, base: Path = Path(".")) -> MonteCarloSpec:
+def _montecarlo(m: Any, sp: Any, schema: SweepSchema, base: Path = Path("."),
+                source: str = "") -> MonteCarloSpec:
     sw = schema.switching
     if isinstance(m, dict) and schema.agent:
         for k in _LAGRANGIAN_MC:
@@ -352,6 +353,7 @@ def _montecarlo(m: Any, sp: Any, schema: SweepSchema, base: Path = Path(".")) ->
         switching=sw,
         agent=schema.agent,
         base=str(base),
+        source=source,
     )
 
 
@@ -394,15 +396,20 @@ def _reference(data: dict, sp: Any, schema: SweepSchema) -> tuple[Fraction, ...]
 
 
 def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Path = ".",
-                       spec: Any = None, source: str | Path = "") -> Campaign:
+                       spec: Any = None, source: str = "") -> Campaign:
     """Validate a campaign document (the TOML layout of :func:`load_campaign`).
+
+    ``source``: the campaign file the document was read from; its paths (graph files and
+    folders, ``compare``, ``montecarlo.case``) then stay inside ``base``
+    (:func:`~formsync_design.textio.confined_path`), and its ``[campaign] design`` may name
+    only a shipped design or a trusted ``.py`` file beside it
+    (:mod:`formsync_design.spec.trust`).  ``""``: the command line's or the caller's own
+    document (built in Python: the user's paths, not confined).
 
     ``spec``: the design (a ``Spec``, a shipped design's name or a ``.py`` path relative
     to the current folder) when the document names none (``[campaign] design``,
-    ``spec_dir``); default liang2016.  ``source``: the campaign file the document was read
-    from: its ``[campaign] design`` may then name only a shipped design or a trusted ``.py``
-    file beside it (:mod:`formsync_design.spec.trust`); without it the document is the
-    caller's own (built in Python).  The gain tables are checked against the design's gains.
+    ``spec_dir``); default liang2016.  The gain tables are checked against the design's
+    gains.
 
     >>> c = campaign_from_dict({"campaign": {"name": "t", "graphs": ["ring:4"]}})
     >>> c.boxes[0].name, [float(v) for v in c.reference], c.resolution
@@ -427,7 +434,7 @@ def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Pa
     # fault of the file), then the fields left out (their defaults, or "required")
     f: dict[str, Any] = {}
     for key in [*c, *(k for k in ("name", "graphs") if k not in c)]:
-        f[key] = campaign_field(key, c.get(key), Path(base))
+        f[key] = campaign_field(key, c.get(key), Path(base), source)
     ref_text, spec_arg = _design_ref(c, spec)
     sp = load_design(spec_arg) if spec_arg is not None else _campaign_design(ref_text, source,
                                                                              spec_dir)
@@ -453,7 +460,7 @@ def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Pa
             betas = _pos_int(des.get("betas", 5), "design.betas", 1, 1000)
             penalty = _pos_float(des.get("penalty", 0.0), "design.penalty", allow_zero=True)
         elif table == "montecarlo":
-            mc = _montecarlo(data["montecarlo"], sp, schema, Path(base))
+            mc = _montecarlo(data["montecarlo"], sp, schema, Path(base), source)
     if schema.agent:
         _check_agent_campaign(sp, schema, boxes, penalty, mc)
     name, title, graphs = f["name"], f.get("title", ""), f["graphs"]
@@ -463,7 +470,7 @@ def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Pa
         reference=reference, conditions=cond, margin=margin, resolution=resolution,
         design_betas=betas, design_penalty=penalty, montecarlo=mc, base=str(base),
         spec=ref_text, spec_dir=str(spec_dir), schema=schema,
-        spec_value=sp if spec_arg is not None else None, compare=compare, source=str(source),
+        spec_value=sp if spec_arg is not None else None, compare=compare, source=source,
     )
 
 
@@ -471,7 +478,8 @@ def load_campaign(path: str | Path, spec: Any = None, *, trust: Any = ()) -> Cam
     """Load a campaign TOML file; its relative paths -- ``compare``, graph folders
     (``dir:PATH``), the Monte-Carlo case and ``campaign.design`` (a shipped design's name or
     a design file, default liang2016) -- resolve relative to the campaign file
-    (:func:`campaign_base`), never to the current directory.  Each table is validated
+    (:func:`campaign_base`), never to the current directory, and stay inside that folder (an
+absolute path or a ``..`` out of it is refused).  Each table is validated
     field by field in the order written.
     ``spec``: the design when the file names none (``--design``).  ``campaign.design`` names
     a shipped design or a ``.py`` file inside the campaign's folder that the user trusts
@@ -509,7 +517,7 @@ def load_campaign(path: str | Path, spec: Any = None, *, trust: Any = ()) -> Cam
     data = load_toml(p, "campaign TOML file")
     with trusting(*trust):
         return campaign_from_dict(data, base=campaign_base(p), spec_dir=p.parent, spec=spec,
-                                  source=p)
+                                  source=str(p))
 
 
 

@@ -152,9 +152,10 @@ def run_sweep(
     if scheduler:
         scheduler = check_scheduler_address(scheduler)
     # refuse before building anything, on an upper bound of the graph count; then exactly
-    check_campaign_size(campaign, sum(graph_set_bound(g, base=Path(campaign.base))
+    source = campaign.source or None
+    check_campaign_size(campaign, sum(graph_set_bound(g, base=Path(campaign.base), source=source)
                                       for g in campaign.graphs), bound=True)
-    graphs, skipped = expand_graphs(campaign.graphs, base=Path(campaign.base))
+    graphs, skipped = expand_graphs(campaign.graphs, base=Path(campaign.base), source=source)
     check_campaign_size(campaign, len(graphs))
     sp = resolve_spec(campaign, spec)
     sha = campaign_hash(campaign, graphs, sp if spec is not None else None)  # validates the case file

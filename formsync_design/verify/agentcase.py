@@ -64,9 +64,11 @@ from formsync_design.models.disturbances import Orbit
 from formsync_design.sim.agents import AgentFormation, AgentOptions, Reference
 from formsync_design.sim.formation import Gains
 from formsync_design.sim.reference_rate import reference_rate_expressions
+from formsync_design.textio import read_bytes
 from formsync_design.tomlio import load_toml
 from formsync_design.verify.case import (
     case_matrix,
+    case_name,
     case_number,
     case_numbers,
     case_orbit,
@@ -213,7 +215,7 @@ def _load_agent_case(p: Path, design: Any) -> AgentCase:
     if isinstance(meta, dict) and meta.get("kind") == "engine":  # its base case (the engine's
         data = {k: v for k, v in data.items() if k not in ENGINE_TABLES}  # tables: enginecase)
     case = parse_agent_case(data, str(p), design=design)
-    return replace(case, digest=hashlib.sha256(p.read_bytes()).hexdigest())
+    return replace(case, digest=hashlib.sha256(read_bytes(p, "case TOML file")).hexdigest())
 
 
 def case_design_ref(path: str | Path) -> str | None:
@@ -423,12 +425,12 @@ def parse_agent_case(data: dict, path: str = "<memory>", design: Any = None) -> 
         if not graph_input.strip():
             raise InputError(f"expected [case] graph as a graph spec or a graph file in {path}, "
                              "received ''")
-        graph_input = case_path(graph_input.strip(), path)
+        graph_input = case_path(graph_input.strip(), path, "case.graph")
     elif not isinstance(graph_input, dict):
         raise InputError(f"expected [case] graph as a graph spec or a graph file (or a [graph] "
                          f"table) in {path}, received {repr(graph_input)[:60]}")
     case = AgentCase(
-        name=str(meta.get("name", Path(path).stem)), title=str(meta.get("title", "")),
+        name=case_name(meta, path), title=str(meta.get("title", "")),
         source=str(meta.get("source", "")), path=path, kind=str(meta.get("kind", "agents")),
         design=d, design_ref=str(ref), graph_input=graph_input, inertias=np.array(J),
         attitudes=np.array(A), rates=np.array(W),

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from formsync_design.errors import InputError
+from formsync_design.textio import check_regular
 
 __all__ = ["resolve_case", "verify_case"]
 
@@ -38,8 +39,7 @@ def resolve_case(case: str | Path | None) -> Path:
         return default_case_path()
     p = Path(case)
     if isinstance(case, Path) or p.suffix == ".toml" or p.exists():
-        if not p.is_file():
-            raise InputError(f"expected an existing case TOML file, received {str(case)!r}")
+        check_regular(p, "existing case TOML file")  # a folder, a FIFO, a loop: each its reason
         return p
     if case not in case_names():
         raise InputError(f"expected a case name in {case_names()} or a .toml file, "

@@ -36,7 +36,7 @@ from formsync_design.errors import InputError
 from formsync_design.notebook import NotebookViews
 from formsync_design.verify import metrics_tracking  # noqa: F401 (registered)
 from formsync_design.verify.enginecase import ClaimRow, MetricRow
-from formsync_design.verify.metrics import METRICS, MetricContext, check_metric_args
+from formsync_design.verify.metrics import MetricContext, check_metric_args, metric_spec
 from formsync_design.verify.predicates import KEYWORDS, parse_predicate
 
 __all__ = ["FORMATION", "TrackingScenario", "TrackingBase", "TrackingEngineCase",
@@ -161,10 +161,7 @@ def _metrics(data: dict, base: Any, scens: tuple[TrackingScenario, ...], path: s
         where = f"metrics[{k}]"
         mid = _unique(row, where, "id", _ID, seen)
         name = row.get("metric")
-        if not isinstance(name, str) or name not in METRICS:
-            raise InputError(f"expected {where}.metric among {sorted(METRICS)}, received "
-                             f"{name!r:.60}")
-        spec = METRICS[name]
+        spec = metric_spec(name, where)
         why = spec.applies(base.spec) if spec.applies is not None else (
             "a metric of agent designs")
         if why is not None or spec.evidence == "montecarlo":

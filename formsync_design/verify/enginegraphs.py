@@ -12,6 +12,7 @@ from typing import Any
 
 from formsync_design.errors import InputError
 from formsync_design.ranges import check_range
+from formsync_design.textio import check_ascii, cut
 from formsync_design.verify.case import case_path
 
 __all__ = ["directed_cycle", "formation_graph"]
@@ -72,7 +73,8 @@ def formation_graph(row: dict, where: str, case_graph: Callable[[], Any],
     if spec == "case":
         g = case_graph()
         return (g if pin is None else make_digraph(g, pinning=pin)), "the case's graph"
-    m = re.fullmatch(r"cycle:(\d{1,9})", spec)
+    check_ascii(spec, f"{where}.graph {cut(spec, 40)}")
+    m = re.fullmatch(r"cycle:([0-9]{1,9})", spec)
     if m:
         from formsync_design.graphs.build import check_size
 
@@ -82,4 +84,4 @@ def formation_graph(row: dict, where: str, case_graph: Callable[[], Any],
         check_size(n, spec)
         g = directed_cycle(n)
         return (g if pin is None else make_digraph(g, pinning=pin)), spec
-    return make_digraph(case_path(spec, path), pinning=pin), spec
+    return make_digraph(case_path(spec, path, f"{where}.graph"), pinning=pin), spec
