@@ -40,6 +40,7 @@ from formsync_design.cli.options import (
     emit_json,
     parse_gain_assignments,
     parse_positive,
+    with_design_code,
     write_summary_and_runs,
 )
 from formsync_design.errors import DerivationError, InputError
@@ -98,7 +99,7 @@ def run_agent_simulate(args: argparse.Namespace, design: Any) -> int:
            "defaults": list(defaults.lines), **r.to_dict()}
     written: list[str] = []
     if out_dir is not None:
-        p = write_text(out_dir / "summary.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
+        p = write_text(out_dir / "summary.json", json.dumps(with_design_code(doc), indent=2, allow_nan=False) + "\n")
         written.append(str(p))
         if args.export in ("npz", "both"):
             npz = out_dir / "trajectory.npz"

@@ -47,12 +47,10 @@ def agent_design_or_none(design_arg: Any, case_arg: Any = None) -> Any:
     if ref is None:
         return None
     path = _case_path(case_arg)
-    from formsync_design.resources import design_names
+    from formsync_design.spec.trust import resolve_design_ref
 
-    target = ref if ref.isidentifier() and ref in design_names() else (
-        ref if Path(ref).is_absolute() else str(path.parent / ref))
     try:
-        d = load_design(target)
+        d = load_design(resolve_design_ref(ref, path, "case.design"))
     except InputError:
         return None  # the command's own case loader reports a bad reference
     return d if getattr(d, "form", None) == "agent" and case_is_agent(path) else None

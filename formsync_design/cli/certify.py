@@ -16,6 +16,7 @@ from formsync_design.cli.options import (
     add_design_option,
     add_format_option,
     add_theorem_option,
+    add_trust_option,
     design_box,
     design_graph,
     emit_json,
@@ -286,6 +287,7 @@ def add_parser(sub: Any) -> None:
                    help="agent designs: the boundary layer of sat/tanh (default 0.01)")
     add_certificate_options(p)
     add_format_option(p)
+    add_trust_option(p)
     p.set_defaults(func=run)
 
 

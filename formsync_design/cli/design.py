@@ -6,7 +6,13 @@ import argparse
 import sys
 from typing import Any
 
-from formsync_design.cli.options import EXIT_NEGATIVE, EXIT_OK, add_format_option, emit_json
+from formsync_design.cli.options import (
+    EXIT_NEGATIVE,
+    EXIT_OK,
+    add_format_option,
+    add_trust_option,
+    emit_json,
+)
 
 __all__ = ["add_parser", "run"]
 
@@ -70,6 +76,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--grid", type=int, default=4, metavar="K",
                    help="candidates per gain axis of the constrained design (default 4, max 16)")
     add_format_option(p)
+    add_trust_option(p)
     p.set_defaults(func=run)
 
 

@@ -14,6 +14,7 @@ from formsync_design.cli.options import (
     add_design_option,
     add_format_option,
     add_theorem_option,
+    add_trust_option,
     emit_json,
     parse_gain_assignments,
     write_summary_and_runs,
@@ -115,6 +116,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--no-compile", action="store_true", help="use CasADi's VM instead of compiled C")
     add_theorem_option(p)
     add_format_option(p)
+    add_trust_option(p)
     p.set_defaults(func=run, integrator=None)
 
 

@@ -35,6 +35,8 @@ __all__ = [
     "add_theorem_option",
     "design_graph",
     "write_summary_and_runs",
+    "add_trust_option",
+    "with_design_code",
     "design_gains",
     "check_out_dir",
 ]
@@ -187,6 +189,20 @@ def add_format_option(p: argparse.ArgumentParser) -> None:
     )
 
 
+def add_trust_option(p: argparse.ArgumentParser) -> None:
+    """``--trust-design FILE`` (repeatable): a design file a case or campaign file may name
+    (hashed when the command starts; :mod:`formsync_design.spec.trust`)."""
+    p.add_argument(
+        "--trust-design",
+        action="append",
+        default=None,
+        metavar="FILE",
+        help="run the design file FILE when a case, scenario or campaign file names it (a "
+        "relative .py path beside that file); it is hashed now and runs only with that "
+        "content (repeatable). Shipped designs need no flag",
+    )
+
+
 def to_json_value(obj: Any) -> Any:
     """``obj`` with every number in the toolbox's JSON convention
     (:func:`formsync_design.gains.json_number`: exact rationals as numbers when they
@@ -224,8 +240,24 @@ def emit_json(obj: Any) -> None:
       "t": "inf"
     }
     """
-    json.dump(to_json_value(obj), sys.stdout, indent=2, allow_nan=False)
+    json.dump(to_json_value(with_design_code(obj)), sys.stdout, indent=2, allow_nan=False)
     sys.stdout.write("\n")
+
+
+def with_design_code(obj: Any) -> Any:
+    """``obj`` (a mapping) with the key ``design_code``: the non-shipped design files loaded
+    in this command (path and sha256, :func:`~formsync_design.spec.trust.design_code`), when
+    there are any; else ``obj`` unchanged.
+
+    >>> with_design_code({"a": 1})
+    {'a': 1}
+    """
+    from formsync_design.spec.trust import design_code
+
+    code = design_code()
+    if not code or not isinstance(obj, Mapping) or "design_code" in obj:
+        return obj
+    return {**obj, "design_code": [c.to_dict() for c in code]}
 
 
 def write_summary_and_runs(out_dir: Any, summary: Mapping[str, Any], rows: list[Mapping[str, Any]]) -> list[str]:
@@ -244,7 +276,7 @@ def write_summary_and_runs(out_dir: Any, summary: Mapping[str, Any], rows: list[
 
     d = Path(out_dir)
     d.mkdir(parents=True, exist_ok=True)
-    write_text(d / "summary.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    write_text(d / "summary.json", json.dumps(with_design_code(summary), indent=2, allow_nan=False) + "\n")
     with atomic_path(d / "runs.csv") as tmp, open(tmp, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]) if rows else [])
         w.writeheader()

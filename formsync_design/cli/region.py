@@ -7,7 +7,7 @@ import sys
 from typing import Any
 
 from formsync_design.cli.certify import CERTIFICATE_HELP
-from formsync_design.cli.options import EXIT_OK, add_format_option, emit_json
+from formsync_design.cli.options import EXIT_OK, add_format_option, add_trust_option, emit_json
 from formsync_design.errors import InputError
 from formsync_design.outdir import save_figure as save_atomic_figure, write_text
 from formsync_design.progress import Progress
@@ -115,6 +115,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--rate0", default="0.01", metavar="W",
                    help="initial set |omega_i(0)| <= W rad/s (default 0.01)")
     add_format_option(p)
+    add_trust_option(p)
     p.set_defaults(func=run)
 
 

@@ -8,7 +8,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from formsync_design.cli.options import EXIT_INTERRUPTED, EXIT_OK, add_format_option, emit_json
+from formsync_design.cli.options import (
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    add_format_option,
+    add_trust_option,
+    emit_json,
+)
 from formsync_design.errors import InputError
 from formsync_design.progress import Progress
 
@@ -165,6 +171,7 @@ def add_parser(sub: Any) -> None:
                    help="seconds to wait for the scheduler and its workers (default 10)")
     x.add_argument("--no-progress", action="store_true", help="no progress line on stderr")
     add_format_option(p)
+    add_trust_option(p)
     p.set_defaults(func=run)
 
 

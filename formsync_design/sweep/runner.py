@@ -12,6 +12,7 @@ from typing import Any
 
 from formsync_design.errors import FormsyncError, InputError
 from formsync_design.outdir import locked
+from formsync_design.spec.trust import design_code_of
 from formsync_design.sweep.campaign import (
     Campaign,
     campaign_hash,
@@ -194,6 +195,9 @@ def run_sweep(
             "columns": list(columns),
             "spec": {"name": sp.name, "sha256": spec_key(sp)},
         }
+        code = design_code_of([sp])  # design code that is not shipped: named (spec.trust)
+        if code:
+            manifest["design_code"] = [c.to_dict() for c in code]
         man_bytes = (json.dumps(manifest, indent=1, sort_keys=True, ensure_ascii=True) + "\n").encode()
 
         started = {"ok": False}

@@ -228,9 +228,16 @@ class AgentCase:
                               dict(self.states))
 
 
-def load_agent_case(path: str | Path, design: Any = None) -> AgentCase:
-    """Load and validate an agent case file (``design``: overrides ``[case] design``)."""
-    p = Path(path)
+def load_agent_case(path: str | Path, design: Any = None, *, trust: Any = ()) -> AgentCase:
+    """Load and validate an agent case file (``design``: overrides ``[case] design``;
+    ``trust``: design files the case may name, :mod:`formsync_design.spec.trust`)."""
+    from formsync_design.spec.trust import trusting
+
+    with trusting(*trust):
+        return _load_agent_case(Path(path), design)
+
+
+def _load_agent_case(p: Path, design: Any) -> AgentCase:
     data = load_toml(p, "case TOML file")
     meta = data.get("case")
     if isinstance(meta, dict) and meta.get("kind") == "engine":  # its base case (the engine's
@@ -344,13 +351,12 @@ def formation_inertias(design: Any, n: int) -> tuple[np.ndarray, str]:
 
 
 def _design_of(ref: str, path: str) -> Any:
-    """The design a case file at ``path`` names: a shipped name, else a file relative to it."""
-    from formsync_design.resources import design_names
+    """The design a case file at ``path`` names: a shipped name, else a trusted file beside
+    it (:func:`~formsync_design.spec.trust.resolve_design_ref`)."""
     from formsync_design.spec.loader import load_design
+    from formsync_design.spec.trust import resolve_design_ref
 
-    if ref.isidentifier() and ref in design_names():
-        return load_design(ref)
-    return load_design(Path(ref) if Path(ref).is_absolute() else Path(path).parent / ref)
+    return load_design(resolve_design_ref(ref, path, "case.design"))
 
 
 def _resolve_design(ref: str, path: str) -> Any:

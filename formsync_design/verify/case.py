@@ -290,9 +290,10 @@ def case_orbit(o: dict) -> Orbit:
     )
 
 
-def load_case(path: str | Path | None = None) -> Case:
+def load_case(path: str | Path | None = None, *, trust: Any = ()) -> Case:
     """Load and validate a case file (default: the paper's); a shipped case's name
-    (``"pd_consensus"``) is that case.
+    (``"pd_consensus"``) is that case.  ``trust``: design files the case may name (paths;
+    :mod:`formsync_design.spec.trust`).
 
     >>> c = load_case()
     >>> c.name, c.n, c.graph_spec, c.options.phi
@@ -305,16 +306,20 @@ def load_case(path: str | Path | None = None) -> Case:
     if isinstance(path, str) and path.isidentifier() and not Path(path).exists() \
             and path in case_names():
         path = case_file(path)
+    from formsync_design.spec.trust import trusting
+
     p = Path(path) if path is not None else default_case_path()
     data = load_toml(p, "case TOML file")
-    case = parse_case(data, str(p))
+    with trusting(*trust):
+        case = parse_case(data, str(p))
     return replace(case, digest=hashlib.sha256(read_bytes(p, "case TOML file")).hexdigest())
 
 
 def _case_design(meta: dict, path: str) -> str | None:
-    """``[case] design`` (or its old name ``spec``): a shipped design's name, or a design
-    ``.py`` file relative to the case file; ``None``: the paper's (liang2016)."""
-    from formsync_design.resources import design_names
+    """``[case] design`` (or its old name ``spec``): a shipped design's name, or a trusted
+    design ``.py`` file beside the case file (:func:`~formsync_design.spec.trust.resolve_design_ref`);
+    ``None``: the paper's (liang2016)."""
+    from formsync_design.spec.trust import resolve_design_ref
 
     if "spec" in meta and "design" in meta:
         raise InputError(f"expected one of case.design or case.spec in {path}, received both")
@@ -322,18 +327,7 @@ def _case_design(meta: dict, path: str) -> str | None:
     spec = meta.get(key)
     if spec is None:
         return None
-    if not (isinstance(spec, str) and spec.strip()):
-        raise InputError(f"expected case.{key} = a design name or a .py file, received {spec!r}")
-    if spec.isidentifier() and spec in design_names():
-        return spec
-    sp = Path(spec)
-    if not sp.is_absolute():
-        sp = Path(path).parent / sp
-    if not sp.is_file():
-        raise InputError(f"expected case.{key} to name a shipped design ({', '.join(design_names())}) "
-                         f"or an existing .py file (relative to the case file), received {spec!r} "
-                         f"({str(sp)!r} does not exist)")
-    return str(sp)
+    return str(resolve_design_ref(spec, path, f"case.{key}"))
 
 
 def check_case_tables(data: dict, tables: dict[str, set[str] | None], path: str) -> None:

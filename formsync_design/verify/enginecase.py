@@ -538,10 +538,15 @@ def parse_engine_case(data: dict, path: str = "<memory>", design: Any = None) ->
                       report_runs=runs, report_derivation=der, report_figures=pairs)
 
 
-def load_engine_case(path: str | Path, design: Any = None) -> EngineCase:
-    """Load and validate an engine case file (``design``: overrides ``[case] design``)."""
+def load_engine_case(path: str | Path, design: Any = None, *, trust: Any = ()) -> EngineCase:
+    """Load and validate an engine case file (``design``: overrides ``[case] design``;
+    ``trust``: the design files, paths, the case and its scenarios may name:
+    :mod:`formsync_design.spec.trust`)."""
     from dataclasses import replace
 
+    from formsync_design.spec.trust import trusting
+
     p = Path(path)
-    case = parse_engine_case(load_toml(p, "case TOML file"), str(p), design=design)
+    with trusting(*trust):
+        case = parse_engine_case(load_toml(p, "case TOML file"), str(p), design=design)
     return replace(case, digest=hashlib.sha256(read_bytes(p, "case TOML file")).hexdigest())

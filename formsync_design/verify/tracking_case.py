@@ -294,7 +294,9 @@ def _design_ref(meta: dict, where: str, design: Any) -> str:
     if not isinstance(ref, str) or not ref:
         raise InputError(f"expected case.design a design name or file in {where}, received "
                          f"{ref!r}")
-    return ref if ref.isidentifier() else str((Path(where).parent / ref).resolve())
+    from formsync_design.spec.trust import resolve_design_ref
+
+    return str(resolve_design_ref(ref, where, "case.design"))
 
 
 def parse_flyaround_case(data: dict, where: str = "<memory>", design: Any = None
