@@ -17,6 +17,7 @@ from formsync_design.cli.options import (
     add_trust_option,
     emit_json,
     parse_gain_assignments,
+    whole_number,
     write_summary_and_runs,
 )
 from formsync_design.cli.simulate import options_from_args
@@ -122,9 +123,9 @@ def add_parser(sub: Any) -> None:
 
 def _int(text: str, name: str, lo: int) -> int:
     try:
-        v = int(str(text).strip())
-    except ValueError:
-        raise InputError(f"expected an integer for {name}, received {text}") from None
+        v = whole_number(text)
+    except argparse.ArgumentTypeError as e:
+        raise InputError(f"{name}: {e}") from None
     if v < lo:
         raise InputError(f"expected {name} >= {lo}, received {v}")
     return v

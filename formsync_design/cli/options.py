@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from collections.abc import Mapping
 from pathlib import Path
@@ -25,6 +26,7 @@ __all__ = [
     "EXIT_FAILURE",
     "EXIT_INTERRUPTED",
     "parse_positive",
+    "whole_number",
     "add_format_option",
     "emit_json",
     "to_json_value",
@@ -168,6 +170,35 @@ def design_box(spec: Any, gains: Any, legacy: Mapping[str, Any] | None = None) -
                 f"expected a value for gain {g.name} of design {spec.name} ({how}), received none"
             )
     return GainBox(tuple(ranges))
+
+
+def whole_number(text: str) -> int:
+    """An integer flag's value: ASCII digits with an optional sign (an argparse ``type``).
+
+    Python's ``int`` reads a Bengali or fullwidth digit as a digit (``int("\u09ea")`` is 4,
+    and the Bengali four looks like an 8), so such text is refused naming the character.
+
+    >>> whole_number("12"), whole_number(" -3 ")
+    (12, -3)
+    >>> whole_number("\u09ea")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: expected an integer in ASCII digits 0-9, received '৪' (U+09EA at column 1)
+    >>> whole_number("4.5")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: expected an integer in ASCII digits 0-9, received '4.5'
+    """
+    t = str(text).strip()
+    for col, ch in enumerate(t, start=1):
+        if ord(ch) > 127:
+            raise argparse.ArgumentTypeError(
+                f"expected an integer in ASCII digits 0-9, received {ch!r} (U+{ord(ch):04X} at "
+                f"column {col})")
+    if not re.fullmatch(r"[+-]?[0-9]+", t) or len(t) > 20:
+        raise argparse.ArgumentTypeError(
+            f"expected an integer in ASCII digits 0-9, received {t[:24]!r}")
+    return int(t)
 
 
 def parse_positive(text: str, name: str) -> float:

@@ -14,6 +14,7 @@ from formsync_design.cli.options import (
     add_format_option,
     add_trust_option,
     emit_json,
+    whole_number,
 )
 from formsync_design.errors import InputError
 from formsync_design.progress import Progress
@@ -137,17 +138,17 @@ def add_parser(sub: Any) -> None:
                    help="reference gains certified for every graph: NAME=X pairs or the values in "
                    "the design's gain order (default: liang2016 1.6,0.4,0.3; another design its "
                    "shipped case's)")
-    d.add_argument("--resolution", type=int, default=None, metavar="R",
+    d.add_argument("--resolution", type=whole_number, default=None, metavar="R",
                    help="region map: finest box = 1/R of each range (default 8)")
-    d.add_argument("--design-betas", type=int, default=None, metavar="K",
+    d.add_argument("--design-betas", type=whole_number, default=None, metavar="K",
                    help="values of the third gain swept by the gain design (beta; pd_consensus: "
                    "its multiplier eps), default 5")
     d.add_argument("--conditions", default=None, choices=("derived", "paper"),
                    help="Lyapunov conditions: derived (default) or the paper's printed ones")
     d.add_argument("--margin", default=None, metavar="EPS", help="require lambda_min > EPS (default 0)")
-    d.add_argument("--mc-runs", type=int, default=None, metavar="N",
+    d.add_argument("--mc-runs", type=whole_number, default=None, metavar="N",
                    help="Monte-Carlo runs per graph (default: no Monte-Carlo)")
-    d.add_argument("--mc-seed", type=int, default=None, metavar="S", help="Monte-Carlo master seed (default 0)")
+    d.add_argument("--mc-seed", type=whole_number, default=None, metavar="S", help="Monte-Carlo master seed (default 0)")
     d.add_argument("--mc-gains", default=None, choices=("reference", "recommended"),
                    help="gains simulated (default reference)")
     d.add_argument("--mc-tf", default=None, metavar="S", help="Monte-Carlo horizon in s (default 200; an agent design: "
@@ -163,7 +164,7 @@ def add_parser(sub: Any) -> None:
                    help="finish an interrupted run of the same campaign in DIR (finished tasks kept)")
     x.add_argument("--overwrite", action="store_true",
                    help="recompute DIR from scratch (only a folder of the same campaign)")
-    x.add_argument("--workers", type=int, default=2, metavar="N",
+    x.add_argument("--workers", type=whole_number, default=2, metavar="N",
                    help="local Dask worker processes (default 2; 0 = serial, no Dask)")
     x.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="existing Dask scheduler, e.g. tcp://10.0.0.5:8786")
