@@ -379,18 +379,12 @@ _LOADED: dict[tuple[str, str], Spec] = {}
 
 def _load_file(p: Path, sha256: str | None = None) -> Spec:
     from formsync_design.spec import trust
+    from formsync_design.textio import read_bytes
 
     where = str(p)
-    if not p.exists():
-        raise InputError(f"expected a specification .py file, received {where!r} (no such file)")
-    if not p.is_file():
-        raise InputError(f"expected a specification .py file, received {where!r} (not a file)")
-    try:
-        data = p.read_bytes()
-    except OSError as e:
-        raise InputError(
-            f"expected a readable specification file, received {where!r} ({e.strerror or e})"
-        ) from None
+    # the one reader: a regular file under the size cap (a FIFO, a device, a folder, a
+    # symlink loop or a dangling link each refused with its reason, before a byte is read)
+    data = read_bytes(p, "specification .py file")
     key = hashlib.sha256(data).hexdigest()
     want = sha256 or trust.pinned_digest(p)
     if want is not None and key != want:

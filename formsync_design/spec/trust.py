@@ -96,11 +96,10 @@ class TrustedFile:
     @classmethod
     def of(cls, path: str | Path) -> TrustedFile:
         """Hash the file ``path`` now (a missing or unreadable file: :class:`InputError`)."""
+        from formsync_design.textio import check_regular
+
         p = Path(path)
-        if not p.is_file():
-            why = "no such file" if not p.exists() else "not a regular file"
-            raise InputError(f"expected {TRUST_FLAG} an existing design .py file, received "
-                             f"{str(path)[:200]!r} ({why})")
+        check_regular(p, f"{TRUST_FLAG} design .py file")
         return cls(str(path), design_sha256(p), os.path.realpath(p))
 
     def to_dict(self) -> dict[str, str]:
@@ -121,11 +120,9 @@ def design_sha256(path: str | Path) -> str:
     >>> design_sha256(p)[:12]
     'e3b0c44298fc'
     """
-    try:
-        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-    except OSError as e:
-        raise InputError(f"expected a readable design file, received {str(path)[:200]!r} "
-                         f"({e.strerror or e})") from None
+    from formsync_design.textio import read_bytes
+
+    return hashlib.sha256(read_bytes(path, "design file")).hexdigest()
 
 
 _TRUSTED: ContextVar[frozenset[tuple[str, str]]] = ContextVar("formsync_trusted",

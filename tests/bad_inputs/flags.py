@@ -16,3 +16,14 @@ ROWS: list[BadInput] = [
     BadInput(id="flag-workers-arabic-indic-digit", argv=("sweep", "--workers", "\u0662"),
              exit=2, stderr=("--workers", "U+0662"), source=_SRC),
 ]
+
+# A design file given on the command line is read by the one reader too (issue 34 item 2):
+# a FIFO is refused as such, never opened (opening one for reading blocks).
+ROWS += [
+    BadInput(id="design-file-is-a-folder", argv=("derive", "--design", "{d}/d.py"),
+             files={"d.py/keep": ""}, exit=2, stderr=("a folder, not a file",),
+             source="issue 34 item 2 (design files on the command line)"),
+    BadInput(id="trust-design-dangling-symlink", argv=("verify", "--trust-design", "{d}/x.py"),
+             symlinks={"x.py": "{d}/gone.py"}, exit=2, stderr=("a dangling symlink",),
+             source="issue 34 item 2 (design files on the command line)"),
+]
