@@ -32,6 +32,10 @@ EXE = [sys.executable, "-c",
        "import sys; from formsync_design.cli.main import main; sys.exit(main(sys.argv[1:]))"]
 
 
+#: The longest a wait lasts (s): a hang guard for a loaded machine, never what a test measures.
+HANG_GUARD = 600.0
+
+
 def one_line_error(err: str) -> None:
     assert err.count("\n") == 1 and err.endswith("\n"), err
     for bad in ("Traceback", "np.float64", "Errno", "KeyboardInterrupt"):
@@ -158,6 +162,36 @@ def test_a_dying_worker_is_a_cluster_error_and_finished_rows_are_kept(tmp_path):
     assert not (tmp_path / "r" / "results.csv").exists()
     run_sweep(c, tmp_path / "r", n_workers=0, resume=True)
     assert len(read_results(tmp_path / "r" / "results.csv")) == 2
+
+
+def test_a_local_cluster_beside_another_one_warns_nothing(tmp_path):
+    """Dask's default HTTP port (8787) taken, as by any other cluster running on the machine
+    (another sweep, a parallel test run): the sweep's cluster takes a free port silently, with
+    no "Port 8787 is already in use" warning on stderr (which broke the one-line rule)."""
+    import socket
+    import warnings
+
+    holder = socket.socket()
+    try:
+        try:
+            holder.bind(("", 8787))  # already taken by someone else: the same situation
+            holder.listen()
+        except OSError:
+            pass
+        rows: list[dict[str, str]] = []
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            from formsync_design.sweep.executor import execute
+
+            execute([{"task": "a"}, {"task": "b"}], rows.append, scheduler=None, n_workers=1,
+                    timeout=HANG_GUARD, task_fn=_echo)
+    finally:
+        holder.close()
+    assert sorted(r["task"] for r in rows) == ["a!", "b!"]
+
+
+def _echo(task):
+    return {"task": task["task"] + "!"}
 
 
 def test_unreachable_scheduler_exits_3_malformed_address_exits_2(tmp_path, capsys):

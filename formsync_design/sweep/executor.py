@@ -152,6 +152,9 @@ def _client(scheduler: str | None, n_workers: int, timeout: float) -> Iterator[A
         cluster = LocalCluster(
             n_workers=n_workers, threads_per_worker=1, processes=True, host="127.0.0.1",
             dashboard_address=None, silence_logs=logging.CRITICAL,
+            # the scheduler's HTTP server (health routes) on a free port: its default, 8787,
+            # is taken by any other cluster running, and Dask then warns on stderr
+            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
         )
     except Exception as e:  # noqa: BLE001 - not a finding about the campaign
         held()
