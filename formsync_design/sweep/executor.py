@@ -148,6 +148,9 @@ def _client(scheduler: str | None, n_workers: int, timeout: float) -> Iterator[A
                 client.close(timeout=5)
         return
     held = _hold_sigint()
+    from formsync_design.progress import mark_ready
+
+    mark_ready("sweep: local cluster starting")  # FORMSYNC_READY_FILE (a test's Ctrl-C waits for it)
     try:
         cluster = LocalCluster(
             n_workers=n_workers, threads_per_worker=1, processes=True, host="127.0.0.1",
