@@ -34,6 +34,8 @@ A6 = "issue 6/9 audits (sweeps, schedulers, campaigns)"
 CLI = "issue 34 item 8: every subcommand's flags"
 GRAPH = "issue 34 item 8: graph specs and graph files"
 CASE = "issue 34 item 8: case, engine-case and campaign values"
+FUZZ = "issue 34 item 8: found by the path fuzz (tests/test_fuzz_readers.py), exit 3 before"
+LONG = "a" * 300  # one name over the system's 255-byte limit (ENAMETOOLONG)
 
 
 def sub(text: str, old: str, new: str) -> str:
@@ -406,4 +408,13 @@ ROWS: list[BadInput] = [
         {"c.toml": sub(LIANG, C1, 'predicate = "t_ring8.real <= 150 and t_path8')}),
     row("engine-predicate-constants-only", VER, "received one of constants only in '1 == 1'",
         CASE, {"c.toml": sub(LIANG, C1_ALL, 'predicate = "1 == 1"')}),
+    # -- paths beyond the system's limits (exit 3 "check disk space" before) -------------------
+    row("path-too-long-graph-flag", ("certify", "--graph", LONG),
+        "expected a path within the system's limits", FUZZ),
+    row("path-too-long-case-flag", ("verify", f"{LONG}.toml"),
+        "expected a path within the system's limits", FUZZ),
+    row("path-too-long-campaign-flag", ("sweep", "--campaign", f"{LONG}.toml", "--out", "o"),
+        "expected a path within the system's limits", FUZZ),
+    row("path-too-long-in-case-file", SIM, "expected a path within the system's limits", FUZZ,
+        {"c.toml": sub(LIANG, 'graph = "ring:8"', f'graph = "{LONG}"')}),
 ]
