@@ -75,10 +75,10 @@ def mark_ready(what: str) -> None:
     if not path or what in _READY:
         return
     _READY.append(what)
-    from formsync_design import outdir
+    from formsync_design.outdir import write_text
 
     try:
-        outdir.write_text(path, "".join(f"{w}\n" for w in _READY))
+        write_text(path, "".join(f"{w}\n" for w in _READY))
     except OSError:
         pass
 
