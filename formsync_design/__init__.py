@@ -88,6 +88,7 @@ from formsync_design.errors import (
     PackagingError,
     SimulationError,
     SolverError,
+    WriteError,
 )
 from formsync_design.lazy import lazy_attributes
 
@@ -216,6 +217,7 @@ __all__ = [
     "CompilerError",
     "ClusterError",
     "PackagingError",
+    "WriteError",
     *_LAZY,
 ]
 

@@ -8,7 +8,10 @@ built-in, so callers may catch either:
   :class:`DerivationError` (a specification without the required structure);
 * a failure that is not the user's input (exit status 3) derives from
   :class:`RuntimeError`: :class:`SolverError`, :class:`SimulationError`,
-  :class:`CompilerError`, :class:`ClusterError`, :class:`PackagingError`.
+  :class:`CompilerError`, :class:`ClusterError`, :class:`PackagingError`;
+* a write that failed for want of room (disk full, file-size limit, quota, I/O
+  error; exit status 3) is a :class:`WriteError`, which derives from
+  :class:`OSError` and keeps the ``errno`` and the file name.
 
 Messages name what was expected and what was received (bad input) or what
 failed and what to try (failures).  A negative *finding* (not certified, a
@@ -27,6 +30,7 @@ __all__ = [
     "PackagingError",
     "CompilerError",
     "ClusterError",
+    "WriteError",
 ]
 
 
@@ -64,3 +68,23 @@ class CompilerError(FormsyncError, RuntimeError):
 
 class ClusterError(FormsyncError, RuntimeError):
     """A Dask cluster could not be reached or lost its workers."""
+
+
+class WriteError(FormsyncError, OSError):
+    """Writing a file failed for want of room: disk full, file-size limit, quota, I/O error.
+
+    ``errno`` and ``filename`` are those of the failed write; the message names the file
+    and the errno (see :func:`formsync_design.outdir.write_error`).
+
+    >>> import errno
+    >>> e = WriteError(errno.ENOSPC, "writing r.json failed", "r.json")
+    >>> e.errno == errno.ENOSPC, e.filename, str(e)
+    (True, 'r.json', 'writing r.json failed')
+    """
+
+    def __init__(self, code: int, message: str, filename: str | None = None) -> None:
+        super().__init__(code, message, filename)
+        self.message = message
+
+    def __str__(self) -> str:
+        return self.message

@@ -36,6 +36,7 @@ import numpy as np
 
 from formsync_design.errors import InputError
 from formsync_design.ranges import check_range, show_number
+from formsync_design.textio import check_ascii
 
 __all__ = [
     "parse_number",
@@ -54,7 +55,7 @@ MAX_MAGNITUDE = 1e15
 MIN_MAGNITUDE = 1e-300
 _MAX_EXACT, _MIN_EXACT = Fraction(10**15), Fraction(1, 10**300)
 _MAX_TEXT = 200
-_NUMBER_TEXT = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE]([+-]?\d{1,4}))?|[+-]?\d+/\d+")
+_NUMBER_TEXT = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE]([+-]?\d{1,4}))?|[+-]?\d+/\d+", re.ASCII)
 
 
 def parse_number(value: Any, name: str) -> Fraction:
@@ -105,6 +106,7 @@ def _exact(value: Any, name: str) -> Fraction:
     if isinstance(value, str):
         t = value.strip()
         shown = repr(value) if len(value) <= 40 else repr(value[:37] + "...")
+        check_ascii(value[:_MAX_TEXT], name)  # float() reads '\u09ea' (Bengali 4) as 4
         m = _NUMBER_TEXT.fullmatch(t) if len(t) <= _MAX_TEXT else None
         if m is None:
             try:

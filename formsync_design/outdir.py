@@ -20,6 +20,11 @@
   an interrupted or failing write leaves the old file or the new one, never a
   partial file.  :func:`write_bytes`, :func:`write_text`, :func:`save_figure`
   and :func:`save_npz` are the common cases.
+* A write that fails for want of room (disk full ``ENOSPC``, the file-size limit
+  ``EFBIG``, a quota ``EDQUOT``, an I/O error ``EIO``) raises
+  :class:`~formsync_design.errors.WriteError` (exit status 3) naming the file and
+  the errno (:func:`write_error`); the temporary is removed, so the target keeps
+  its previous content.
 
 >>> import tempfile
 >>> d = Path(tempfile.mkdtemp()) / "out"
@@ -34,6 +39,7 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import fcntl
 import json
 import os
@@ -44,7 +50,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
-from formsync_design.errors import InputError
+from formsync_design.errors import InputError, WriteError
 
 __all__ = [
     "LOCK_NAME",
@@ -59,10 +65,44 @@ __all__ = [
     "write_text",
     "save_figure",
     "save_npz",
+    "ROOM_ERRNOS",
+    "write_error",
 ]
 
 LOCK_NAME = ".formsync.lock"
 """The lock file inside a locked output folder (removed when the folder is released)."""
+
+
+ROOM_ERRNOS = frozenset({errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EIO})
+"""The errnos of a write that failed for want of room (not the user's input: exit 3)."""
+
+
+def write_error(path: str | Path, e: OSError, what: str = "") -> WriteError:
+    """The :class:`~formsync_design.errors.WriteError` of a failed write of ``path``.
+
+    The message names the file (``what`` describes it), the errno and what to do.
+
+    >>> import errno
+    >>> str(write_error("out/r.json", OSError(errno.ENOSPC, "No space left on device")))
+    'writing out/r.json failed: No space left on device (ENOSPC); free some disk space or write elsewhere'
+    """
+    code = e.errno if e.errno is not None else errno.EIO
+    name = errno.errorcode.get(code, str(code))
+    said = e.strerror or os.strerror(code)
+    if code == errno.EFBIG:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+        limit = "unlimited" if soft == resource.RLIM_INFINITY else f"{soft} bytes"
+        hint = f"the file-size limit (ulimit -f) is {limit}: raise it or write smaller outputs"
+    elif code == errno.EDQUOT:
+        hint = "the disk quota is used up: free some space or write elsewhere"
+    elif code == errno.EIO:
+        hint = "the device reported an I/O error: check it or write elsewhere"
+    else:
+        hint = "free some disk space or write elsewhere"
+    label = f"{what} {path}" if what else str(path)
+    return WriteError(code, f"writing {label} failed: {said} ({name}); {hint}", str(path))
 
 
 class FolderBusyError(InputError):
@@ -118,6 +158,16 @@ class FolderLock:
 
 def _make_folder(folder: Path) -> list[Path]:
     """Create ``folder`` (and parents); return the folders created, outermost first."""
+    for a in (folder, *folder.parents):
+        if a.is_symlink() and not a.exists():  # dangling, or a loop: not a file, not a folder
+            try:
+                target = os.readlink(a)
+            except OSError:
+                target = "?"
+            raise InputError(f"expected an output folder, received {str(folder)!r}"
+                             + ("" if a == folder else f" under {str(a)!r}")
+                             + f", a symbolic link to {target[:80]!r}, which does not resolve "
+                             "(a missing target or a loop)")
     if folder.exists() and not folder.is_dir():
         raise InputError(f"expected an output folder, received the file {str(folder)!r}")
     missing = [a for a in (folder, *folder.parents) if not a.exists()]
@@ -186,9 +236,15 @@ def acquire(folder: str | Path, command: str | None = None) -> FolderLock:
             raise
         cmd = command if command is not None else " ".join(["formsync", *sys.argv[1:]])
         info = {"pid": os.getpid(), "host": socket.gethostname(), "command": cmd}
-        os.ftruncate(fd, 0)
-        os.write(fd, (json.dumps(info) + "\n").encode())
         lk = FolderLock(p, key, fd, created)
+        try:
+            os.ftruncate(fd, 0)
+            os.write(fd, (json.dumps(info) + "\n").encode())
+        except OSError as e:  # no room even for the lock file: release it, report the write
+            lk.release()
+            if e.errno in ROOM_ERRNOS:
+                raise write_error(lock_file, e, "the lock file") from None
+            raise
         _HELD[key] = lk
         return lk
 
@@ -232,7 +288,9 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     """A temporary path beside ``path``; renamed over it when the block ends normally.
 
     The temporary is fsync'ed before the rename and removed if the block raises,
-    so ``path`` holds its old content or the complete new one.
+    so ``path`` holds its old content or the complete new one.  A write that fails
+    for want of room (:data:`ROOM_ERRNOS`) is re-raised as the
+    :class:`~formsync_design.errors.WriteError` of ``path`` (:func:`write_error`).
 
     >>> import tempfile
     >>> p = Path(tempfile.mkdtemp()) / "r.txt"
@@ -256,6 +314,10 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         finally:
             os.close(fd)
         os.replace(tmp, target)
+    except OSError as e:
+        if e.errno in ROOM_ERRNOS and not isinstance(e, WriteError):
+            raise write_error(target, e) from None
+        raise
     finally:
         with contextlib.suppress(OSError):
             tmp.unlink()

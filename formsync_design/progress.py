@@ -96,6 +96,9 @@ class Progress:
         The caller's switch (False for ``--format json`` or ``--no-progress``).
     unit : str
         What a step is (``run``, ``cell``, ``task``).
+    tick : bool
+        Redraw the bar every half second, so its elapsed time moves while one step takes
+        long (a sweep task on 2000 spacecraft); :func:`activity` always ticks.
 
     Examples
     --------
@@ -108,17 +111,29 @@ class Progress:
     """
 
     def __init__(self, total: int | None, label: str, enabled: bool = True, *,
-                 unit: str = "it", bar_format: str | None = None) -> None:
+                 unit: str = "it", bar_format: str | None = None, tick: bool = False) -> None:
         self.total = None if total is None else max(int(total), 0)
         self.label = label
         self.done = 0
         self._bar: Any = None
+        self._stop = threading.Event()
+        self._ticker: threading.Thread | None = None
         if progress_enabled(enabled):
             from tqdm import tqdm
 
             self._bar = tqdm(total=self.total, desc=label, unit=unit, file=sys.stderr,
                              leave=False, dynamic_ncols=True, mininterval=0.2,
                              bar_format=bar_format)
+            if tick:
+                self._ticker = threading.Thread(target=self._tick, name="formsync-progress",
+                                                daemon=True)
+                self._ticker.start()
+
+    def _tick(self) -> None:
+        while not self._stop.wait(0.5):
+            bar = self._bar
+            if bar is not None:
+                bar.refresh()
 
     @property
     def enabled(self) -> bool:
@@ -150,6 +165,10 @@ class Progress:
 
     def close(self) -> None:
         """Clear the bar (the command's output follows on a clean line)."""
+        self._stop.set()
+        if self._ticker is not None and self._ticker is not threading.current_thread():
+            self._ticker.join()
+            self._ticker = None
         if self._bar is not None:
             self._bar.close()
             self._bar = None
@@ -193,18 +212,7 @@ def activity(label: str, enabled: bool = True) -> Iterator[Progress]:
     >>> a.enabled
     False
     """
-    p = Progress(None, label, enabled, unit="s", bar_format="{desc}: {elapsed}{postfix}")
-    stop = threading.Event()
-    ticker = None
-    if p.enabled:
-        def tick() -> None:
-            while not stop.wait(0.5):
-                bar = p._bar
-                if bar is not None:
-                    bar.refresh()
-
-        ticker = threading.Thread(target=tick, name="formsync-progress", daemon=True)
-        ticker.start()
+    p = Progress(None, label, enabled, unit="s", bar_format="{desc}: {elapsed}{postfix}", tick=True)
     try:
         if p.enabled:  # what the work prints meanwhile goes above the bar, not through it
             with redirect_stdout(_AboveBar(sys.stdout, p)):
@@ -212,7 +220,4 @@ def activity(label: str, enabled: bool = True) -> Iterator[Progress]:
         else:
             yield p
     finally:
-        stop.set()
-        if ticker is not None:
-            ticker.join()
         p.close()

@@ -287,6 +287,10 @@ def parse_formula(
         raise reader.refuse(f"{len(text)} characters (at most {MAX_LENGTH})")
     if not text.strip():
         raise reader.refuse("an empty text")
+    bad = next((k for k, ch in enumerate(text) if ord(ch) > 127), None)
+    if bad is not None:  # Python reads a fullwidth 'ｅｘｐ' as exp (NFKC): names are ASCII
+        raise reader.refuse(f"the non-ASCII character {text[bad]!r} (U+{ord(text[bad]):04X}) "
+                            f"at column {bad + 1}")
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except (SyntaxError, ValueError, MemoryError, RecursionError):

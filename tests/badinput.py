@@ -46,6 +46,9 @@ class BadInput:
         Substrings that must not appear (e.g. the content of a file that must not be echoed).
     sentinels : tuple of str
         Files (relative to the folder) that must not exist after the run.
+    symlinks : mapping of str to str
+        Symbolic links to create (relative to the folder) and their targets (``{d}`` replaced;
+        the target need not exist).
     one_line : bool
         Whether the error must be exactly one line of stderr when ``exit == 2`` (the
         convention; information lines such as "gains from ..." may precede it).
@@ -60,6 +63,7 @@ class BadInput:
     files: Mapping[str, str | bytes] = field(default_factory=dict)
     not_in_stderr: tuple[str, ...] = ()
     sentinels: tuple[str, ...] = ("PWNED",)
+    symlinks: Mapping[str, str] = field(default_factory=dict)
     one_line: bool = True
     source: str = ""
 
@@ -82,6 +86,8 @@ def run_bad_input(row: BadInput, folder: Path, capsys) -> tuple[int, str, str]:
             p.write_bytes(content)
         else:
             p.write_text(_fill(content, folder))
+    for rel, target in row.symlinks.items():
+        (folder / rel).symlink_to(_fill(target, folder))
     argv = [_fill(a, folder) for a in row.argv]
     old = Path.cwd()
     os.chdir(folder)

@@ -12,6 +12,7 @@ from formsync_design.cli.main import main
 DATA = Path(__file__).parent / "data"
 SO3 = str(DATA / "agent_so3.py")
 CASE = str(DATA / "agent_so3_case.toml")
+TRUST = str(DATA / "agent_so3.py")  # the design file the case names (spec.trust)
 
 
 @pytest.fixture(autouse=True)
@@ -20,26 +21,30 @@ def _vm(monkeypatch):
 
 
 def test_simulate_an_agent_case_text_json_and_outputs(tmp_path, capsys):
-    rc = main(["simulate", "--case", CASE, "--tf", "4", "--out", str(tmp_path / "o")])
+    rc = main(["simulate", "--case", CASE, "--trust-design", TRUST, "--tf", "4",
+               "--out", str(tmp_path / "o")])
     out = capsys.readouterr().out
     assert rc == 1  # 4 s is not enough to converge: a negative finding, not an error
     assert "design agent_so3 (so3)" in out and "directed graph" in out and "monitor trace" in out
     assert sorted(p.name for p in (tmp_path / "o").iterdir()) == [
         "attitude.png", "rates.png", "summary.json", "torques.png", "trajectory.npz"]
-    rc = main(["simulate", "--case", CASE, "--tf", "60", "--format", "json", "--figures", "none"])
+    rc = main(["simulate", "--case", CASE, "--trust-design", TRUST, "--tf", "60", "--format", "json",
+               "--figures", "none"])
     doc = json.loads(capsys.readouterr().out)
     assert rc == 0 and doc["status"] == "converged" and doc["design"] == "agent_so3"
     assert doc["convergence_time"] is not None and doc["monitors"]["trace"]["max"] <= 3
 
 
 def test_simulate_agent_design_with_gain_override_and_refused_flags(capsys):
-    rc = main(["simulate", "--case", CASE, "--tf", "2", "--gain", "k_R=2", "--format", "json"])
+    rc = main(["simulate", "--case", CASE, "--trust-design", TRUST, "--tf", "2", "--gain", "k_R=2",
+               "--format", "json"])
     doc = json.loads(capsys.readouterr().out)
     assert rc == 1 and doc["gains"] == {"k_R": 2.0, "k_w": 1.5}
-    rc = main(["simulate", "--case", CASE, "--trigger", "periodic:0.1"])
+    rc = main(["simulate", "--case", CASE, "--trust-design", TRUST, "--trigger", "periodic:0.1"])
     err = capsys.readouterr().err
-    assert rc == 2 and "--trigger" in err and len(err.strip().splitlines()) == 1
-    rc = main(["simulate", "--case", CASE, "--gain", "k=1"])
+    errors = [ln for ln in err.strip().splitlines() if "error" in ln]  # after the design-code line
+    assert rc == 2 and "--trigger" in err and len(errors) == 1
+    rc = main(["simulate", "--case", CASE, "--trust-design", TRUST, "--gain", "k=1"])
     assert rc == 2 and "expected --gain for the controller gains" in capsys.readouterr().err
 
 
@@ -78,7 +83,8 @@ def test_certify_refuses_a_graph_outside_the_theorem(capsys):
     rc = main(["certify", "--design", SO3, "--graph", str(DATA / "two_pairs.txt"), "--gain",
                "k_R=1", "--gain", "k_w=1"])
     err = capsys.readouterr().err
-    assert rc == 2 and "spanning" in err and len(err.strip().splitlines()) == 1
+    errors = [ln for ln in err.strip().splitlines() if ": error: " in ln]  # design-code line aside
+    assert rc == 2 and "spanning" in err and len(errors) == 1
 
 
 def test_derive_agent_design_report_and_json(tmp_path, capsys):
@@ -137,7 +143,7 @@ def test_sweep_refuses_agent_designs_without_conditions_in_one_line(capsys):
 
 
 def test_montecarlo_of_an_agent_design_is_seeded_and_replays(tmp_path, capsys):
-    argv = ["montecarlo", "--case", CASE, "--gain", "k_R=0.5:1", "--runs", "3", "--tf", "20",
+    argv = ["montecarlo", "--case", CASE, "--trust-design", TRUST, "--gain", "k_R=0.5:1", "--runs", "3", "--tf", "20",
             "--step", "0.05", "--max-rate", "0.01", "--format", "json"]
     rc = main([*argv, "--out", str(tmp_path / "mc")])
     doc = json.loads(capsys.readouterr().out)

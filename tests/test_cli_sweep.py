@@ -9,6 +9,7 @@ exact rationals with the Laplacian spectrum from networkx.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import signal
@@ -300,13 +301,18 @@ def test_spec_reaches_the_sweep_from_the_flag_and_from_the_campaign_file(tmp_pat
     os.chdir(tmp_path)
     try:
         assert main(["sweep", "--campaign", str(camp), "--workers", "0", "--no-progress",
-                     "--out", "fromfile"]) == 0
+                     "--trust-design", str(spec), "--out", "fromfile"]) == 0
     finally:
         os.chdir(cwd)
     fromfile = read_results(tmp_path / "fromfile" / "results.csv")
     assert [r["ref_status"] for r in fromfile] == [r["ref_status"] for r in variant]
     man = json.loads((tmp_path / "fromfile" / "manifest.json").read_text())
     assert man["spec"]["name"] == "doubled-ko"
+    # design code that is not shipped is named, with its hash, in the manifest and the summary
+    sha = hashlib.sha256(spec.read_bytes()).hexdigest()
+    assert man["design_code"] == [{"path": str(spec), "sha256": sha}]
+    assert f"(sha256 `{sha}`)" in (tmp_path / "fromfile" / "summary.md").read_text()
+    assert "design_code" not in json.loads((tmp_path / "paper" / "manifest.json").read_text())
     # --spec and a campaign spec together are ambiguous
     capsys.readouterr()
     assert main(["sweep", "--campaign", str(camp), "--spec", str(spec), "--workers", "0",
@@ -632,7 +638,8 @@ def test_designs_a_sweep_cannot_run_and_unknown_designs_are_one_line(tmp_path, c
                    "--out", str(tmp_path / "o")])
         err = capsys.readouterr().err
         assert rc == 2 and words in err, err
-        one_line_error(err)
+        one_line_error("".join(ln for ln in err.splitlines(True)  # the design-code line aside
+                               if "design code that is not shipped" not in ln))
     f = tmp_path / "c.toml"
     f.write_text('[campaign]\nname = "c"\ngraphs = ["ring:4"]\ndesign = "pd_consensus"\n')
     rc = main(["sweep", "--campaign", str(f), "--design", "liang2016", "--workers", "0",
@@ -667,8 +674,10 @@ def test_compare_with_another_sweep_matches_graphs_up_to_relabelling(tmp_path, c
     star = tmp_path / "star6.txt"
     star.write_text("".join(f"6 {i}\n" for i in range(1, 6)))  # the centre is spacecraft 6
     camp = tmp_path / "pd.toml"
+    # the campaign names its graph file and the compared sweep beside it (a data file's paths
+    # stay inside its folder)
     camp.write_text('[campaign]\nname = "pd"\ndesign = "pd_consensus"\ngraphs = ["'
-                    + str(star) + '", "path:3"]\ncompare = "' + str(base)
+                    + star.name + '", "path:3"]\ncompare = "' + base.name
                     + '"\n[region]\nresolution = 1\n[design]\nbetas = 1\n')
     assert main(["sweep", "--campaign", str(camp), "--workers", "0", "--no-progress",
                  "--out", str(tmp_path / "pd")]) == 0
@@ -679,13 +688,13 @@ def test_compare_with_another_sweep_matches_graphs_up_to_relabelling(tmp_path, c
     from formsync_design.sweep import campaign_hash, expand_graphs, load_campaign
 
     c = load_campaign(camp)
-    gs, _ = expand_graphs(c.graphs)
+    gs, _ = expand_graphs(c.graphs, base=Path(c.base), source=c.source)
     h = campaign_hash(c, gs)
     res = base / "results.csv"
     res.write_text(res.read_text().replace(",refuted,", ",certified,"))
     assert campaign_hash(c, gs) != h
     capsys.readouterr()
-    camp.write_text(camp.read_text().replace(str(base), str(tmp_path / "nowhere")))
+    camp.write_text(camp.read_text().replace(f'compare = "{base.name}"', 'compare = "nowhere"'))
     assert main(["sweep", "--campaign", str(camp), "--workers", "0", "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err
     assert "finished sweep folder" in err

@@ -47,11 +47,16 @@ def unstable_case(tmp_path: Path) -> Path:
     return p
 
 
+def _trust(case: Path) -> str:
+    """The design file the case names (a data file's design code runs only when trusted)."""
+    return str(case.with_name("agent_unstable.py"))
+
+
 def test_agent_run_that_goes_non_finite_is_diverged_with_its_time(unstable_case: Path) -> None:
     from formsync_design.sim.agents import simulate_agents
     from formsync_design.verify.agentcase import load_agent_case
 
-    case = load_agent_case(unstable_case)
+    case = load_agent_case(unstable_case, trust=[_trust(unstable_case)])
     r = simulate_agents(case.design, case.formation(), case.options)
     assert str(r.status) == "diverged"
     assert r.diverged_time is not None and 0 < r.diverged_time <= 5.0
@@ -66,7 +71,7 @@ def test_agent_run_that_goes_non_finite_is_diverged_with_its_time(unstable_case:
 
 def test_simulate_diverged_is_exit_1_with_the_time(unstable_case: Path, tmp_path: Path,
                                                    capsys: pytest.CaptureFixture[str]) -> None:
-    rc = main(["simulate", "--case", str(unstable_case), "--figures", "none",
+    rc = main(["simulate", "--case", str(unstable_case), "--trust-design", _trust(unstable_case), "--figures", "none",
                "--out", str(tmp_path / "o")])
     out = capsys.readouterr()
     assert rc == 1
@@ -74,13 +79,13 @@ def test_simulate_diverged_is_exit_1_with_the_time(unstable_case: Path, tmp_path
     assert len(status) == 1 and "status: diverged - diverged at t = " in status[0]
     doc = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert doc["status"] == "diverged" and doc["diverged_time"] > 0
-    assert main(["simulate", "--case", str(unstable_case), "--format", "json", "--figures", "none"]) == 1
+    assert main(["simulate", "--case", str(unstable_case), "--trust-design", _trust(unstable_case), "--format", "json", "--figures", "none"]) == 1
     assert json.loads(capsys.readouterr().out)["status"] == "diverged"
 
 
 def test_montecarlo_counts_diverged_runs_and_goes_on(unstable_case: Path, tmp_path: Path,
                                                       capsys: pytest.CaptureFixture[str]) -> None:
-    argv = ["montecarlo", "--case", str(unstable_case), "--gain", "k=40:60", "--runs", "3",
+    argv = ["montecarlo", "--case", str(unstable_case), "--trust-design", _trust(unstable_case), "--gain", "k=40:60", "--runs", "3",
             "--max-rate", "0.01", "--no-certify"]
     rc = main([*argv, "--format", "json", "--out", str(tmp_path / "mc")])
     doc = json.loads(capsys.readouterr().out)

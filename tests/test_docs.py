@@ -184,14 +184,16 @@ def test_tutorial_verify_prints_what_the_page_shows_and_its_findings_are_true(tm
     from formsync_design.verify.agentcase import load_agent_case
 
     case_path = DOCS / "tutorial" / "my_design.toml"
-    rc = main(["verify", str(case_path), "--out", str(tmp_path / "o")])
+    rc = main(["verify", str(case_path), "--out", str(tmp_path / "o"),
+               "--trust-design", str(case_path.with_name("my_design.py"))])
     out = capsys.readouterr().out
     assert rc == 0, out
     page = (DOCS / "tutorial" / "index.md").read_text(encoding="utf-8")
-    block = page.split("formsync verify docs/tutorial/my_design.toml --out out/my_design")[1]
+    block = page.split("formsync verify docs/tutorial/my_design.toml --trust-design "
+                       "docs/tutorial/my_design.py --out out/my_design")[1]
     shown = block.split("```text\n", 1)[1].split("```", 1)[0].splitlines()[1:]
     assert [ln.rstrip() for ln in out.splitlines()[1:]] == [ln.rstrip() for ln in shown]
-    base = load_agent_case(case_path)
+    base = load_agent_case(case_path, trust=[case_path.with_name("my_design.py")])
     ring = simulate_agents(base.design, base.formation(), base.options)
     assert ring.convergence_time is not None and ring.convergence_time < 40
     assert float(np.max(np.abs(ring.torques))) > 5

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -80,6 +81,11 @@ predicate = "peak_matched <= 1.001 * peak_ref and peak_matched >= 0.999 * peak_r
 """
 
 
+def _load(case: Path) -> Any:
+    """The engine case, its design file trusted (a data file's design code needs it)."""
+    return load_engine_case(case, trust=[case.with_name("pd.py")])
+
+
 def _case(tmp_path: Path, text: str = CASE) -> Path:
     (tmp_path / "pd.py").write_text(DESIGN)
     p = tmp_path / "c.toml"
@@ -88,7 +94,7 @@ def _case(tmp_path: Path, text: str = CASE) -> Path:
 
 
 def test_formation_initial_state_and_horizon(tmp_path: Path) -> None:
-    case = load_engine_case(_case(tmp_path))
+    case = _load(_case(tmp_path))
     res = EngineResults(case)
     c = res.case_for("moved", "ref")
     want = Rotation.from_euler("ZYX", [30, -20, 10], degrees=True).as_quat()  # x y z w
@@ -101,7 +107,7 @@ def test_formation_initial_state_and_horizon(tmp_path: Path) -> None:
 
 
 def test_euler_uniform_draws_match_an_independent_generator(tmp_path: Path) -> None:
-    res = EngineResults(load_engine_case(_case(tmp_path)))
+    res = EngineResults(_load(_case(tmp_path)))
     rng = np.random.default_rng(11)
     for k in range(3):
         E = rng.uniform(-60, 60, size=(2, 3))
@@ -119,7 +125,7 @@ def test_euler_uniform_draws_match_an_independent_generator(tmp_path: Path) -> N
 def test_torque_matching_finds_the_closed_form_factor(tmp_path: Path) -> None:
     # u = -k vec(q) - c w from rest: the peak is k sin(theta/2) at t = 0 whatever c, so the
     # factor on k (c held) that gives the ref scenario's peak (k = 3) is exactly 3
-    ver = run_engine(load_engine_case(_case(tmp_path)))
+    ver = run_engine(_load(_case(tmp_path)))
     ep, gains = ver.results.gain_scale("matched")
     assert ep.scale == pytest.approx(3.0, rel=2e-4) and ep.relative_error <= 1e-4
     assert gains.as_dict()["c"] == 2.0 and gains.as_dict()["k"] == pytest.approx(ep.scale)
@@ -144,7 +150,7 @@ def test_torque_matching_finds_the_closed_form_factor(tmp_path: Path) -> None:
 def test_bad_keys_are_refused_in_one_line(tmp_path: Path, old: str, new: str, match: str) -> None:
     assert old in CASE
     with pytest.raises(InputError, match=match):
-        load_engine_case(_case(tmp_path, CASE.replace(old, new)))
+        _load(_case(tmp_path, CASE.replace(old, new)))
 
 
 ORDER = """
@@ -175,7 +181,7 @@ def test_times_in_order_and_gain_scale(tmp_path: Path) -> None:
     from formsync_design.analysis.equal_torque import in_order
     from formsync_design.verify.metrics_attitude import euler_error_time
 
-    ver = run_engine(load_engine_case(_case(tmp_path, CASE + ORDER)))
+    ver = run_engine(_load(_case(tmp_path, CASE + ORDER)))
     v = {m.id: x for m, x in ver.metrics}
     res = ver.results
     t = [res.run("pair", s).time_to(5.0) for s in ("ref", "matched")]
@@ -185,4 +191,4 @@ def test_times_in_order_and_gain_scale(tmp_path: Path) -> None:
     assert v["order_mc"].value == pytest.approx(sum(per) / 3)
     assert v["scale"].value == pytest.approx(3.0, rel=2e-4) and v["noscale"].value is None
     with pytest.raises(InputError, match="scenarios"):
-        load_engine_case(_case(tmp_path, CASE + ORDER.replace('"ref, matched"', '"ref, x"')))
+        _load(_case(tmp_path, CASE + ORDER.replace('"ref, matched"', '"ref, x"')))

@@ -36,7 +36,7 @@ integrator = "{integrator}"
 id = "w"
 metric = "final_rate"
 ''' + _SC + _SC)
-    return load_engine_case(tmp_path / "c.toml")
+    return load_engine_case(tmp_path / "c.toml", trust=[tmp_path / "damper.py"])
 
 
 def test_failed_gyro_leaves_its_spacecraft_undamped(tmp_path):

@@ -221,7 +221,7 @@ BAD = [
      "metric among"),
     ('predicate = "tconv < 11"', 'predicate = "__import__(\'os\').system(\'x\') < 1"', "column"),
     ('predicate = "tconv < 11"', 'predicate = "tconv < 11 < 12"', "one comparison"),
-    ('predicate = "tconv < 11"', 'predicate = "nothing < 11"', "metric id among"),
+    ('predicate = "tconv < 11"', 'predicate = "nothing < 11"', "metric id of the case"),
     ("max_rate = 0.01", "max_rate = 1e9", "magnitude"),
     ("runs = 2", "runs = 0", "runs"),
     ("runs = 2", "runs = 2.5", "integer"),
@@ -340,7 +340,8 @@ def test_a_design_file_registers_its_own_metric_and_undecided_stays_undecided(tm
     (tmp_path / "damper.py").write_text(DAMPER)
     case = _write(tmp_path, DAMPER_CASE, "damper_case.toml")
     try:
-        assert main(["verify", str(case), "--out", str(tmp_path / "o"), "--format", "json"]) == 0
+        assert main(["verify", str(case), "--out", str(tmp_path / "o"), "--format", "json",
+                     "--trust-design", str(tmp_path / "damper.py")]) == 0
         doc = json.loads(capsys.readouterr().out)
     finally:
         METRICS.pop("test_damper_kinetic_energy", None)
@@ -404,7 +405,10 @@ scenario = "other"
 id = "energy\"""", 1)
     case = _write(tmp_path, text, "damper_case.toml")
     try:
-        assert main(["verify", str(case), "--out", str(tmp_path / "o"), "--format", "json"]) == 0
+        trust = ["--trust-design", str(tmp_path / "damper.py"),
+                 "--trust-design", str(tmp_path / "other.py")]
+        assert main(["verify", str(case), "--out", str(tmp_path / "o"), "--format", "json",
+                     *trust]) == 0
         doc = json.loads(capsys.readouterr().out)
         m = {x["id"]: x["value"] for x in doc["metrics"]}
         # |(0.1, -0.05, 0)| e^(-k tf), tf = 5: k = 1 for the base design, c = 3 for the other
@@ -415,8 +419,8 @@ id = "energy\"""", 1)
         # the other design's gains are required whole, and only its own are accepted
         for bad, words in (('gains = {c = 3.0}\n', "gains"), ("c = 3.0", "k = 1.0")):
             case.write_text(text.replace(bad, "" if words == "gains" else words, 1))
-            assert main(["verify", str(case), "--out", str(tmp_path / "o2")]) == 2
-            assert capsys.readouterr().err.count("\n") == 1
+            assert main(["verify", str(case), "--out", str(tmp_path / "o2"), *trust]) == 2
+            assert capsys.readouterr().err.count("error") == 1
     finally:
         from formsync_design.verify.metrics import METRICS
 
@@ -450,7 +454,8 @@ scenario = "pd"
 [[metrics]]
 id = "energy\"""", 1)
     try:
-        ver = run_engine(load_engine_case(_write(tmp_path, text, "damper_case.toml")))
+        ver = run_engine(load_engine_case(_write(tmp_path, text, "damper_case.toml"),
+                                          trust=[tmp_path / "damper.py", tmp_path / "pd.py"]))
         certs = {s: c for _, s, c in ver.certificates}
         assert str(certs["nominal"].status) == "undecided"
         assert str(certs["pd"].status) == "certified"
@@ -582,7 +587,7 @@ name = "quiet"
 disturbance = {model = "none"}
 """
     try:
-        ver = fs.verify_case(_write(tmp_path, text, "once.toml"))
+        ver = fs.verify_case(_write(tmp_path, text, "once.toml"), trust=[tmp_path / "damper.py"])
     finally:
         from formsync_design.verify.metrics import METRICS
 
@@ -605,10 +610,11 @@ def test_a_metric_returning_the_wrong_kind_is_refused(tmp_path, capsys):
     case = _write(tmp_path, DAMPER_CASE.replace("test_damper_kinetic_energy", "test_damper_wrong"),
                   "wrong.toml")
     try:
-        assert main(["verify", str(case), "--out", str(tmp_path / "o")]) == 2
+        assert main(["verify", str(case), "--out", str(tmp_path / "o"),
+                     "--trust-design", str(tmp_path / "damper.py")]) == 2
     finally:
         METRICS.pop("test_damper_wrong", None)
-    err = capsys.readouterr().err.strip().splitlines()
+    err = [ln for ln in capsys.readouterr().err.strip().splitlines() if "error" in ln]
     assert len(err) == 1 and "number value" in err[0]
 
 

@@ -175,8 +175,9 @@ SYMPIFY_OF_EXPRESSIONS = {
     ("formsync_design/spec/loader.py", "validate_spec"),
     ("formsync_design/spec/tracking.py", "validate_tracking"),
 }
-#: A design ``.py`` file is code by nature (README "Designs are code"): the one ``exec``.
-EXEC_OF_DESIGN_FILES = {("formsync_design/spec/loader.py", "_load_file")}
+#: A design ``.py`` file is code by nature (README "What can run code, and when"): the one
+#: ``exec``, reached only for a shipped design, a file the user named or one trusted by hash.
+EXEC_OF_DESIGN_FILES = {("formsync_design/spec/loader.py", "_load_code")}
 _EVALUATORS = {"sympify", "parse_expr", "eval", "exec", "S", "literal_eval"}
 
 

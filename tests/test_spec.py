@@ -199,7 +199,8 @@ def test_cli_bad_spec_exit_2_one_line_no_output(tmp_path, capsys, cmd, name):
     cap = capsys.readouterr()
     err = cap.err.strip()
     assert rc == 2
-    assert len(err.splitlines()) == 1 and "Traceback" not in err and name in err
+    errors = [ln for ln in err.splitlines() if ": error: " in ln]  # after the design-code line
+    assert len(errors) == 1 and "Traceback" not in err and name in errors[0]
     assert not out.exists()
 
 
@@ -207,7 +208,8 @@ def test_cli_binary_spec_exit_2(tmp_path, capsys):
     p = _write_bad(tmp_path, "binary")
     assert main(["derive", "--graph", "ring:4", "--spec", str(p)]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "non-UTF-8" in err
+    errors = [ln for ln in err.splitlines() if ": error: " in ln]  # after the design-code line
+    assert len(errors) == 1 and "non-UTF-8" in errors[0]
 
 
 # -- one design, two views: an agent design file that also provides its Lagrangian view ----

@@ -203,10 +203,12 @@ def test_singular_stop_is_explicit():
 
 def test_case_file_spec_is_used_and_spec_option_overrides_it(capsys):
     case = str(DATA / "case_with_spec.toml")
-    assert main(["simulate", "--case", case, "--tf", "2", "--no-compile", "--format", "json"]) == 1
+    trust = ["--trust-design", str(DATA / "case_spec_fast.py")]  # the design file it names
+    assert main(["simulate", "--case", case, "--tf", "2", "--no-compile", "--format", "json",
+                 *trust]) == 1
     js = json.loads(capsys.readouterr().out)
     assert js["specification"] == "case_spec_fast"
     assert js["spec_key"] == load_spec(DATA / "case_spec_fast.py").key
     assert main(["simulate", "--case", case, "--tf", "2", "--no-compile", "--format", "json",
-                 "--spec", str(VARIANT)]) == 1
+                 "--spec", str(VARIANT), *trust]) == 1
     assert json.loads(capsys.readouterr().out)["specification"] == "double-kq"

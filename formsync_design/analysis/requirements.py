@@ -141,7 +141,7 @@ def parse_graph_set(text: str, graph: Any) -> tuple[tuple[Any, ...], str]:
     text = text.strip()
     if text.startswith("minus:"):
         k_txt = text.split(":", 1)[1]
-        if not k_txt.isdigit() or int(k_txt) < 1:
+        if not (k_txt.isascii() and k_txt.isdigit()) or int(k_txt) < 1:
             raise InputError(f"expected --graphs-set minus:K with an integer K >= 1, received {text!r}")
         subs = graphs_minus_links(g, int(k_txt))
         return (g, *subs), f"{g.name} and its {len(subs)} connected subgraphs without {k_txt} link(s)"

@@ -39,9 +39,11 @@ from formsync_design.cli.options import (
     closing_lines,
     emit_json,
     parse_gain_assignments,
+    parse_positive,
+    with_design_code,
     write_summary_and_runs,
 )
-from formsync_design.errors import InputError
+from formsync_design.errors import DerivationError, InputError
 from formsync_design.outdir import (
     atomic_path,
     save_figure as save_atomic_figure,
@@ -70,7 +72,7 @@ def run_agent_simulate(args: argparse.Namespace, design: Any) -> int:
     out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
     defaults = Defaults()
     case = agent_case_for(design, args.case, args.gain, defaults)
-    case, graph = agent_graph(case, args.graph, defaults)
+    case, graph = agent_graph(case, args.graph, defaults, design)
     theorem = check_theorem_graph(graph, design.decl.graphs,
                                   allow_outside=getattr(args, "allow_outside_theorem", False),
                                   design=design.name)
@@ -97,7 +99,7 @@ def run_agent_simulate(args: argparse.Namespace, design: Any) -> int:
            "defaults": list(defaults.lines), **r.to_dict()}
     written: list[str] = []
     if out_dir is not None:
-        p = write_text(out_dir / "summary.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
+        p = write_text(out_dir / "summary.json", json.dumps(with_design_code(doc), indent=2, allow_nan=False) + "\n")
         written.append(str(p))
         if args.export in ("npz", "both"):
             npz = out_dir / "trajectory.npz"
@@ -175,9 +177,13 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
     ``--graph`` (its exact linearisation at consensus, the disagreement decided over the
     ``--gain`` box: :func:`~formsync_design.certify.formation.certify_formation`) decides the
     exit status; the design's own ``conditions(c)`` families, when it has them, are decided
-    too and reported with their own scope (multipliers searched over their declared ranges)."""
+    too and reported with their own scope (multipliers searched over their declared ranges).
+    With ``--allow-outside-theorem`` on a graph outside the design's theorem, conditions that
+    do not apply to the graph (the hook refuses it) are reported as not applicable, with the
+    hook's reason, and the formation certificate still decides."""
     from formsync_design.certify.agent import certify_agent
     from formsync_design.certify.formation import certify_formation, conditions_scope
+    from formsync_design.cli.certify import certify_activity
     from formsync_design.derive.agent import agent_conditions
     from formsync_design.gains import GainBox, parse_number
     from formsync_design.graphs.theorem import check_theorem_graph
@@ -196,24 +202,37 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
                                   allow_outside=getattr(args, "allow_outside_theorem", False),
                                   design=design.name)
     g, inertias, note = formation_inputs(args, design, graph)
+    note += "".join(f"; {ln}" for ln in defaults.lines if ln.startswith("pinning for --graph"))
     switch = getattr(args, "switch", None) or "sat"
     phi = getattr(args, "boundary_layer", None) or "1/100"
-    ctrl = GainBox(tuple(r for r in box.ranges if r.name not in design.decl.multipliers))
-    form = certify_formation(design, g, inertias, ctrl, switch=switch, phi=phi)
-    evidence = None
-    if str(form.status) == "undecided" and "not differentiable" in form.scope.covers:
-        # no proof decides: a seeded falsification search in simulation, reported as evidence
-        from formsync_design.verify.falsify import falsify_formation
+    if getattr(args, "boundary_layer", None) is not None:
+        parse_positive(args.boundary_layer, "--boundary-layer")
+    with certify_activity(g, args.format) as bar:
+        bar.note("the formation certificate")
+        ctrl = GainBox(tuple(r for r in box.ranges if r.name not in design.decl.multipliers))
+        form = certify_formation(design, g, inertias, ctrl, switch=switch, phi=phi)
+        evidence = None
+        if str(form.status) == "undecided" and "not differentiable" in form.scope.covers:
+            # no proof decides: a seeded falsification search in simulation, reported as evidence
+            from formsync_design.verify.falsify import falsify_formation
 
-        point = {r.name: (r.lo + r.hi) / 2 for r in ctrl.ranges}
-        case = agent_case_for(design, None, [f"{k}={v}" for k, v in point.items()])
-        evidence = falsify_formation(case, g, switch=getattr(args, "switch", None),
-                                     phi=None if getattr(args, "boundary_layer", None) is None
-                                     else float(parse_number(args.boundary_layer, "phi")))
-    res = None
-    if callable(design.module.get("conditions")):
-        res = certify_agent(design, agent_conditions(design, graph), box,
-                            margin=getattr(args, "margin", None) or 0)
+            point = {r.name: (r.lo + r.hi) / 2 for r in ctrl.ranges}
+            case = agent_case_for(design, None, [f"{k}={v}" for k, v in point.items()])
+            evidence = falsify_formation(case, g, switch=getattr(args, "switch", None),
+                                         phi=None if getattr(args, "boundary_layer", None) is None
+                                         else float(parse_number(args.boundary_layer, "--boundary-layer")))
+        res = None
+        not_applicable = ""
+        if callable(design.module.get("conditions")):
+            try:
+                conds = agent_conditions(design, graph)
+            except (InputError, DerivationError) as e:
+                if theorem.inside:  # inside the theorem the hook must apply: a real refusal
+                    raise
+                not_applicable = " ".join(str(e).split())
+            else:
+                bar.note("the design's conditions(c)")
+                res = certify_agent(design, conds, box, margin=getattr(args, "margin", None) or 0)
     if args.format == "json":
         doc: dict[str, Any] = {**({"outside_theorem": theorem.to_dict()} if not theorem.inside
                                   else {}), "design": design.name, "status": str(form.status),
@@ -222,6 +241,9 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
             doc["falsification"] = evidence.to_dict()
         if res is not None:
             doc["design_conditions"] = {**res.to_dict(), "scope": conditions_scope(design).to_dict()}
+        elif not_applicable:
+            doc["design_conditions"] = {"status": "not applicable", "reason": not_applicable,
+                                        "scope": conditions_scope(design).to_dict()}
         emit_json(doc)
     else:
         defaults.emit("certify")
@@ -232,6 +254,9 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
         if res is not None:
             lines += ["", "design conditions (" + conditions_scope(design).text() + "):",
                       format_result(res)]
+        elif not_applicable:
+            lines += ["", "design conditions (" + conditions_scope(design).text() + "): not "
+                      f"applicable on {graph.name!r}, outside the design's theorem ({not_applicable})"]
         print("\n".join(lines))
     return EXIT_OK if form.certified else EXIT_NEGATIVE
 
@@ -239,7 +264,7 @@ def run_agent_certify(args: argparse.Namespace, design: Any) -> int:
 def run_agent_derive(args: argparse.Namespace, design: Any) -> int:
     """``formsync derive`` of an agent design: the derivation report (Markdown) of the design
     on ``--graph`` (default: its shipped case's graph, else ring:8), or its JSON summary."""
-    from formsync_design.cli.defaults import agent_case
+    from formsync_design.cli.defaults import agent_case, case_pinning
     from formsync_design.derive.agent_report import agent_derivation, write_agent_derivation_report
     from formsync_design.graphs.theorem import check_theorem_graph, load_graph
     from formsync_design.verify.defaults import Defaults
@@ -251,7 +276,8 @@ def run_agent_derive(args: argparse.Namespace, design: Any) -> int:
                          "certify), received --gain")
     defaults = Defaults()
     if args.graph is not None:
-        graph = load_graph(args.graph)
+        graph = case_pinning(design, agent_case(design, None, None, None), load_graph(args.graph),
+                             defaults)
     else:
         case = agent_case(design, None, None, None)
         graph = case.graph() if case is not None else load_graph("ring:8")
@@ -301,7 +327,7 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
     out_dir = check_out_dir(args.out, overwrite=getattr(args, "overwrite", False))
     defaults = Defaults()
     case = agent_case_for(design, args.case, None, defaults)
-    case, graph = agent_graph(case, args.graph, defaults)
+    case, graph = agent_graph(case, args.graph, defaults, design)
     theorem = check_theorem_graph(graph, design.decl.graphs,
                                   allow_outside=getattr(args, "allow_outside_theorem", False),
                                   design=design.name)
@@ -389,7 +415,12 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     from formsync_design.certify.formation import conditions_scope
     from formsync_design.certify.plots import plot_slices
     from formsync_design.certify.subdivision import map_to_dict
-    from formsync_design.cli.defaults import default_out, refuse_uncertified
+    from formsync_design.cli.defaults import (
+        agent_case,
+        case_pinning,
+        default_out,
+        refuse_uncertified,
+    )
     from formsync_design.cli.options import to_json_value
     from formsync_design.derive.agent import agent_conditions
     from formsync_design.graphs.theorem import check_theorem_graph, load_graph
@@ -412,7 +443,8 @@ def run_agent_region(args: argparse.Namespace, design: Any) -> int:
     graph0, box = graph_and_box(design, args.graph[0] if args.graph else None, args.gain,
                                  defaults, free=2)
     mult = agent_multipliers(design, box)
-    graphs = list(args.graph) if args.graph else [graph0]
+    graphs = [graph0, *(case_pinning(design, agent_case(design, None, None, None), load_graph(g),
+                                     defaults) for g in args.graph[1:])] if args.graph else [graph0]
     out = Path(args.out) if args.out else default_out("region", design, graph0.name)
     if not args.out:
         defaults.add(f"output folder {out} (give --out DIR for another)")

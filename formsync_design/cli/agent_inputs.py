@@ -47,12 +47,10 @@ def agent_design_or_none(design_arg: Any, case_arg: Any = None) -> Any:
     if ref is None:
         return None
     path = _case_path(case_arg)
-    from formsync_design.resources import design_names
+    from formsync_design.spec.trust import resolve_design_ref
 
-    target = ref if ref.isidentifier() and ref in design_names() else (
-        ref if Path(ref).is_absolute() else str(path.parent / ref))
     try:
-        d = load_design(target)
+        d = load_design(resolve_design_ref(ref, path, "case.design"))
     except InputError:
         return None  # the command's own case loader reports a bad reference
     return d if getattr(d, "form", None) == "agent" and case_is_agent(path) else None
@@ -135,6 +133,15 @@ def refuse_lagrangian_options(args: argparse.Namespace, names: tuple[str, ...], 
                              f"to the Lagrangian designs), received {flag} {v}")
 
 
+def _positive_flag(text: Any, flag: str) -> float:
+    from formsync_design.gains import parse_number
+
+    x = float(parse_number(text, flag))
+    if not x > 0:
+        raise InputError(f"expected a positive {flag}, received {text}")
+    return x
+
+
 def agent_options(args: argparse.Namespace, base: Any) -> Any:
     from dataclasses import replace
 
@@ -146,14 +153,17 @@ def agent_options(args: argparse.Namespace, base: Any) -> Any:
                        ("angle_tol", "angle_tol"), ("rate_tol", "rate_tol")):
         v = getattr(args, attr, None)
         if v is not None:
-            x = float(parse_number(v, "--" + attr.replace("_", "-")))
+            flag = "--" + attr.replace("_", "-")
+            x = float(parse_number(v, flag))
+            if not x > 0:  # named by the flag, not by the option's field (phi)
+                raise InputError(f"expected a positive {flag}, received {v}")
             kw[name] = x
     tl = getattr(args, "torque_limit", None)
     if tl is not None:
-        kw["torque_limit"] = None if str(tl).lower() == "none" else float(parse_number(tl, "--torque-limit"))
+        kw["torque_limit"] = None if str(tl).lower() == "none" else _positive_flag(tl, "--torque-limit")
     sp_ = getattr(args, "sample_period", None)
     if sp_ is not None:
-        kw["period"] = None if str(sp_).lower() == "none" else float(parse_number(sp_, "--sample-period"))
+        kw["period"] = None if str(sp_).lower() == "none" else _positive_flag(sp_, "--sample-period")
     if getattr(args, "switch", None) is not None:
         kw["switch"] = args.switch
     if getattr(args, "integrator", None) is not None:
@@ -188,8 +198,10 @@ def graph_and_box(design: Any, graph_arg: Any, gains: Any, defaults: Any, *,
                    free: int) -> tuple[Any, Any]:
     """The graph (``graph_arg``, else the design's case's) and the gain box (``--gain``, the
     case's values for the gains not given, ``free`` of them over their declared ranges) of
-    an agent certificate, the defaults said in ``defaults``."""
-    from formsync_design.cli.defaults import agent_box
+    an agent certificate, the defaults said in ``defaults``; a leader design's ``graph_arg``
+    without pinning gains takes its case's pinning rule
+    (:func:`~formsync_design.cli.defaults.case_pinning`)."""
+    from formsync_design.cli.defaults import agent_box, agent_case, case_pinning
     from formsync_design.graphs.theorem import load_graph
 
     named = parse_gain_assignments(gains)
@@ -200,6 +212,7 @@ def graph_and_box(design: Any, graph_arg: Any, gains: Any, defaults: Any, *,
         assert case is not None
         graph = case.graph()
         defaults.add(f"graph from the case {case.name}: {graph.name} ({graph.n} spacecraft)")
-    else:
-        graph = load_graph(graph_arg)
+    else:  # a leader design keeps the case's pinning rule on --graph (said in defaults)
+        graph = case_pinning(design, case if case is not None else agent_case(design, None, None, None),
+                             load_graph(graph_arg), defaults)
     return graph, agent_box(design, gains, case, defaults, free=free)

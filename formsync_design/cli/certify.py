@@ -16,6 +16,7 @@ from formsync_design.cli.options import (
     add_design_option,
     add_format_option,
     add_theorem_option,
+    add_trust_option,
     design_box,
     design_graph,
     emit_json,
@@ -28,7 +29,7 @@ if TYPE_CHECKING:
 
 __all__ = ["add_parser", "run", "load_conditions", "certify_design", "require_classic", "add_gain_options",
            "gain_box_from_args", "add_certificate_options", "requirements_from_args",
-           "CERTIFICATE_HELP"]
+           "CERTIFICATE_HELP", "certify_activity"]
 
 #: One line per certificate (``--help``).
 CERTIFICATE_HELP = """\
@@ -235,9 +236,9 @@ def parse_margin(text: str) -> Fraction:
     """
     from formsync_design.gains import parse_number
 
-    m = parse_number(text, "margin")
+    m = parse_number(text, "--margin")
     if m < 0:
-        raise InputError(f"expected a non-negative margin EPS, received {text!r}")
+        raise InputError(f"expected a non-negative margin EPS (--margin), received {text!r}")
     return m
 
 
@@ -286,6 +287,7 @@ def add_parser(sub: Any) -> None:
                    help="agent designs: the boundary layer of sat/tanh (default 0.01)")
     add_certificate_options(p)
     add_format_option(p)
+    add_trust_option(p)
     p.set_defaults(func=run)
 
 
@@ -391,17 +393,21 @@ def run(args: argparse.Namespace) -> int:
         defaults.emit("certify")
     margin = parse_margin(args.margin)
     req = requirements_from_args(args, args.graph)
-    _, theorem = design_graph(args.graph, spec, args.allow_outside_theorem)
+    g, theorem = design_graph(args.graph, spec, args.allow_outside_theorem)
     if args.certificate != "paper" or req.any():
         if not theorem.inside:
             sys.stderr.write(theorem.note() + "\n")
-        return _run_analysis(args, spec, box, margin, req)
-    conds = load_conditions(args.graph, args.conditions, args.spec)
-    kv = _kv_from_args(args, conds)
-    if kv is not None and spec.decl.switching is None:
-        raise InputError(f"expected no K_v check (--ud/--inertia/--case/--kv) for design "
-                         f"{spec.name}: it has no switching term")
-    res = certify_design(conds, box, spec, margin=margin, kv=kv)
+        with certify_activity(g, args.format):
+            return _run_analysis(args, spec, box, margin, req)
+    with certify_activity(g, args.format) as bar:
+        bar.note("deriving the conditions")
+        conds = load_conditions(args.graph, args.conditions, args.spec)
+        kv = _kv_from_args(args, conds)
+        if kv is not None and spec.decl.switching is None:
+            raise InputError(f"expected no K_v check (--ud/--inertia/--case/--kv) for design "
+                             f"{spec.name}: it has no switching term")
+        bar.note("deciding the blocks at the box's vertices")
+        res = certify_design(conds, box, spec, margin=margin, kv=kv)
     from formsync_design.certify.formation import lagrangian_scope
 
     scope = lagrangian_scope(conds.graph, spec, kv is not None)
@@ -417,6 +423,16 @@ def run(args: argparse.Namespace) -> int:
         print(("" if theorem.inside else theorem.note() + "\n") + format_result(res)
               + f"\nscope: {scope.text()}")
     return EXIT_OK if res.certified else EXIT_NEGATIVE
+
+
+def certify_activity(graph: Any, fmt: str) -> Any:
+    """The progress of one certificate on a terminal (:func:`formsync_design.progress.activity`):
+    its elapsed time and stage.  Its stages do not count their steps (one eigen-decomposition
+    of a 4000 x 4000 block on 2000 spacecraft is one step), which the label says up front."""
+    from formsync_design.progress import activity
+
+    return activity(f"certify on {graph.name} (N = {graph.n}; elapsed time, no step count)",
+                    enabled=fmt == "text")
 
 
 def _run_analysis(args: argparse.Namespace, spec: Any, box: GainBox, margin: Fraction, req: Any) -> int:

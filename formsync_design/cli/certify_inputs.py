@@ -5,10 +5,11 @@ disturbance bounds and switching gains."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
+import re
 from typing import TYPE_CHECKING, Any
 
 from formsync_design.errors import InputError
+from formsync_design.textio import cut, read_text
 
 if TYPE_CHECKING:
     import numpy as np
@@ -34,6 +35,14 @@ def _check_J(J: np.ndarray, k: int, src: str) -> np.ndarray:
     return J
 
 
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def read_inertias(path: str, n: int) -> list[np.ndarray]:
     """Read 3x3 inertias (kg m^2) from a text/CSV file: 3 rows per spacecraft
     (whitespace or comma separated, ``#`` comments).  3 rows = the same inertia
@@ -48,23 +57,26 @@ def read_inertias(path: str, n: int) -> list[np.ndarray]:
     """
     import numpy as np
 
-    p = Path(path)
-    if not p.is_file():
-        raise InputError(f"expected an inertia file, received {path!r} (no such file)")
     rows = []
-    for lineno, raw in enumerate(p.read_text().splitlines(), start=1):
+    for lineno, raw in enumerate(read_text(path, "inertia file").splitlines(), start=1):
         line = raw.split("#", 1)[0].strip()
         if not line:
             continue
         parts = line.replace(",", " ").split()
         if len(parts) != 3:
-            raise InputError(f"expected 3 numbers per row, received {raw.strip()!r} at {path}:{lineno}")
+            raise InputError(f"expected 3 numbers per row, received {len(parts)} fields "
+                             f"{cut(line)} at {path}:{lineno}")
+        bad = next((x for x in parts if not re.fullmatch(r"[0-9.eE+-]+", x)), None)
         try:
+            if bad is not None:  # float() would read a Bengali or fullwidth digit
+                raise ValueError(bad)
             vals = [float(x) for x in parts]
         except ValueError:
-            raise InputError(f"expected numbers, received {raw.strip()!r} at {path}:{lineno}") from None
+            bad = bad or next(x for x in parts if not _is_float(x))
+            raise InputError(f"expected numbers (digits 0-9), received {cut(bad)} at "
+                             f"{path}:{lineno}, column {raw.index(bad) + 1}") from None
         if not all(math.isfinite(v) for v in vals):
-            raise InputError(f"expected finite numbers, received {raw.strip()!r} at {path}:{lineno}")
+            raise InputError(f"expected finite numbers, received {cut(line)} at {path}:{lineno}")
         rows.append(vals)
     if len(rows) == 3:
         J = _check_J(np.array(rows), 1, path)

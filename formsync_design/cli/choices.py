@@ -15,7 +15,7 @@ __all__ = ["GRAPH_SPEC_HELP", "SWITCHES", "DISTURBANCES", "INTEGRATORS", "MAX_RU
 #: :data:`formsync_design.graphs.build.GRAPH_SPEC_HELP`
 GRAPH_SPEC_HELP = (
     "ring:N | path:N | star:N | complete:N | circulant:N:a,b,... | random:N:P:SEED "
-    "| an edge-list file (1-based 'i j' per line) | an adjacency CSV file"
+    "| cycle:N (directed) | an edge-list file (1-based 'i j' per line) | an adjacency CSV file"
 )
 
 #: :data:`formsync_design.sim.bridge.SWITCHES` (switching terms)

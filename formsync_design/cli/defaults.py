@@ -26,6 +26,7 @@ __all__ = [
     "refuse_uncertified",
     "agent_case",
     "agent_graph",
+    "case_pinning",
     "agent_box",
     "gains_text",
     "agent_criterion",
@@ -100,9 +101,41 @@ def agent_case(design: Any, case_arg: Any, gains: Any, defaults: Defaults | None
     return case
 
 
-def agent_graph(case: Any, graph_arg: Any, defaults: Defaults | None) -> tuple[Any, Any]:
+def case_pinning(design: Any, case: Any, graph: Any, defaults: Defaults | None) -> Any:
+    """``graph`` with the pinning of ``case`` when ``design`` has a leader and ``graph`` (from
+    ``--graph``) has no pinning gains: the case's rule resized to the graph
+    (:meth:`~formsync_design.verify.agentcase.AgentCase.pinning_rule`), said in ``defaults``.
+    Any other graph is returned as it is.
+
+    >>> from formsync_design.spec.loader import load_design
+    >>> lv = load_design("lv2012")
+    >>> d = Defaults()
+    >>> g = case_pinning(lv, agent_case(lv, None, None, None), "ring:4", d)
+    >>> g.name, [str(b) for b in g.pinning], d.lines
+    ('ring:4', ['1', '1', '1', '1'], ['pinning for --graph ring:4: every spacecraft pinned with b = 1 (the rule of the case lv2012)'])
+    """
+    from formsync_design.graphs.digraph_io import make_digraph
+    from formsync_design.graphs.theorem import load_graph
+
+    if case is None or not getattr(design.decl, "leader", False):
+        return graph
+    g = make_digraph(load_graph(graph))
+    if g.has_leader:
+        return graph
+    rule = case.pinning_rule(g.n)
+    if rule is None:
+        return graph
+    pins, text = rule
+    if defaults is not None:
+        defaults.add(f"pinning for --graph {g.name}: {text}")
+    return make_digraph(g, pinning=pins)
+
+
+def agent_graph(case: Any, graph_arg: Any, defaults: Defaults | None,
+                design: Any = None) -> tuple[Any, Any]:
     """``(case, graph)``: ``--graph`` (the case resized to its size when it differs, said in
-    ``defaults``), else the case's graph."""
+    ``defaults``; a leader ``design``'s graph without pinning takes the case's pinning rule,
+    :func:`case_pinning`), else the case's graph."""
     from formsync_design.graphs.theorem import load_graph
 
     if graph_arg is None:
@@ -110,7 +143,8 @@ def agent_graph(case: Any, graph_arg: Any, defaults: Defaults | None) -> tuple[A
         if defaults is not None:
             defaults.add(f"graph from the case {case.name}: {g.name} ({g.n} spacecraft)")
         return case, g
-    g = load_graph(graph_arg)
+    g = case_pinning(design, case, load_graph(graph_arg), defaults) if design is not None \
+        else load_graph(graph_arg)
     if g.n != case.n:
         if defaults is not None:
             defaults.add(resize_note(case.name, case.n, g.name, g.n).replace(

@@ -6,7 +6,14 @@ import argparse
 import sys
 from typing import Any
 
-from formsync_design.cli.options import EXIT_NEGATIVE, EXIT_OK, add_format_option, emit_json
+from formsync_design.cli.options import (
+    EXIT_NEGATIVE,
+    EXIT_OK,
+    add_format_option,
+    add_trust_option,
+    emit_json,
+    whole_number,
+)
 
 __all__ = ["add_parser", "run"]
 
@@ -50,7 +57,7 @@ def add_parser(sub: Any) -> None:
     from formsync_design.cli.certify import add_gain_options
 
     add_gain_options(p)
-    p.add_argument("--betas", type=int, default=11, metavar="N",
+    p.add_argument("--betas", type=whole_number, default=11, metavar="N",
                    help="number of beta values swept over the beta range (default 11)")
     p.add_argument("--penalty", default="0", metavar="RHO",
                    help="weight on normalized gain size K_o/K_o_max + K_q/K_q_max (default 0)")
@@ -67,9 +74,10 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--att0", default="0.1", metavar="R", help="initial set |q_i(0)| <= R (default 0.1)")
     p.add_argument("--rate0", default="0.01", metavar="W", help="initial set |omega_i(0)| <= W rad/s "
                    "(default 0.01)")
-    p.add_argument("--grid", type=int, default=4, metavar="K",
+    p.add_argument("--grid", type=whole_number, default=4, metavar="K",
                    help="candidates per gain axis of the constrained design (default 4, max 16)")
     add_format_option(p)
+    add_trust_option(p)
     p.set_defaults(func=run)
 
 
@@ -115,9 +123,9 @@ def run(args: argparse.Namespace) -> int:
             rs[n] = r
         box = GainBox(tuple(rs[n] for n in spec.gains))
     margin = parse_margin(args.margin)
-    pen = parse_number(args.penalty, "penalty")
+    pen = parse_number(args.penalty, "--penalty")
     if pen < 0:
-        raise InputError(f"expected a non-negative penalty, received {args.penalty!r}")
+        raise InputError(f"expected a non-negative penalty (--penalty), received {args.penalty!r}")
     if not 1 <= args.betas <= 1000:
         raise InputError(f"expected --betas in 1..1000, received {args.betas}")
     if args.min_delay is not None or args.graphs_set is not None or args.torque_limit is not None:

@@ -15,6 +15,7 @@ import re
 import sys
 import traceback
 from collections.abc import Sequence
+from typing import Any
 
 from formsync_design import __version__, outdir
 from formsync_design.cli import (
@@ -116,9 +117,16 @@ def _main(argv: Sequence[str] | None) -> int:
         _fail("", "interrupted (Ctrl-C)")
         return EXIT_INTERRUPTED
     command = str(args.command)
+    out = getattr(args, "out", None)
+    if isinstance(out, str) and not out.strip():  # Path("") is the working folder: never implied
+        _fail(command, f"expected --out DIR naming a folder, received an empty name {out!r} (give "
+                       "--out . for the working folder)")
+        return EXIT_USAGE
+    found: list[Any] = []
     try:
         with outdir.session():  # every --out a command claimed is released however it ends
-            return int(args.func(args))
+            with _design_code_session(args, command) as found:
+                return int(args.func(args))
     except BrokenPipeError:  # output piped into e.g. `head`: not an error
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_OK
@@ -154,6 +162,40 @@ def _main(argv: Sequence[str] | None) -> int:
         return EXIT_FAILURE
     except Exception as e:  # a bug of ours: say so in one line, exit 3
         return _internal(command, e)
+    except BaseException as e:  # SystemExit, GeneratorExit, ... escaping a command
+        return _escape(command, e, found)
+
+
+def _design_code_session(args: argparse.Namespace, command: str) -> Any:
+    """The command's trust (``--trust-design`` files, and a ``--design`` file the user named)
+    and its record of the design code it loads, announced on stderr in text output
+    (:mod:`formsync_design.spec.trust`)."""
+    from pathlib import Path
+
+    from formsync_design.resources import design_names
+    from formsync_design.spec.trust import code_session, notice
+
+    trusted = list(getattr(args, "trust_design", None) or [])
+    named = getattr(args, "spec", None)
+    if isinstance(named, str) and named not in design_names() and Path(named).is_file():
+        trusted.append(named)
+    text = getattr(args, "format", "text") != "json"
+    return code_session(trusted, notice(command) if text else None)
+
+
+def _escape(command: str, e: BaseException, code: list[Any]) -> int:
+    """A non-Exception escape (``SystemExit`` raised by code the command ran): exit 2 naming
+    the design code this command loaded (``code``: it is the code that may raise it; the
+    design's own loading and first evaluation report it themselves, spec.contain); without
+    design code, a ``SystemExit`` passes (a usage error), anything else is ours."""
+    if not code:
+        if isinstance(e, SystemExit):
+            raise e
+        return _internal(command, e)
+    args = ", ".join(repr(a) for a in e.args)[:40]
+    _fail(command, f"expected design code to return, received {type(e).__name__}({args}) "
+                   f"while running {', '.join(c.text() for c in code)}")
+    return EXIT_USAGE
 
 
 def _traceback() -> None:

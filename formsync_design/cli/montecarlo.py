@@ -14,8 +14,10 @@ from formsync_design.cli.options import (
     add_design_option,
     add_format_option,
     add_theorem_option,
+    add_trust_option,
     emit_json,
     parse_gain_assignments,
+    whole_number,
     write_summary_and_runs,
 )
 from formsync_design.cli.simulate import options_from_args
@@ -115,14 +117,15 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--no-compile", action="store_true", help="use CasADi's VM instead of compiled C")
     add_theorem_option(p)
     add_format_option(p)
+    add_trust_option(p)
     p.set_defaults(func=run, integrator=None)
 
 
 def _int(text: str, name: str, lo: int) -> int:
     try:
-        v = int(str(text).strip())
-    except ValueError:
-        raise InputError(f"expected an integer for {name}, received {text}") from None
+        v = whole_number(text)
+    except argparse.ArgumentTypeError as e:
+        raise InputError(f"{name}: {e}") from None
     if v < lo:
         raise InputError(f"expected {name} >= {lo}, received {v}")
     return v

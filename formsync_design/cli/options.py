@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from collections.abc import Mapping
 from pathlib import Path
@@ -25,6 +26,7 @@ __all__ = [
     "EXIT_FAILURE",
     "EXIT_INTERRUPTED",
     "parse_positive",
+    "whole_number",
     "add_format_option",
     "emit_json",
     "to_json_value",
@@ -35,6 +37,8 @@ __all__ = [
     "add_theorem_option",
     "design_graph",
     "write_summary_and_runs",
+    "add_trust_option",
+    "with_design_code",
     "design_gains",
     "check_out_dir",
 ]
@@ -168,6 +172,35 @@ def design_box(spec: Any, gains: Any, legacy: Mapping[str, Any] | None = None) -
     return GainBox(tuple(ranges))
 
 
+def whole_number(text: str) -> int:
+    """An integer flag's value: ASCII digits with an optional sign (an argparse ``type``).
+
+    Python's ``int`` reads a Bengali or fullwidth digit as a digit (``int("\u09ea")`` is 4,
+    and the Bengali four looks like an 8), so such text is refused naming the character.
+
+    >>> whole_number("12"), whole_number(" -3 ")
+    (12, -3)
+    >>> whole_number("\u09ea")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: expected an integer in ASCII digits 0-9, received '৪' (U+09EA at column 1)
+    >>> whole_number("4.5")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: expected an integer in ASCII digits 0-9, received '4.5'
+    """
+    t = str(text).strip()
+    for col, ch in enumerate(t, start=1):
+        if ord(ch) > 127:
+            raise argparse.ArgumentTypeError(
+                f"expected an integer in ASCII digits 0-9, received {ch!r} (U+{ord(ch):04X} at "
+                f"column {col})")
+    if not re.fullmatch(r"[+-]?[0-9]+", t) or len(t) > 20:
+        raise argparse.ArgumentTypeError(
+            f"expected an integer in ASCII digits 0-9, received {t[:24]!r}")
+    return int(t)
+
+
 def parse_positive(text: str, name: str) -> float:
     """Parse a finite, strictly positive float."""
     from formsync_design.gains import parse_number
@@ -184,6 +217,20 @@ def add_format_option(p: argparse.ArgumentParser) -> None:
         choices=("text", "json"),
         default="text",
         help="output for people (text, default) or for machines (json)",
+    )
+
+
+def add_trust_option(p: argparse.ArgumentParser) -> None:
+    """``--trust-design FILE`` (repeatable): a design file a case or campaign file may name
+    (hashed when the command starts; :mod:`formsync_design.spec.trust`)."""
+    p.add_argument(
+        "--trust-design",
+        action="append",
+        default=None,
+        metavar="FILE",
+        help="run the design file FILE when a case, scenario or campaign file names it (a "
+        "relative .py path beside that file); it is hashed now and runs only with that "
+        "content (repeatable). Shipped designs need no flag",
     )
 
 
@@ -224,8 +271,24 @@ def emit_json(obj: Any) -> None:
       "t": "inf"
     }
     """
-    json.dump(to_json_value(obj), sys.stdout, indent=2, allow_nan=False)
+    json.dump(to_json_value(with_design_code(obj)), sys.stdout, indent=2, allow_nan=False)
     sys.stdout.write("\n")
+
+
+def with_design_code(obj: Any) -> Any:
+    """``obj`` (a mapping) with the key ``design_code``: the non-shipped design files loaded
+    in this command (path and sha256, :func:`~formsync_design.spec.trust.design_code`), when
+    there are any; else ``obj`` unchanged.
+
+    >>> with_design_code({"a": 1})
+    {'a': 1}
+    """
+    from formsync_design.spec.trust import design_code
+
+    code = design_code()
+    if not code or not isinstance(obj, Mapping) or "design_code" in obj:
+        return obj
+    return {**obj, "design_code": [c.to_dict() for c in code]}
 
 
 def write_summary_and_runs(out_dir: Any, summary: Mapping[str, Any], rows: list[Mapping[str, Any]]) -> list[str]:
@@ -244,7 +307,7 @@ def write_summary_and_runs(out_dir: Any, summary: Mapping[str, Any], rows: list[
 
     d = Path(out_dir)
     d.mkdir(parents=True, exist_ok=True)
-    write_text(d / "summary.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    write_text(d / "summary.json", json.dumps(with_design_code(summary), indent=2, allow_nan=False) + "\n")
     with atomic_path(d / "runs.csv") as tmp, open(tmp, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]) if rows else [])
         w.writeheader()

@@ -7,7 +7,13 @@ import sys
 from typing import Any
 
 from formsync_design.cli.certify import CERTIFICATE_HELP
-from formsync_design.cli.options import EXIT_OK, add_format_option, emit_json
+from formsync_design.cli.options import (
+    EXIT_OK,
+    add_format_option,
+    add_trust_option,
+    emit_json,
+    whole_number,
+)
 from formsync_design.errors import InputError
 from formsync_design.outdir import save_figure as save_atomic_figure, write_text
 from formsync_design.progress import Progress
@@ -86,7 +92,7 @@ def add_parser(sub: Any) -> None:
             a.metavar = "derived|paper|both"
             a.help = ("matrices: 'derived' (default), 'paper' (printed), or 'both' (derived map, "
                       "paper's certified region outlined)")
-    p.add_argument("--resolution", type=int, default=None, metavar="R",
+    p.add_argument("--resolution", type=whole_number, default=None, metavar="R",
                    help="finest box = 1/R of each range (default 32, max 512; with --certificate "
                    "other than paper or a requirement: R^3 cells, default 8, max 64)")
     p.add_argument("--out", default=None, metavar="DIR",
@@ -115,6 +121,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--rate0", default="0.01", metavar="W",
                    help="initial set |omega_i(0)| <= W rad/s (default 0.01)")
     add_format_option(p)
+    add_trust_option(p)
     p.set_defaults(func=run)
 
 

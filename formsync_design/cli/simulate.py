@@ -14,10 +14,12 @@ from formsync_design.cli.options import (
     EXIT_OK,
     add_format_option,
     add_theorem_option,
+    add_trust_option,
     check_out_dir,
     closing_lines,
     design_gains,
     emit_json,
+    with_design_code,
 )
 from formsync_design.errors import InputError
 from formsync_design.outdir import write_text
@@ -112,6 +114,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--no-compile", action="store_true",
                    help="evaluate the rk4 kernel in CasADi's virtual machine instead of compiled C")
     add_format_option(p)
+    add_trust_option(p)
     p.set_defaults(func=run)
 
 
@@ -326,7 +329,7 @@ def _run_sampled(args: argparse.Namespace, case: Any, graph: Any, f: Any, opt: A
            "case": case.name, "graph": graph.name, "gains": f.gains.as_dict(),
            "disturbance": f.disturbance.kind, "trigger": trig.text(), **r.to_dict()}
     if out_dir is not None:
-        pth = write_text(out_dir / "summary.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
+        pth = write_text(out_dir / "summary.json", json.dumps(with_design_code(doc), indent=2, allow_nan=False) + "\n")
         doc["written"] = [str(pth)]
     if args.format == "json":
         emit_json(doc)
@@ -401,7 +404,7 @@ def run(args: argparse.Namespace) -> int:
     }
     if out_dir is not None:
         out = out_dir
-        p = write_text(out / "summary.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
+        p = write_text(out / "summary.json", json.dumps(with_design_code(summary), indent=2, allow_nan=False) + "\n")
         written.append(str(p))
         if args.export in ("npz", "both"):
             written.append(str(r.to_npz(out / "trajectory.npz")))

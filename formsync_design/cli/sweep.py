@@ -8,7 +8,14 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from formsync_design.cli.options import EXIT_INTERRUPTED, EXIT_OK, add_format_option, emit_json
+from formsync_design.cli.options import (
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    add_format_option,
+    add_trust_option,
+    emit_json,
+    whole_number,
+)
 from formsync_design.errors import InputError
 from formsync_design.progress import Progress
 
@@ -131,17 +138,17 @@ def add_parser(sub: Any) -> None:
                    help="reference gains certified for every graph: NAME=X pairs or the values in "
                    "the design's gain order (default: liang2016 1.6,0.4,0.3; another design its "
                    "shipped case's)")
-    d.add_argument("--resolution", type=int, default=None, metavar="R",
+    d.add_argument("--resolution", type=whole_number, default=None, metavar="R",
                    help="region map: finest box = 1/R of each range (default 8)")
-    d.add_argument("--design-betas", type=int, default=None, metavar="K",
+    d.add_argument("--design-betas", type=whole_number, default=None, metavar="K",
                    help="values of the third gain swept by the gain design (beta; pd_consensus: "
                    "its multiplier eps), default 5")
     d.add_argument("--conditions", default=None, choices=("derived", "paper"),
                    help="Lyapunov conditions: derived (default) or the paper's printed ones")
     d.add_argument("--margin", default=None, metavar="EPS", help="require lambda_min > EPS (default 0)")
-    d.add_argument("--mc-runs", type=int, default=None, metavar="N",
+    d.add_argument("--mc-runs", type=whole_number, default=None, metavar="N",
                    help="Monte-Carlo runs per graph (default: no Monte-Carlo)")
-    d.add_argument("--mc-seed", type=int, default=None, metavar="S", help="Monte-Carlo master seed (default 0)")
+    d.add_argument("--mc-seed", type=whole_number, default=None, metavar="S", help="Monte-Carlo master seed (default 0)")
     d.add_argument("--mc-gains", default=None, choices=("reference", "recommended"),
                    help="gains simulated (default reference)")
     d.add_argument("--mc-tf", default=None, metavar="S", help="Monte-Carlo horizon in s (default 200; an agent design: "
@@ -157,7 +164,7 @@ def add_parser(sub: Any) -> None:
                    help="finish an interrupted run of the same campaign in DIR (finished tasks kept)")
     x.add_argument("--overwrite", action="store_true",
                    help="recompute DIR from scratch (only a folder of the same campaign)")
-    x.add_argument("--workers", type=int, default=2, metavar="N",
+    x.add_argument("--workers", type=whole_number, default=2, metavar="N",
                    help="local Dask worker processes (default 2; 0 = serial, no Dask)")
     x.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="existing Dask scheduler, e.g. tcp://10.0.0.5:8786")
@@ -165,6 +172,7 @@ def add_parser(sub: Any) -> None:
                    help="seconds to wait for the scheduler and its workers (default 10)")
     x.add_argument("--no-progress", action="store_true", help="no progress line on stderr")
     add_format_option(p)
+    add_trust_option(p)
     p.set_defaults(func=run)
 
 
@@ -372,12 +380,14 @@ def run(args: argparse.Namespace) -> int:
             if refused is not None:
                 return refused
         camp = _campaign_from_flags(args)
-    prog: Progress | None = None
+    # the bar is up before the first task ends (its elapsed time moves while a long task runs,
+    # e.g. a graph of 2000 spacecraft); the count of tasks is known from the first finished one
+    prog = Progress(None, "sweep tasks", unit="task", tick=True,
+                    enabled=not args.no_progress and args.format == "text")
 
     def progress(done: int, total: int) -> None:
-        nonlocal prog
-        if prog is None:
-            prog = Progress(total, "sweep tasks", enabled=not args.no_progress and args.format == "text")
+        if prog.total is None:
+            prog.set_total(total)
         prog.update(done - prog.done)
 
     try:
@@ -386,13 +396,14 @@ def run(args: argparse.Namespace) -> int:
             n_workers=args.workers, timeout=timeout, progress=progress, command=_command(args),
         )
     except KeyboardInterrupt:
-        if prog is not None:
-            prog.close()  # the bar's line is cleared before the message
+        prog.close()  # the bar's line is cleared before the message
         journal = Path(args.out) / "journal.jsonl"
         kept = f"finished rows are kept in {journal}; " if journal.is_file() else ""
         sys.stderr.write(f"formsync sweep: interrupted (Ctrl-C); {kept}the same command with "
                          "--resume completes the campaign\n")
         return EXIT_INTERRUPTED
+    finally:
+        prog.close()  # also when no task was pending, or a task failed
     if args.format == "json":
         emit_json({
             "out": str(res.out), "sha256": res.sha256, "design": res.design, "graphs": res.graphs,

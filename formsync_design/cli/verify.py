@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from formsync_design.cli.options import add_format_option
+from formsync_design.cli.options import add_format_option, add_trust_option
 
 __all__ = ["add_parser", "run"]
 
@@ -25,6 +25,9 @@ CASE is a shipped case's name (liang2016 = verification/liang2016.toml) or a
 case TOML file ([case] kind = "engine").  --design replaces the case file's
 [case] design (a shipped design's name or a design .py file; a Lagrangian
 design file runs in its agent form, its own Theta_i/Pi conditions certified).
+A design file the case names (a .py path beside it, [case] or [[scenarios]]
+design) is code: it runs only with --trust-design FILE, and the run names it
+and its sha256 (stderr, JSON key design_code, the report).
 
 Writes <out>/<CASE file stem>-verification.md, its figures under
 <out>/figures/<CASE file stem>-verification/, and the derivation report it
@@ -42,6 +45,7 @@ examples:
   formsync verify liang2016 --format json --strict
   formsync verify my_case.toml --out /tmp/verification
   formsync verify my_case.toml --design my_design.py --out /tmp/variant --overwrite
+  formsync verify my_case.toml --trust-design my_design.py
 """
 
 
@@ -60,6 +64,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--strict", action="store_true",
                    help="exit 1 unless every claim holds (undecided is not a pass)")
     add_format_option(p)
+    add_trust_option(p)
     p.set_defaults(func=run)
 
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import csv
 import os
+import re
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -38,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from formsync_design.errors import GraphError
-from formsync_design.textio import read_text
+from formsync_design.textio import check_ascii, cut, read_text
 
 __all__ = ["Graph", "make_graph", "parse_graph_spec", "check_size", "GRAPH_SPEC_HELP", "MAX_SPACECRAFT"]
 
@@ -47,7 +48,7 @@ MAX_SPACECRAFT = 2000
 
 GRAPH_SPEC_HELP = (
     "ring:N | path:N | star:N | complete:N | circulant:N:a,b,... | random:N:P:SEED "
-    "| an edge-list file (1-based 'i j' per line) | an adjacency CSV file"
+    "| cycle:N (directed) | an edge-list file (1-based 'i j' per line) | an adjacency CSV file"
 )
 
 
@@ -217,13 +218,13 @@ def _from_pairs(n: int, pairs: list[tuple[int, int]], name: str) -> Graph:
 
 
 def _int_field(text: str, what: str, spec: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
+    """An integer of ASCII digits 0-9 (``int`` would also take ``'\u09ea'``, ``'1_0'``)."""
+    if not re.fullmatch(r"[0-9]{1,12}", text.strip()):
         raise GraphError(
-            f"expected an integer {what} in graph spec, received {text!r} in {spec!r}"
-        ) from None
-    return v
+            f"expected an integer {what} (digits 0-9) in graph spec, received {cut(text)} in "
+            f"{cut(spec, 40)}"
+        )
+    return int(text)
 
 
 def parse_graph_spec(spec: str) -> Graph:
@@ -248,26 +249,27 @@ def parse_graph_spec(spec: str) -> Graph:
     (3, 3, 3, 3, 3, 3, 3, 3)
     """
     if not isinstance(spec, str):
-        raise GraphError(f"expected a graph spec string ({GRAPH_SPEC_HELP}), received {spec!r}")
+        raise GraphError(f"expected a graph spec string ({GRAPH_SPEC_HELP}), received {cut(spec, 40)}")
+    check_ascii(spec, f"the graph spec {cut(spec, 40)}", GraphError)
     parts = spec.strip().split(":")
     kind = parts[0].lower()
     arity = {"ring": 2, "path": 2, "star": 2, "complete": 2, "circulant": 3, "random": 4}
     if kind not in arity:
-        raise GraphError(f"expected a graph spec of the form {GRAPH_SPEC_HELP}, received {spec!r}")
+        raise GraphError(f"expected a graph spec of the form {GRAPH_SPEC_HELP}, received {cut(spec, 40)}")
     if len(parts) != arity[kind]:
         form = {
             "ring": "ring:N", "path": "path:N", "star": "star:N", "complete": "complete:N",
             "circulant": "circulant:N:a,b,...", "random": "random:N:P:SEED",
         }[kind]
-        raise GraphError(f"expected {form}, received {spec!r}")
+        raise GraphError(f"expected {form}, received {cut(spec, 40)}")
     n = _int_field(parts[1], "number of spacecraft N", spec)
     if n < 2:
-        raise GraphError(f"expected at least 2 spacecraft, received N={n} in {spec!r}")
+        raise GraphError(f"expected at least 2 spacecraft, received N={n} in {cut(spec, 40)}")
     check_size(n, spec.strip())
     name = spec.strip()
     if kind == "ring":
         if n < 3:
-            raise GraphError(f"expected N >= 3 for a ring (a cycle), received N={n} in {spec!r}")
+            raise GraphError(f"expected N >= 3 for a ring (a cycle), received N={n} in {cut(spec, 40)}")
         return _from_pairs(n, [(i, (i + 1) % n) for i in range(n)], name)
     if kind == "path":
         return _from_pairs(n, [(i, i + 1) for i in range(n - 1)], name)
@@ -278,24 +280,26 @@ def parse_graph_spec(spec: str) -> Graph:
     if kind == "circulant":
         offs = [_int_field(a, "circulant offset", spec) for a in parts[2].split(",") if a != ""]
         if not offs:
-            raise GraphError(f"expected at least one circulant offset, received {spec!r}")
+            raise GraphError(f"expected at least one circulant offset, received {cut(spec, 40)}")
         pairs: set[tuple[int, int]] = set()
         for a in offs:
             if not 1 <= a <= n // 2:
                 raise GraphError(
-                    f"expected circulant offsets in 1..{n // 2} for N={n}, received {a} in {spec!r}"
+                    f"expected circulant offsets in 1..{n // 2} for N={n}, received {a} in {cut(spec, 40)}"
                 )
             for i in range(n):
                 j = (i + a) % n
                 pairs.add((min(i, j), max(i, j)))
         if len(set(offs)) != len(offs):
-            raise GraphError(f"expected distinct circulant offsets, received {parts[2]!r}")
+            raise GraphError(f"expected distinct circulant offsets, received {cut(parts[2])}")
         return Graph(n=n, edges=tuple(sorted(pairs)), name=name)
     # random
     try:
+        if not re.fullmatch(r"[0-9.eE+-]+", parts[2].strip()):
+            raise ValueError(parts[2])
         p = float(parts[2])
     except ValueError:
-        raise GraphError(f"expected an edge probability P in (0, 1], received {parts[2]!r}") from None
+        raise GraphError(f"expected an edge probability P in (0, 1], received {cut(parts[2])}") from None
     if not (0.0 < p <= 1.0):
         raise GraphError(f"expected an edge probability P in (0, 1], received {p!r}")
     seed = _int_field(parts[3], "seed", spec)
@@ -360,17 +364,19 @@ def _read_edge_list(path: Path) -> Graph:
         fields = line.replace(",", " ").split()
         if len(fields) != 2:
             raise GraphError(
-                f"expected one 'i j' pair per line, received {raw.strip()!r} at {path}:{lineno}"
+                f"expected one 'i j' pair per line, received {len(fields)} fields "
+                f"{cut(line)} at {path}:{lineno}"
             )
-        try:
-            i, j = int(fields[0]), int(fields[1])
-        except ValueError:
+        bad = next((f for f in fields if not re.fullmatch(r"[0-9]{1,12}", f)), None)
+        if bad is not None:
             raise GraphError(
-                f"expected integer spacecraft numbers, received {raw.strip()!r} at {path}:{lineno}"
-            ) from None
+                f"expected integer spacecraft numbers (digits 0-9), received {cut(bad)} at "
+                f"{path}:{lineno}, column {raw.index(bad) + 1}"
+            )
+        i, j = int(fields[0]), int(fields[1])
         if i < 1 or j < 1:
             raise GraphError(
-                f"expected 1-based spacecraft numbers (>= 1), received {raw.strip()!r} at {path}:{lineno}"
+                f"expected 1-based spacecraft numbers (>= 1), received {cut(line)} at {path}:{lineno}"
             )
         pairs.append((i - 1, j - 1))
         nmax = max(nmax, i, j)
@@ -380,6 +386,42 @@ def _read_edge_list(path: Path) -> Graph:
     n = declared_n if declared_n is not None else nmax
     check_size(n, str(path))
     return _from_pairs(n, pairs, str(path))
+
+
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _symmetric_arc_list(path: Path) -> Graph | None:
+    """The undirected graph of an arc-list file (``i j w`` lines, the digraph format: each
+    line one arc) that lists every link both ways with weight 1 and no leader; else None.
+    A file of ``i j`` pairs alone is this reader's format, where each link is listed once.
+
+    >>> import tempfile
+    >>> p = Path(tempfile.mkdtemp()) / "g.txt"
+    >>> _ = p.write_text("1 2 1\\n2 1 1\\n2 3 1\\n3 2 1\\n")
+    >>> _symmetric_arc_list(p).edges, _symmetric_arc_list(p).name == str(p)
+    (((0, 1), (1, 2)), True)
+    """
+    from formsync_design.graphs.digraph_io import read_edge_list
+
+    lines = (ln.split("#", 1)[0].replace(",", " ").split() for ln in _read_text(path, "edge-list file").splitlines())
+    if not any(len(f) == 3 for f in lines):
+        return None
+    try:
+        d = read_edge_list(path)
+    except GraphError:
+        return None
+    if d.has_leader or not d.is_undirected or any(w != 1 for _, _, w in d.arcs):
+        return None
+    try:
+        return Graph(d.n, tuple(sorted({(i, j) for i, j, _ in d.arcs if i < j})), str(path))
+    except GraphError:  # e.g. disconnected: the digraph reader's reading stands
+        return None
 
 
 def _read_csv(path: Path) -> Graph:
@@ -393,11 +435,17 @@ def _read_csv(path: Path) -> Graph:
             continue
         if len(rows) > MAX_SPACECRAFT or len(cells) > MAX_SPACECRAFT + 1:
             check_size(max(len(rows), len(cells)), str(path))
+        bad = next((c for c in cells if not re.fullmatch(r"[0-9.eE+-]+", c)), None)
         try:
+            if bad is not None:
+                raise ValueError(bad)
             rows.append([float(c) for c in cells])
         except ValueError:
+            bad = bad if bad is not None else next(
+                c for c in cells if not _is_float(c))
             raise GraphError(
-                f"expected numeric 0/1 entries in adjacency CSV, received {row!r} at {path}:{lineno}"
+                f"expected numeric 0/1 entries (digits 0-9) in adjacency CSV, received {cut(bad)} "
+                f"at {path}:{lineno}"
             ) from None
     if not rows or len({len(r) for r in rows}) != 1:
         raise GraphError(
@@ -440,14 +488,27 @@ def make_graph(obj: Any) -> Graph:
     if isinstance(obj, (str, os.PathLike)):
         text = os.fspath(obj)
         p = Path(text)
-        if p.is_file():
-            return _read_csv(p) if p.suffix.lower() == ".csv" else _read_edge_list(p)
-        if isinstance(obj, str) and ":" in text and text.split(":", 1)[0].lower() in {
+        spec = isinstance(obj, str) and ":" in text and text.split(":", 1)[0].lower() in {
             "ring", "path", "star", "complete", "circulant", "random"
-        }:
+        }
+        # an existing path that is no regular file (a folder, a FIFO, a symlink loop) is
+        # refused by the reader, each with its own reason
+        if p.is_file() or (not spec and os.path.lexists(p)):
+            if p.suffix.lower() == ".csv":
+                return _read_csv(p)
+            try:
+                return _read_edge_list(p)
+            except GraphError as first:  # an i j w arc list listing each link both ways?
+                g = _symmetric_arc_list(p) if p.is_file() else None
+                if g is None:
+                    raise first from None
+                return g
+        if spec:
             return parse_graph_spec(text)
+        if ":" in text:  # a look-alike family ('ｒｉｎｇ:8') is named with its column
+            check_ascii(text, f"the graph spec {cut(text, 40)}", GraphError)
         raise GraphError(
-            f"expected a graph spec ({GRAPH_SPEC_HELP}) or an existing file, received {text!r}"
+            f"expected a graph spec ({GRAPH_SPEC_HELP}) or an existing file, received {cut(text, 40)}"
         )
     try:
         import networkx as nx

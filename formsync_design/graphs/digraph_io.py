@@ -11,7 +11,9 @@ Accepted inputs (:func:`make_digraph`, :func:`digraph_from_edges`)
   default 1) means ``v`` receives from ``u`` (arcs from the node ``leader``
   give pinning gains); an undirected :class:`networkx.Graph` gives both arcs;
 * an undirected :class:`~formsync_design.graphs.build.Graph` or a graph spec
-  such as ``ring:6`` (every edge becomes two arcs of weight 1).
+  such as ``ring:6`` (every edge becomes two arcs of weight 1);
+* the directed cycle ``cycle:N`` (:func:`directed_cycle`: ``i`` receives from
+  ``i - 1``, spacecraft 1 from ``N``), the spec a case file's formations take too.
 
 Weights are parsed exactly with :func:`formsync_design.gains.parse_number`.
 """
@@ -20,6 +22,7 @@ from __future__ import annotations
 
 import csv
 import os
+import re
 from collections.abc import Iterable, Mapping, Sequence
 from fractions import Fraction
 from pathlib import Path
@@ -31,8 +34,10 @@ from formsync_design.errors import GraphError, InputError
 from formsync_design.gains import parse_number
 from formsync_design.graphs.build import Graph, check_size, make_graph
 from formsync_design.graphs.digraph import Arc, Digraph
+from formsync_design.textio import check_ascii, cut, read_text
 
-__all__ = ["make_digraph", "digraph_from_edges", "read_edge_list"]
+__all__ = ["make_digraph", "digraph_from_edges", "read_edge_list", "directed_cycle",
+           "parse_cycle_spec"]
 
 
 def _pinning(pinning: Any, n: int, name: str) -> tuple[Fraction, ...]:
@@ -121,10 +126,7 @@ def read_edge_list(path: str | os.PathLike[str], pinning: Any = None) -> Digraph
     ([[2, 1, 0.5], [3, 2, 1], [1, 0, 2]], True)
     """
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise GraphError(f"expected a readable UTF-8 edge-list file, received {str(p)!r} ({e})") from None
+    text = read_text(p, "edge-list file", GraphError)
     triples: list[tuple[int, int, Any]] = []
     declared: int | None = None
     seen: dict[tuple[int, int], int] = {}  # (i, j) -> the line that gave it
@@ -134,20 +136,22 @@ def read_edge_list(path: str | os.PathLike[str], pinning: Any = None) -> Digraph
         if not line:
             c = comment.replace(" ", "").lower()
             if c.startswith("n="):
-                try:
-                    declared = int(c[2:])
-                except ValueError:
-                    raise GraphError(f"expected '# n = N' with an integer N, received {raw.strip()!r} at {p}:{lineno}") from None
+                if not re.fullmatch(r"[0-9]{1,12}", c[2:]):
+                    raise GraphError(f"expected '# n = N' with an integer N (digits 0-9), received "
+                                     f"{cut(c[2:])} at {p}:{lineno}")
+                declared = int(c[2:])
             continue
         f = line.replace(",", " ").split()
-        try:
-            if len(f) not in (2, 3):
-                raise ValueError
-            triples.append((int(f[0]), int(f[1]), f[2] if len(f) == 3 else 1))
-        except ValueError:
-            raise GraphError(f"expected 'i j' or 'i j w' with integer i, j, received {raw.strip()!r} at {p}:{lineno}") from None
+        if len(f) not in (2, 3):
+            raise GraphError(f"expected 'i j' or 'i j w' with integer i, j, received {len(f)} "
+                             f"fields {cut(line)} at {p}:{lineno}")
+        bad = next((x for x in f[:2] if not re.fullmatch(r"[0-9]{1,12}", x)), None)
+        if bad is not None:
+            raise GraphError(f"expected 'i j' or 'i j w' with integer i, j (digits 0-9), received "
+                             f"{cut(bad)} at {p}:{lineno}, column {raw.index(bad) + 1}")
+        triples.append((int(f[0]), int(f[1]), f[2] if len(f) == 3 else 1))
         i, j, w = triples[-1]
-        _check_line(i, j, w, seen, raw.strip(), f"{p}:{lineno}")
+        _check_line(i, j, w, seen, line if len(line) <= 40 else line[:39] + "…", f"{p}:{lineno}")
         seen[(i, j)] = lineno
     if not triples:
         raise GraphError(f"expected at least one arc in {str(p)!r}, received none")
@@ -232,6 +236,35 @@ def _from_networkx(g: Any, pinning: Any, leader: Any) -> Digraph:
     )
 
 
+def directed_cycle(n: int) -> Digraph:
+    """The directed cycle on ``n`` spacecraft (``i`` receives from ``i - 1``, 1 from ``n``),
+    the graph of the spec ``cycle:N``.
+
+    >>> g = directed_cycle(4)
+    >>> g.name, g.n, g.is_undirected
+    ('cycle:4', 4, False)
+    """
+    return digraph_from_edges([(i, i - 1 if i > 1 else n, 1) for i in range(1, n + 1)], n=n,
+                              name=f"cycle:{n}")
+
+
+def parse_cycle_spec(text: str) -> Digraph | None:
+    """The digraph of the spec ``cycle:N`` (None for a text that is not a ``cycle:`` spec);
+    a malformed or over-size one is refused (:class:`~formsync_design.errors.GraphError`).
+
+    >>> parse_cycle_spec("cycle:3").arcs == directed_cycle(3).arcs, parse_cycle_spec("ring:3")
+    (True, None)
+    """
+    if not text.lower().startswith("cycle:"):
+        return None
+    check_ascii(text, f"the graph spec {cut(text, 40)}", GraphError)
+    m = re.fullmatch(r"cycle:([0-9]{1,9})", text.strip())
+    if m is None or int(m.group(1)) < 2:
+        raise GraphError(f"expected cycle:N with an integer N >= 2, received {cut(text, 40)}")
+    check_size(int(m.group(1)), text)
+    return directed_cycle(int(m.group(1)))
+
+
 def make_digraph(obj: Any, pinning: Any = None, *, leader: Any = None) -> Digraph:
     """Build a :class:`Digraph` from any supported input (module docstring).
 
@@ -239,7 +272,7 @@ def make_digraph(obj: Any, pinning: Any = None, *, leader: Any = None) -> Digrap
     ----------
     obj : str, os.PathLike, networkx graph, array_like, Graph or Digraph
         An edge-list or ``.csv`` adjacency file, an undirected graph spec
-        (``ring:6``), a networkx graph, a square adjacency array, an
+        (``ring:6``) or ``cycle:N``, a networkx graph, a square adjacency array, an
         undirected :class:`~formsync_design.graphs.build.Graph`.
     pinning : sequence or mapping, optional
         Pinning gains ``b_1..b_N`` or ``{i: b_i}`` (replaces any in ``obj``).
@@ -264,15 +297,13 @@ def make_digraph(obj: Any, pinning: Any = None, *, leader: Any = None) -> Digrap
     if isinstance(obj, (str, os.PathLike)):
         p = Path(os.fspath(obj))
         if p.is_file() and p.suffix.lower() == ".csv":
-            try:
-                lines = p.read_text(encoding="utf-8").splitlines()
-            except (OSError, UnicodeDecodeError) as e:
-                raise GraphError(f"expected a readable UTF-8 adjacency CSV file, received {str(p)!r} ({e})") from None
+            lines = read_text(p, "adjacency CSV file", GraphError).splitlines()
             rows = [r for r in csv.reader(lines) if r and any(c.strip() for c in r) and not r[0].strip().startswith("#")]
             return _from_matrix(rows, pinning, str(p))
         if p.is_file():
             return read_edge_list(p, pinning)
-        return make_digraph(make_graph(os.fspath(obj)), pinning)
+        cycle = parse_cycle_spec(os.fspath(obj))
+        return make_digraph(cycle if cycle is not None else make_graph(os.fspath(obj)), pinning)
     try:
         import networkx as nx
     except ImportError:  # pragma: no cover - networkx is a dependency

@@ -26,6 +26,7 @@ from formsync_design.errors import GraphError
 from formsync_design.graphs.build import Graph, make_graph
 from formsync_design.graphs.digraph import Digraph, GraphProperty
 from formsync_design.graphs.digraph_io import make_digraph
+from formsync_design.textio import read_text
 
 __all__ = ["TheoremCheck", "check_theorem_graph", "load_graph", "as_digraph"]
 
@@ -59,7 +60,8 @@ def load_graph(obj: Any) -> Graph | Digraph:
             d = make_digraph(obj)
         except GraphError as second:
             # both readers refuse: the reason is the one of the reader whose format it is
-            raise (second if _weighted_edge_list(obj) else first) from None
+            cycle = isinstance(obj, str) and obj.lower().startswith("cycle:")
+            raise (second if cycle or _weighted_edge_list(obj) else first) from None
     return d
 
 
@@ -79,8 +81,8 @@ def _weighted_edge_list(obj: Any) -> bool:
     if p.suffix.lower() == ".csv" or not p.is_file():
         return False
     try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeError):
+        text = read_text(p, "edge-list file", GraphError)
+    except GraphError:
         return False
     return any(len(line.split("#", 1)[0].replace(",", " ").split()) == 3
                for line in text.splitlines())

@@ -24,8 +24,6 @@ exists but fails raises :class:`~formsync_design.errors.CompilerError` (exit sta
 
 from __future__ import annotations
 
-import os
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -45,6 +43,7 @@ from formsync_design.sim.ccompile import (
     build_shared,
     c_compiler,
     compile_enabled,
+    generated_source,
     warn_no_compiler,
 )
 from formsync_design.sim.formation import Formation, SimOptions
@@ -356,11 +355,9 @@ def _compile(fn: ca.Function, spec_key: str) -> tuple[ca.Function, bool]:
         warn_no_compiler(stacklevel=4)
         return fn, False
     name = fn.name()
-    with tempfile.TemporaryDirectory() as td:
-        cg = ca.CodeGenerator(f"{name}.c", {"with_header": False})
-        cg.add(fn)
-        cg.generate(td + os.sep)
-        src = Path(td, f"{name}.c").read_text()
+    cg = ca.CodeGenerator(f"{name}.c", {"with_header": False})
+    cg.add(fn)
+    src = generated_source(cg, f"{name}.c", f"the simulation kernel {name}")
     so = build_shared(name, src, spec_key, cc)
     try:
         return ca.external(name, str(so)), True

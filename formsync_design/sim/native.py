@@ -22,8 +22,6 @@ from __future__ import annotations
 import ctypes
 import functools
 import hashlib
-import os
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,7 +31,13 @@ import casadi as ca
 import numpy as np
 
 from formsync_design.errors import CompilerError, SimulationError
-from formsync_design.sim.ccompile import build_shared, c_compiler, compile_enabled, warn_no_compiler
+from formsync_design.sim.ccompile import (
+    build_shared,
+    c_compiler,
+    compile_enabled,
+    generated_source,
+    warn_no_compiler,
+)
 from formsync_design.sim.kernels import NTRIG, agent_functions, gain_size, param_layout
 from formsync_design.sim.native_c import CFG, DRIVER_SOURCE, EVENTS, INFO, LAYOUT, SUMMARY
 from formsync_design.spec.loader import Spec
@@ -67,12 +71,10 @@ def native_source(spec: Spec, switch: str, inverse: str) -> str:
     """The C source of the kernel: CasADi's code of the per-spacecraft functions, then the
     driver (with the work sizes it needs)."""
     fns = agent_functions(spec, switch, inverse)
-    with tempfile.TemporaryDirectory() as td:
-        cg = ca.CodeGenerator("fsk.c", {"with_header": False})
-        for fn in fns:
-            cg.add(fn)
-        cg.generate(td + os.sep)
-        gen = Path(td, "fsk.c").read_text()
+    cg = ca.CodeGenerator("fsk.c", {"with_header": False})
+    for fn in fns:
+        cg.add(fn)
+    gen = generated_source(cg, "fsk.c", "the simulation kernel fsd_kernel")
     sizes = {k: max(getattr(fn, k)() for fn in fns) for k in ("sz_arg", "sz_res", "sz_iw", "sz_w")}
     head = "\n".join([
         f"#define FSD_NG {gain_size(spec)}",

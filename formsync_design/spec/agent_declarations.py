@@ -42,12 +42,12 @@ ORBIT_FUNCTIONS = ("controller", "lyapunov", "orbit_controller", "lqr_weights")
 def _plant(attrs: Mapping[str, Any], where: str) -> tuple[str, str]:
     """``(PLANT, ACTUATORS)``, validated (module docstring)."""
     plant = attrs.get("PLANT", "attitude")
-    if plant not in PLANTS:
+    if not isinstance(plant, str) or plant not in PLANTS:
         raise DerivationError(f"{where}: PLANT: expected one of {list(PLANTS)}, received "
                               f"{plant!r}")
     actuators = attrs.get("ACTUATORS", "thrusters" if plant == "relative-orbit" else "torque")
     want = "thrusters" if plant == "relative-orbit" else "torque"
-    if actuators not in ACTUATORS or actuators != want:
+    if not isinstance(actuators, str) or actuators not in ACTUATORS or actuators != want:
         raise DerivationError(f"{where}: ACTUATORS: expected {want!r} on the {plant} plant, "
                               f"received {actuators!r}")
     return plant, actuators
@@ -97,7 +97,8 @@ def parse_agent_declarations(attrs: Mapping[str, Any], where: str) -> AgentDecla
         raise DerivationError(f"{where}: LEADER: expected True or False, received {leader!r}")
     measured = attrs.get("MEASURED", ("attitude", "rate", "reference")
                          if plant == "relative-orbit" else QUANTITIES)
-    if isinstance(measured, str) or not all(m in QUANTITIES for m in measured):
+    if isinstance(measured, str) or not isinstance(measured, (list, tuple)) or not all(
+            isinstance(m, str) and m in QUANTITIES for m in measured):
         raise DerivationError(f"{where}: MEASURED: expected quantities among {list(QUANTITIES)}, "
                               f"received {measured!r}")
     return AgentDeclarations(representation=base.representation, gains=base.gains,

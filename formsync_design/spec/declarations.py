@@ -327,7 +327,7 @@ def parse_declarations(attrs: Mapping[str, Any], where: str, *,
                     "a reference in relative orbit and attitude declares FORM = 'agent' with "
                     "PLANT = 'relative-orbit')", _show(attrs["KIND"]))
     rep = attrs.get("REPRESENTATION", "quaternion")
-    if rep not in REPRESENTATIONS:
+    if not isinstance(rep, str) or rep not in REPRESENTATIONS:
         raise _fail(where, "REPRESENTATION", f"one of {list(REPRESENTATIONS)}", _show(rep))
     if "GAINS" not in attrs:
         gains = CLASSIC_GAINS
@@ -342,6 +342,8 @@ def parse_declarations(attrs: Mapping[str, Any], where: str, *,
                         type(raw).__name__)
         seen: list[str] = []
         for n, _ in items:
+            if not isinstance(n, str):
+                raise _fail(where, "GAINS", "gain names that are Python identifiers", _show(n))
             if n in seen:
                 raise _fail(where, "GAINS", "each gain declared once", f"{n!r} twice")
             seen.append(n)
@@ -359,11 +361,11 @@ def parse_declarations(attrs: Mapping[str, Any], where: str, *,
     if isinstance(graphs, str) or not isinstance(graphs, Sequence):
         raise _fail(where, "GRAPHS", "a list of graph property names", _show(graphs))
     for p in graphs:
-        if p not in GRAPH_PROPERTIES:
+        if not isinstance(p, str) or p not in GRAPH_PROPERTIES:
             raise _fail(where, "GRAPHS", f"graph properties among {list(GRAPH_PROPERTIES)}",
                         _show(p))
     sampling = attrs.get("SAMPLING", "continuous")
-    if sampling not in SAMPLING_RULES:
+    if not isinstance(sampling, str) or sampling not in SAMPLING_RULES:
         raise _fail(where, "SAMPLING", f"one of {list(SAMPLING_RULES)}", _show(sampling))
     if weights and "GAINS" not in attrs:
         raise _fail(where, "GAINS", "the gains of a design on the relative-orbit plant declared",

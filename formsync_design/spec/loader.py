@@ -377,7 +377,9 @@ FORMS: tuple[str, ...] = ("lagrangian", "agent")
 _LOADED: dict[tuple[str, str], Spec] = {}
 
 
-def _load_file(p: Path) -> Spec:
+def _load_file(p: Path, sha256: str | None = None) -> Spec:
+    from formsync_design.spec import trust
+
     where = str(p)
     if not p.exists():
         raise InputError(f"expected a specification .py file, received {where!r} (no such file)")
@@ -390,9 +392,28 @@ def _load_file(p: Path) -> Spec:
             f"expected a readable specification file, received {where!r} ({e.strerror or e})"
         ) from None
     key = hashlib.sha256(data).hexdigest()
+    want = sha256 or trust.pinned_digest(p)
+    if want is not None and key != want:
+        raise InputError(f"expected the design file {where} with the content trusted (sha256 "
+                         f"{want}), received content with sha256 {key} (the file changed)")
+    shipped = trust.is_shipped_file(p)
+    if not shipped:
+        trust.note_loaded(where, key)
     cache_key = (str(p.resolve()), key)
     if cache_key in _LOADED:
         return _LOADED[cache_key]
+    if shipped:
+        return _load_code(p, data, key)
+    from formsync_design.spec.contain import contained
+
+    with contained(where, "loading the design and the first evaluation of its laws"):
+        return _load_code(p, data, key)
+
+
+def _load_code(p: Path, data: bytes, key: str) -> Spec:
+    """Compile, run and validate a design file's content (``key``: its sha256)."""
+    where = str(p)
+    cache_key = (str(p.resolve()), key)
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as e:
@@ -416,9 +437,7 @@ def _load_file(p: Path) -> Spec:
     mod.__file__ = where
     try:
         exec(code, mod.__dict__)
-    except BaseException as e:  # a user's file: report, don't crash
-        if isinstance(e, KeyboardInterrupt):
-            raise
+    except Exception as e:  # a user's file: report, don't crash (other escapes: spec.contain)
         raise DerivationError(
             f"{where}: expected the specification module to import, it raised {_one_line(e)}"
         ) from None
@@ -490,7 +509,7 @@ def lagrangian_view(design: Any) -> Spec | None:
     return getattr(design, "lagrangian", None)
 
 
-def load_spec(spec: Spec | str | Path | None = None) -> Spec:
+def load_spec(spec: Spec | str | Path | None = None, *, sha256: str | None = None) -> Spec:
     """The Lagrangian view of the design ``spec`` resolves to (see :func:`load_design`): a
     Lagrangian design itself, or the view an agent design provides; an agent design without
     one is a one-line :class:`DerivationError` naming the commands that run it.
@@ -500,7 +519,7 @@ def load_spec(spec: Spec | str | Path | None = None) -> Spec:
     >>> load_spec("liang2016") is load_design("liang2016").lagrangian
     True
     """
-    d = load_design(spec)
+    d = load_design(spec, sha256=sha256)
     if lagrangian_view(d) is not None:
         return lagrangian_view(d)  # type: ignore[return-value]
     if getattr(d, "form", "lagrangian") == "agent":
@@ -518,13 +537,17 @@ AGENT_COMMANDS: tuple[str, ...] = ("formsync derive", "formsync simulate", "form
                                   "formsync verify", "formsync sweep")
 
 
-def load_design(spec: Any = None) -> Any:
+def load_design(spec: Any = None, *, sha256: str | None = None) -> Any:
     """The design ``spec`` resolves to: a Lagrangian :class:`Spec` or an agent design
     (:class:`~formsync_design.spec.agent.AgentDesign`, with its Lagrangian view if it has one).
 
     ``spec``: ``None`` (the paper's design, ``liang2016``), a shipped design's name (see
-    :func:`~formsync_design.resources.design_names`), a path (that file, loaded and validated)
-    or a loaded design (returned unchanged).  A missing or unreadable file, or another type,
+    :func:`~formsync_design.resources.design_names`: always the shipped file, whatever files
+    the current folder holds), a path (that file, loaded and validated: the caller named it,
+    see :mod:`formsync_design.spec.trust`) or a loaded design (returned unchanged).
+    ``sha256``: load the file only if its content has this digest (else an
+    :class:`InputError`).  A file that is not shipped is loaded under the rules of
+    :mod:`formsync_design.spec.contain` and recorded (:func:`~formsync_design.spec.trust.design_code`).  A missing or unreadable file, or another type,
     is an :class:`InputError`; a malformed design a one-line :class:`DerivationError` naming
     the file, the function and what was expected (see :func:`validate_spec`).
 
@@ -550,12 +573,12 @@ def load_design(spec: Any = None) -> Any:
 
             names = design_names()
             if spec in names:
-                return _load_file(design_file(spec))
+                return _load_file(design_file(spec), sha256)
             if not Path(spec).exists():
                 raise InputError(
                     f"expected a design name ({', '.join(names)}) or a .py file, received {spec!r}"
                 )
-        return _load_file(Path(spec))
+        return _load_file(Path(spec), sha256)
     raise InputError(
         "expected a specification (a Spec, a .py file path, or None), received a "
         f"{type(spec).__name__}"

@@ -168,6 +168,13 @@ class Campaign:
     schema: SweepSchema = CLASSIC_SCHEMA
     spec_value: Any = field(default=None, compare=False, repr=False)
     compare: str = ""
+    source: str = field(default="", compare=False)
+
+    def load_design(self) -> Any:
+        """The design ``[campaign] design`` names: from a campaign file (``source``), a shipped
+        name or a trusted ``.py`` file beside it (:mod:`formsync_design.spec.trust`); from a
+        dict built in Python, a name or a path (relative to ``spec_dir``) the caller gave."""
+        return _campaign_design(self.spec, self.source, self.spec_dir)
 
     def to_dict(self) -> dict[str, Any]:
         """Canonical, JSON-ready definition (hashed into the manifest)."""
@@ -222,6 +229,17 @@ def _pos_float(v: Any, what: str, *, allow_zero: bool = False) -> float:
                          f"{what}, received {shown}")
     check_range(v, quantity_of(what), what)
     return float(v)
+
+
+def _campaign_design(ref: str, source: str | Path, spec_dir: str | Path) -> Any:
+    """:meth:`Campaign.load_design` (``source``: the campaign file, ``""`` for a dict)."""
+    from formsync_design.resources import design_names
+
+    if source:
+        return load_design(ref, Path(source))
+    if ref and ref not in design_names() and not Path(ref).is_absolute():
+        ref = str(Path(spec_dir) / ref)
+    return load_design(ref)
 
 
 def _design_ref(c: dict, spec: Any) -> tuple[str, Any]:
@@ -287,7 +305,8 @@ def _boxes(data: dict, sp: Any, schema: SweepSchema) -> list[GainBoxSpec]:
 _LAGRANGIAN_MC = ("phases", "K_v")
 
 
-def _montecarlo(m: Any, sp: Any, schema: SweepSchema, base: Path = Path(".")) -> MonteCarloSpec:
+def _montecarlo(m: Any, sp: Any, schema: SweepSchema, base: Path = Path("."),
+                source: str = "") -> MonteCarloSpec:
     sw = schema.switching
     if isinstance(m, dict) and schema.agent:
         for k in _LAGRANGIAN_MC:
@@ -334,6 +353,7 @@ def _montecarlo(m: Any, sp: Any, schema: SweepSchema, base: Path = Path(".")) ->
         switching=sw,
         agent=schema.agent,
         base=str(base),
+        source=source,
     )
 
 
@@ -376,13 +396,20 @@ def _reference(data: dict, sp: Any, schema: SweepSchema) -> tuple[Fraction, ...]
 
 
 def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Path = ".",
-                       spec: Any = None) -> Campaign:
+                       spec: Any = None, source: str = "") -> Campaign:
     """Validate a campaign document (the TOML layout of :func:`load_campaign`).
+
+    ``source``: the campaign file the document was read from; its paths (graph files and
+    folders, ``compare``, ``montecarlo.case``) then stay inside ``base``
+    (:func:`~formsync_design.textio.confined_path`), and its ``[campaign] design`` may name
+    only a shipped design or a trusted ``.py`` file beside it
+    (:mod:`formsync_design.spec.trust`).  ``""``: the command line's or the caller's own
+    document (built in Python: the user's paths, not confined).
 
     ``spec``: the design (a ``Spec``, a shipped design's name or a ``.py`` path relative
     to the current folder) when the document names none (``[campaign] design``,
-    relative to ``spec_dir``); default liang2016.  The gain tables are checked against
-    the design's gains.
+    ``spec_dir``); default liang2016.  The gain tables are checked against the design's
+    gains.
 
     >>> c = campaign_from_dict({"campaign": {"name": "t", "graphs": ["ring:4"]}})
     >>> c.boxes[0].name, [float(v) for v in c.reference], c.resolution
@@ -407,9 +434,10 @@ def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Pa
     # fault of the file), then the fields left out (their defaults, or "required")
     f: dict[str, Any] = {}
     for key in [*c, *(k for k in ("name", "graphs") if k not in c)]:
-        f[key] = campaign_field(key, c.get(key), Path(base))
+        f[key] = campaign_field(key, c.get(key), Path(base), source)
     ref_text, spec_arg = _design_ref(c, spec)
-    sp = load_design(spec_arg) if spec_arg is not None else load_design(ref_text, spec_dir)
+    sp = load_design(spec_arg) if spec_arg is not None else _campaign_design(ref_text, source,
+                                                                             spec_dir)
     schema = check_sweepable(sp)
     cond = f.get("conditions", "derived")
     if cond == "paper" and not is_default_design(sp):
@@ -432,7 +460,7 @@ def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Pa
             betas = _pos_int(des.get("betas", 5), "design.betas", 1, 1000)
             penalty = _pos_float(des.get("penalty", 0.0), "design.penalty", allow_zero=True)
         elif table == "montecarlo":
-            mc = _montecarlo(data["montecarlo"], sp, schema, Path(base))
+            mc = _montecarlo(data["montecarlo"], sp, schema, Path(base), source)
     if schema.agent:
         _check_agent_campaign(sp, schema, boxes, penalty, mc)
     name, title, graphs = f["name"], f.get("title", ""), f["graphs"]
@@ -442,17 +470,20 @@ def campaign_from_dict(data: dict, *, base: str | Path = ".", spec_dir: str | Pa
         reference=reference, conditions=cond, margin=margin, resolution=resolution,
         design_betas=betas, design_penalty=penalty, montecarlo=mc, base=str(base),
         spec=ref_text, spec_dir=str(spec_dir), schema=schema,
-        spec_value=sp if spec_arg is not None else None, compare=compare,
+        spec_value=sp if spec_arg is not None else None, compare=compare, source=source,
     )
 
 
-def load_campaign(path: str | Path, spec: Any = None) -> Campaign:
+def load_campaign(path: str | Path, spec: Any = None, *, trust: Any = ()) -> Campaign:
     """Load a campaign TOML file; its relative paths -- ``compare``, graph folders
     (``dir:PATH``), the Monte-Carlo case and ``campaign.design`` (a shipped design's name or
     a design file, default liang2016) -- resolve relative to the campaign file
-    (:func:`campaign_base`), never to the current directory.  Each table is validated
+    (:func:`campaign_base`), never to the current directory, and stay inside that folder (an
+absolute path or a ``..`` out of it is refused).  Each table is validated
     field by field in the order written.
-    ``spec``: the design when the file names none (``--design``).
+    ``spec``: the design when the file names none (``--design``).  ``campaign.design`` names
+    a shipped design or a ``.py`` file inside the campaign's folder that the user trusts
+    (``trust``: its paths, ``--trust-design``; :mod:`formsync_design.spec.trust`).
 
     Layout::
 
@@ -479,11 +510,14 @@ def load_campaign(path: str | Path, spec: Any = None) -> Campaign:
     Multipliers of the design's Lyapunov candidate are never given: every certificate
     searches them over their declared ranges.
     """
+    from formsync_design.spec.trust import trusting
     from formsync_design.tomlio import load_toml
 
     p = Path(path)
     data = load_toml(p, "campaign TOML file")
-    return campaign_from_dict(data, base=campaign_base(p), spec_dir=p.parent, spec=spec)
+    with trusting(*trust):
+        return campaign_from_dict(data, base=campaign_base(p), spec_dir=p.parent, spec=spec,
+                                  source=str(p))
 
 
 
@@ -512,7 +546,7 @@ def resolve_spec(campaign: Campaign, spec: Any = None) -> Any:
     elif campaign.spec_value is not None:
         sp = campaign.spec_value
     else:
-        sp = load_design(campaign.spec, campaign.spec_dir)
+        sp = campaign.load_design()
     schema = SweepSchema.of_design(sp)
     if schema != campaign.schema:
         mult = f" (multipliers {', '.join(schema.multipliers)})" if schema.multipliers else ""

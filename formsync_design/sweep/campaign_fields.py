@@ -22,6 +22,7 @@ from typing import Any
 
 from formsync_design.errors import InputError
 from formsync_design.gains import parse_number
+from formsync_design.textio import confined_path
 
 __all__ = ["CAMPAIGN_FIELDS", "campaign_field", "campaign_base", "shown"]
 
@@ -92,9 +93,13 @@ def shown(v: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def campaign_field(key: str, value: Any, base: Path) -> Any:
+def campaign_field(key: str, value: Any, base: Path, source: str = "") -> Any:
     """The validated value of ``[campaign] key`` (``base``: the folder relative paths
-    resolve against); a one-line :class:`InputError` naming the field otherwise."""
+    resolve against; ``source``: the campaign file, whose ``compare`` path must stay inside
+    ``base``); a one-line :class:`InputError` naming the field otherwise."""
+    if key == "compare" and source and isinstance(value, str) and value.strip():
+        for rel in (value.strip(), f"{value.strip()}/manifest.json", f"{value.strip()}/results.csv"):
+            confined_path(rel, source, "campaign.compare", base=base)  # a symlink out: refused
     return CAMPAIGN_FIELDS[key](value, base)
 
 

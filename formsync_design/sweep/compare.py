@@ -51,6 +51,7 @@ def load_compared(folder: str, base: str | Path = ".") -> Compared:
         Not a finished sweep folder (no ``manifest.json`` or ``results.csv``, unreadable).
     """
     from formsync_design.sweep.store import read_results
+    from formsync_design.textio import read_text
 
     p = Path(folder)
     if not p.is_absolute():
@@ -59,8 +60,9 @@ def load_compared(folder: str, base: str | Path = ".") -> Compared:
     if not (man_p.is_file() and res_p.is_file()):
         raise InputError(f"expected campaign.compare to name a finished sweep folder (manifest.json "
                          f"and results.csv), received {folder!r}")
+    text = read_text(man_p, "sweep manifest")  # a regular file under the size cap
     try:
-        manifest = json.loads(man_p.read_text(encoding="utf-8"))
+        manifest = json.loads(text)
         sha = str(manifest["sha256"])
         camp = manifest["campaign"]
     except (ValueError, KeyError, TypeError, UnicodeDecodeError):

@@ -37,12 +37,15 @@ DEFAULT_BOX = {"name": "standard", "K_o": ["0.05", "5"], "K_q": ["0.05", "5"], "
 DEFAULT_REFERENCE = {"K_o": "1.6", "K_q": "0.4", "beta": "0.3"}
 
 
-def load_design(ref: Any = None, base: str | Path = ".") -> Any:
+def load_design(ref: Any = None, data_file: str | Path | None = None) -> Any:
     """The design named by ``ref`` (a :class:`~formsync_design.spec.loader.Spec` or an
-    agent design): a design value, a shipped design's name (unless a file of that name
-    exists in ``base``), a ``.py`` file (relative to ``base``), or ``None`` / ``""`` for
-    liang2016.  A design with a Lagrangian view is swept in that view (the campaign derives
-    its Theta_i / Pi conditions); an agent design without one, in its agent form.
+    agent design): a design value, a shipped design's name (always the shipped file), a
+    ``.py`` file, or ``None`` / ``""`` for liang2016.  ``data_file``: the campaign file that
+    names ``ref`` (it may name only a trusted ``.py`` file beside itself:
+    :func:`~formsync_design.spec.trust.resolve_design_ref`); ``None``: the user named it (a
+    path relative to the current folder).  A design with a Lagrangian view is swept in that
+    view (the campaign derives its Theta_i / Pi conditions); an agent design without one, in
+    its agent form.
 
     >>> load_design("pd_consensus").name, load_design().name, load_design("ma_so3").form
     ('pd_consensus', 'liang2016', 'agent')
@@ -50,21 +53,16 @@ def load_design(ref: Any = None, base: str | Path = ".") -> Any:
     ('Spec', 'AgentDesign')
     """
     from formsync_design.spec.loader import Spec, lagrangian_view, load_design as load_any
+    from formsync_design.spec.trust import resolve_design_ref
 
     if isinstance(ref, Spec) or getattr(ref, "form", None) == "agent":
         return lagrangian_view(ref) or ref
     if ref is None or (isinstance(ref, str) and not ref.strip()):
         d = load_any(None)
-    elif not isinstance(ref, (str, Path)):
-        d = load_any(ref)  # refuses the type (one line)
+    elif data_file is not None:
+        d = load_any(resolve_design_ref(ref, data_file, "campaign.design"))
     else:
-        p = Path(ref)
-        if not p.is_absolute():
-            p = Path(base) / p
-        if isinstance(ref, str) and ref.isidentifier() and not p.exists():
-            d = load_any(ref)  # a shipped design's name (or a one-line error listing them)
-        else:
-            d = load_any(p)
+        d = load_any(ref)  # a shipped name first, else the file; other types refused (one line)
     return lagrangian_view(d) or d
 
 

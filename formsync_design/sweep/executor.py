@@ -37,7 +37,8 @@ from formsync_design.errors import ClusterError, FormsyncError, InputError
 
 __all__ = ["execute", "check_scheduler_address"]
 
-_ADDRESS = re.compile(r"(tcp|tls|inproc|ucx|ws|wss)://[^\s/:]+(:\d{1,5})?/?|[A-Za-z0-9_.-]+:\d{1,5}")
+_ADDRESS = re.compile(r"(tcp|tls|inproc|ucx|ws|wss)://[^\s/:]+(:\d{1,5})?/?|[A-Za-z0-9_.-]+:\d{1,5}",
+                      re.ASCII)
 _DASK_LOGGERS = ("distributed", "distributed.nanny", "distributed.worker", "distributed.scheduler",
                  "distributed.client", "distributed.core", "distributed.comm",
                  "distributed.deploy", "distributed.process", "tornado", "asyncio")
@@ -56,7 +57,7 @@ def check_scheduler_address(address: str) -> str:
     a = str(address).strip()
     if not _ADDRESS.fullmatch(a):
         raise InputError(f"expected a scheduler address like tcp://HOST:PORT, received {address!r}")
-    m = re.search(r":(\d+)/?$", a)
+    m = re.search(r":(\d+)/?$", a, re.ASCII)
     if m and not 0 < int(m.group(1)) < 65536:
         raise InputError(f"expected a port in 1..65535 in the scheduler address, received {address!r}")
     return a

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from formsync_design.errors import GraphError, InputError
 from formsync_design.graphs.build import Graph, make_graph
+from formsync_design.textio import check_ascii, confined_path
 
 __all__ = ["ATLAS_MAX_N", "MAX_SET_SIZE", "GraphEntry", "expand_graph_set", "expand_graphs",
            "graph_set_bound"]
@@ -34,7 +35,7 @@ class GraphEntry:
 
 def _int_range(text: str, what: str, spec: str) -> list[int]:
     t = text.strip()
-    m = re.fullmatch(r"(\d+)\.\.(\d+)", t)
+    m = re.fullmatch(r"([0-9]+)\.\.([0-9]+)", t)
     if m:
         a, b = int(m.group(1)), int(m.group(2))
         if b < a:
@@ -45,10 +46,10 @@ def _int_range(text: str, what: str, spec: str) -> list[int]:
                 f"that many tasks), received {b - a + 1} for {what} in {spec!r}"
             )
         return list(range(a, b + 1))
-    m = re.fullmatch(r"N?<=(\d+)", t)
+    m = re.fullmatch(r"N?<=([0-9]+)", t)
     if m:
         return list(range(2, int(m.group(1)) + 1))
-    if re.fullmatch(r"\d+", t):
+    if re.fullmatch(r"[0-9]+", t):
         return [int(t)]
     raise InputError(f"expected {what} as a number or a range A..B, received {t!r} in {spec!r}")
 
@@ -69,19 +70,28 @@ def _atlas(ns: Sequence[int], spec: str) -> list[GraphEntry]:
     return [GraphEntry(e.id, e.graph_set, Graph(e.graph.n, e.graph.edges, e.id)) for e in out]
 
 
-def _folder(path: Path, spec: str) -> list[GraphEntry]:
+def _path(root: Path, rel: str, source: str | None) -> Path:
+    """``root / rel``; inside ``root`` when a campaign file ``source`` names it."""
+    if source:
+        return confined_path(rel, source, "campaign.graphs", base=root)
+    return root / rel
+
+
+def _folder(path: Path, spec: str, source: str | None = None) -> list[GraphEntry]:
     if not path.is_dir():
         raise InputError(f"expected an existing folder of edge-list files, received {spec!r}")
     files = sorted(p for p in path.iterdir() if p.is_file() and p.suffix.lower() in _EDGE_SUFFIXES)
     out = []
     for p in files:
+        if source:  # a file of the folder may be a symlink out of the campaign's folder
+            _path(path, p.name, source)
         g = make_graph(p)
         gid = f"file:{p.name}"
         out.append(GraphEntry(gid, spec, Graph(g.n, g.edges, gid)))
     return out
 
 
-def graph_set_bound(spec: str, *, base: Path | None = None) -> int:
+def graph_set_bound(spec: str, *, base: Path | None = None, source: str | None = None) -> int:
     """An upper bound of the number of graphs of a set, computed without building them
     (0 for a spec :func:`expand_graph_set` will reject).
 
@@ -103,14 +113,22 @@ def graph_set_bound(spec: str, *, base: Path | None = None) -> int:
         return 0
     if fam in _FAMILIES and fam != "dir":
         return 0
-    p = (base or Path(".")) / (spec.partition(":")[2] if fam == "dir" else spec)
+    try:
+        p = _path(base or Path("."), spec.partition(":")[2] if fam == "dir" else spec, source)
+    except InputError:
+        return 1  # refused by expand_graph_set
     if p.is_dir():
         return sum(1 for q in p.iterdir() if q.suffix.lower() in _EDGE_SUFFIXES)
     return 1
 
 
-def expand_graph_set(spec: str, *, base: Path | None = None) -> tuple[list[GraphEntry], list[str]]:
+def expand_graph_set(spec: str, *, base: Path | None = None,
+                     source: str | None = None) -> tuple[list[GraphEntry], list[str]]:
     """Expand one graph-set spec into graphs (module docstring for the grammar).
+
+    ``base``: the folder relative files and folders resolve against; ``source``: the
+    campaign file that names the set (its files and folders then stay inside ``base``;
+    ``None``: the command line's, the user's paths).
 
     Returns ``(graphs, skipped)``: ``skipped`` lists random draws rejected as
     disconnected (``"random:8:0.2:3 (disconnected)"``).
@@ -136,11 +154,11 @@ def expand_graph_set(spec: str, *, base: Path | None = None) -> tuple[list[Graph
     fam_l = fam.lower()
     skipped: list[str] = []
     if fam_l == "dir":
-        out = _folder(root / rest, spec)
+        out = _folder(_path(root, rest, source), spec, source)
     elif fam_l not in _FAMILIES:
-        p = root / spec
+        p = _path(root, spec, source)
         if p.is_dir():
-            out = _folder(p, spec)
+            out = _folder(p, spec, source)
         elif p.is_file():
             g = make_graph(p)
             gid = f"file:{p.name}"
@@ -151,6 +169,7 @@ def expand_graph_set(spec: str, *, base: Path | None = None) -> tuple[list[Graph
                 + ", ".join(_FAMILIES) + ") or an existing file or folder, received " + repr(spec)
             )
     else:
+        check_ascii(spec, f"the graph set {spec[:40]!r}")
         parts = spec.split(":")
         if fam_l == "atlas":
             if len(parts) != 2:
@@ -198,7 +217,7 @@ def expand_graph_set(spec: str, *, base: Path | None = None) -> tuple[list[Graph
 
 
 def expand_graphs(
-    specs: Sequence[str], *, base: Path | None = None
+    specs: Sequence[str], *, base: Path | None = None, source: str | None = None
 ) -> tuple[list[GraphEntry], list[str]]:
     """Expand several graph-set specs in order; a graph id met twice is kept once
     (its edges must agree).  Returns ``(graphs, skipped)``.
@@ -213,7 +232,7 @@ def expand_graphs(
     out: list[GraphEntry] = []
     skipped: list[str] = []
     for s in specs:
-        gs, sk = expand_graph_set(s, base=base)
+        gs, sk = expand_graph_set(s, base=base, source=source)
         skipped.extend(sk)
         for g in gs:
             if g.id in seen:

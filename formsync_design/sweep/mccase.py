@@ -15,6 +15,7 @@ from typing import Any
 
 from formsync_design.errors import InputError
 from formsync_design.sweep.schema import rational_text
+from formsync_design.textio import confined_path, read_text
 
 __all__ = ["MonteCarloSpec", "case_text"]
 
@@ -39,7 +40,9 @@ class MonteCarloSpec:
     ``phases`` and ``K_v`` do not apply.
 
     ``base``: the folder a relative ``case`` path resolves against (the campaign file's,
-    :func:`~formsync_design.sweep.campaign_fields.campaign_base`; not part of the definition).
+    :func:`~formsync_design.sweep.campaign_fields.campaign_base`; not part of the definition);
+    ``source``: the campaign file (then ``case`` stays inside ``base``), ``""`` for the
+    command line's ``--mc-case``.
     """
 
     runs: int = 20
@@ -57,6 +60,7 @@ class MonteCarloSpec:
     switching: str | None = "K_v"
     agent: bool = False
     base: str = field(default=".", compare=False)
+    source: str = field(default="", compare=False)
 
     def to_dict(self) -> dict[str, Any]:
         if self.agent:
@@ -89,7 +93,7 @@ def case_text(mc: MonteCarloSpec, design: Any = None) -> tuple[str, str]:
     if not mc.case:
         p = default_case_path()
     else:
-        p = _named_case(mc.case, mc.base)
+        p = _named_case(mc.case, mc.base, mc.source)
     if case_is_agent(p):
         raise InputError(f"expected a Lagrangian case in montecarlo.case, received the agent "
                          f"case {mc.case}")
@@ -97,17 +101,19 @@ def case_text(mc: MonteCarloSpec, design: Any = None) -> tuple[str, str]:
     if mc.switching is not None and mc.K_v is None and not case.gains.K_v:
         raise InputError(f"expected montecarlo.{mc.switching} (the case {mc.case or p.name} gives "
                          "no switching gain), received none")
-    return str(p), p.read_text(encoding="utf-8")
+    return str(p), read_text(p, "case TOML file")
 
 
-def _named_case(case: str, base: str = ".") -> Path:
+def _named_case(case: str, base: str = ".", source: str = "") -> Path:
     """``montecarlo.case``: a shipped case's name (unless such a file exists in ``base``),
-    else a path relative to ``base``."""
+    else a path relative to ``base`` (inside it when named by the campaign file ``source``)."""
     from formsync_design.resources import case_file, case_names
 
     p = Path(case) if Path(case).is_absolute() else Path(base) / case
     if case.isidentifier() and case in case_names() and not p.exists():
         return case_file(case)
+    if source:
+        return confined_path(case, source, "montecarlo.case", base=base)
     return p
 
 
@@ -125,7 +131,7 @@ def _agent_case_text(mc: MonteCarloSpec, design: Any) -> tuple[str, str]:
                              f"{design.name} (no shipped case names it), received none")
         p = shipped
     else:
-        p = _named_case(mc.case, mc.base)
+        p = _named_case(mc.case, mc.base, mc.source)
     if p.is_file() and not case_is_agent(p):
         raise InputError(f"expected an agent case ([case] design naming an agent design) in "
                          f"montecarlo.case for the agent design {design.name}, received the "
@@ -134,4 +140,4 @@ def _agent_case_text(mc: MonteCarloSpec, design: Any) -> tuple[str, str]:
     # the campaign's options must be valid for the case (AgentOptions validates; exit 2)
     replace(case.options, **{k: v for k in ("tf", "step", "output_step")
                              if (v := getattr(mc, k)) is not None})
-    return str(p), p.read_text(encoding="utf-8")
+    return str(p), read_text(p, "case TOML file")

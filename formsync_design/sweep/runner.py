@@ -12,6 +12,7 @@ from typing import Any
 
 from formsync_design.errors import FormsyncError, InputError
 from formsync_design.outdir import locked
+from formsync_design.spec.trust import design_code_of
 from formsync_design.sweep.campaign import (
     Campaign,
     campaign_hash,
@@ -151,9 +152,10 @@ def run_sweep(
     if scheduler:
         scheduler = check_scheduler_address(scheduler)
     # refuse before building anything, on an upper bound of the graph count; then exactly
-    check_campaign_size(campaign, sum(graph_set_bound(g, base=Path(campaign.base))
+    source = campaign.source or None
+    check_campaign_size(campaign, sum(graph_set_bound(g, base=Path(campaign.base), source=source)
                                       for g in campaign.graphs), bound=True)
-    graphs, skipped = expand_graphs(campaign.graphs, base=Path(campaign.base))
+    graphs, skipped = expand_graphs(campaign.graphs, base=Path(campaign.base), source=source)
     check_campaign_size(campaign, len(graphs))
     sp = resolve_spec(campaign, spec)
     sha = campaign_hash(campaign, graphs, sp if spec is not None else None)  # validates the case file
@@ -193,6 +195,9 @@ def run_sweep(
             "columns": list(columns),
             "spec": {"name": sp.name, "sha256": spec_key(sp)},
         }
+        code = design_code_of([sp])  # design code that is not shipped: named (spec.trust)
+        if code:
+            manifest["design_code"] = [c.to_dict() for c in code]
         man_bytes = (json.dumps(manifest, indent=1, sort_keys=True, ensure_ascii=True) + "\n").encode()
 
         started = {"ok": False}

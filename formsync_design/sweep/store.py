@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import json
 import os
 import signal
@@ -11,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from formsync_design.errors import InputError
-from formsync_design.outdir import LOCK_NAME, write_bytes
+from formsync_design.outdir import LOCK_NAME, ROOM_ERRNOS, write_bytes, write_error
 from formsync_design.sweep.schema import COLUMNS
 
 __all__ = ["OWNED", "atomic_write", "read_journal", "Journal", "read_results", "csv_bytes",
@@ -66,7 +68,10 @@ class Journal:
 
     A Ctrl-C arriving while a line is written is held until the line is complete
     (SIGINT blocked around the write), so an interrupt never tears a row; a torn
-    tail from a kill is cut off by :func:`read_journal`.
+    tail from a kill is cut off by :func:`read_journal`.  A line that cannot be
+    written whole (disk full, file-size limit) is cut off again at once and raises
+    the :class:`~formsync_design.errors.WriteError` naming the journal (exit 3): the
+    journal keeps its complete rows, and ``--resume`` continues after them.
 
     >>> import tempfile
     >>> p = Path(tempfile.mkdtemp()) / "journal.jsonl"
@@ -76,17 +81,29 @@ class Journal:
     """
 
     def __init__(self, path: Path) -> None:
-        self.fh = open(path, "ab")
+        self.path = Path(path)
+        self.fh = open(path, "ab", buffering=0)  # unbuffered: a failed write fails here
 
     def append(self, row: dict[str, str]) -> None:
         data = (json.dumps(row, sort_keys=True, ensure_ascii=True) + "\n").encode()
         blocked = threading.current_thread() is threading.main_thread()
         if blocked:
             signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        start = os.fstat(self.fh.fileno()).st_size
         try:
-            self.fh.write(data)
-            self.fh.flush()
+            view = memoryview(data)
+            while view:  # a raw write may be short: write the rest, or fail with its errno
+                n = self.fh.write(view)
+                if not n:
+                    raise OSError(errno.EIO, "the write made no progress")
+                view = view[n:]
             os.fsync(self.fh.fileno())
+        except OSError as e:
+            with contextlib.suppress(OSError):  # cut the partial line: the rows stay whole
+                os.ftruncate(self.fh.fileno(), start)
+            if e.errno in ROOM_ERRNOS:
+                raise write_error(self.path, e, "the sweep journal") from None
+            raise
         finally:
             if blocked:  # a pending SIGINT is delivered here, after the complete line
                 signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})

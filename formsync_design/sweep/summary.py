@@ -147,6 +147,9 @@ def write_summary(
     dl = _design_line(manifest)
     if dl:
         L.append(dl)
+    for c in manifest.get("design_code", []):
+        L.append(f"- design code that is not shipped, run on the user's trust: `{c['path']}` "
+                 f"(sha256 `{c['sha256']}`)")
     L.append(f"- graph sets: {', '.join('`' + g + '`' for g in camp['graphs'])} "
              f"({len(manifest['graphs'])} graphs, {len(rows)} tasks)")
     if manifest["skipped"]:

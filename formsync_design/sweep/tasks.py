@@ -37,8 +37,9 @@ def build_tasks(
     """One payload per graph x box (plain data: picklable, executor-independent).
 
     ``spec`` (a ``Spec``, a name or a path; default the campaign's design, else the
-    paper's) is carried as its file path (``None`` for the paper's), or as the ``Spec``
-    value itself when it was built in Python (Dask pickles it by value).
+    paper's) is carried as its file path and the sha256 of its content (``None`` for the
+    paper's; a worker loads that path only with that content), or as the ``Spec`` value
+    itself when it was built in Python (Dask pickles it by value).
     """
     from formsync_design.sweep.campaign import resolve_spec
     from formsync_design.sweep.designs import is_default_design
@@ -52,6 +53,8 @@ def build_tasks(
         spec_payload = str(Path(sp.path).resolve())
     common = {
         "spec": spec_payload,
+        # the content a worker may load for that path (the content trusted and checked here)
+        "spec_sha256": sp.key if isinstance(spec_payload, str) else None,
         "schema": campaign.schema.to_dict(),
         "conditions": campaign.conditions,
         "margin": rational_text(campaign.margin),
@@ -63,7 +66,8 @@ def build_tasks(
     }
     if campaign.montecarlo is not None:
         path, text = case_text(campaign.montecarlo, sp)
-        common["montecarlo"] = {**campaign.montecarlo.to_dict(), "case_path": path, "case_text": text}
+        common["montecarlo"] = {**campaign.montecarlo.to_dict(), "case_path": path, "case_text": text,
+                                "case_trust": _case_trust(path)}
     tasks = []
     for gi, g in enumerate(graphs):
         for bi, b in enumerate(campaign.boxes):
@@ -82,15 +86,32 @@ def build_tasks(
     return tasks
 
 
+def _case_trust(path: str) -> list[str] | None:
+    """``[path, sha256]`` of the trusted design file the Monte-Carlo case names (checked when
+    the campaign was read here), for the workers that parse the case again; else ``None``."""
+    from formsync_design.spec.trust import pinned_digest
+    from formsync_design.verify.agentcase import case_design_ref
+
+    ref = case_design_ref(path)
+    if ref is None or not ref.endswith(".py"):
+        return None
+    target = Path(path).parent / ref
+    sha = pinned_digest(target)
+    return None if sha is None else [str(target), sha]
+
+
 def _mc_formation(graph: Graph, mc: dict, schema: SweepSchema,
                   gains: Sequence[Fraction]) -> tuple[Any, float | None]:
     import numpy as np
 
     from formsync_design.sim.formation import Formation, Gains
+    from formsync_design.spec.trust import TrustedFile, trusting
     from formsync_design.tomlio import parse_toml
     from formsync_design.verify.case import make_disturbance, parse_case
 
-    case = parse_case(parse_toml(mc["case_text"], mc["case_path"]), mc["case_path"])
+    trust = [TrustedFile(*mc["case_trust"])] if mc.get("case_trust") else []
+    with trusting(*trust):  # the case's design file, trusted with this content where it was read
+        case = parse_case(parse_toml(mc["case_text"], mc["case_path"]), mc["case_path"])
     n = graph.n
     J = np.array([case.inertias[i % case.n] for i in range(n)])
     table = dict(case.disturbance)
@@ -112,7 +133,9 @@ def _task_spec(task: dict[str, Any]) -> Any:
     sp = task.get("spec")
     if isinstance(sp, Spec) or getattr(sp, "form", None) == "agent":
         return sp
-    return load_design(sp) if task["schema"].get("form") == "agent" else load_spec(sp)
+    sha = task.get("spec_sha256")
+    return (load_design(sp, sha256=sha) if task["schema"].get("form") == "agent"
+            else load_spec(sp, sha256=sha))
 
 
 def _run_mc(graph: Graph, mc: dict, schema: SweepSchema, gains: Sequence[Fraction] | None,

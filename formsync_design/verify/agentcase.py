@@ -64,9 +64,11 @@ from formsync_design.models.disturbances import Orbit
 from formsync_design.sim.agents import AgentFormation, AgentOptions, Reference
 from formsync_design.sim.formation import Gains
 from formsync_design.sim.reference_rate import reference_rate_expressions
+from formsync_design.textio import read_bytes
 from formsync_design.tomlio import load_toml
 from formsync_design.verify.case import (
     case_matrix,
+    case_name,
     case_number,
     case_numbers,
     case_orbit,
@@ -173,6 +175,34 @@ class AgentCase:
                              f"received {g.name!r} with {g.n}")
         return g
 
+    def pinning_rule(self, n: int) -> tuple[tuple[Any, ...], str] | None:
+        """The case's pinning gains for a graph of ``n`` spacecraft and the rule, in words
+        (None when the case pins no spacecraft).
+
+        The case's own size keeps its gains; another size keeps the case's rule: every
+        spacecraft pinned with one gain ``b``, or spacecraft 1 alone.  Other pinnings give no
+        rule for another size (:class:`~formsync_design.errors.InputError`).
+
+        >>> from formsync_design.resources import case_file
+        >>> pins, rule = load_agent_case(case_file("lv2012")).pinning_rule(3)
+        >>> [str(b) for b in pins], rule
+        (['1', '1', '1'], 'every spacecraft pinned with b = 1 (the rule of the case lv2012)')
+        """
+        pins = tuple(self.graph().pinning)
+        if not any(b > 0 for b in pins):
+            return None
+        if n == self.n:
+            return pins, f"the pinning gains of the case {self.name}"
+        if len(set(pins)) == 1:
+            return (pins[0],) * n, f"every spacecraft pinned with b = {pins[0]} (the rule of the case {self.name})"
+        if pins[0] > 0 and not any(pins[1:]):
+            return ((pins[0],) + (pins[0] * 0,) * (n - 1),
+                    f"spacecraft 1 pinned with b = {pins[0]} (the rule of the case {self.name})")
+        raise InputError(
+            f"expected a graph with pinning gains for {n} spacecraft, received a graph without: the "
+            f"case {self.name} pins its {self.n} spacecraft with {[str(b) for b in pins]}, which "
+            "gives no rule for another size; give --graph as an edge-list file with 'i 0 b' lines")
+
     def cycled(self, n: int) -> AgentCase:
         """The case resized to ``n`` spacecraft: spacecraft ``i`` takes the inertia, initial
         attitude, rate and controller states of the case's spacecraft ``i % self.n`` (as a
@@ -198,15 +228,22 @@ class AgentCase:
                               dict(self.states))
 
 
-def load_agent_case(path: str | Path, design: Any = None) -> AgentCase:
-    """Load and validate an agent case file (``design``: overrides ``[case] design``)."""
-    p = Path(path)
+def load_agent_case(path: str | Path, design: Any = None, *, trust: Any = ()) -> AgentCase:
+    """Load and validate an agent case file (``design``: overrides ``[case] design``;
+    ``trust``: design files the case may name, :mod:`formsync_design.spec.trust`)."""
+    from formsync_design.spec.trust import trusting
+
+    with trusting(*trust):
+        return _load_agent_case(Path(path), design)
+
+
+def _load_agent_case(p: Path, design: Any) -> AgentCase:
     data = load_toml(p, "case TOML file")
     meta = data.get("case")
     if isinstance(meta, dict) and meta.get("kind") == "engine":  # its base case (the engine's
         data = {k: v for k, v in data.items() if k not in ENGINE_TABLES}  # tables: enginecase)
     case = parse_agent_case(data, str(p), design=design)
-    return replace(case, digest=hashlib.sha256(p.read_bytes()).hexdigest())
+    return replace(case, digest=hashlib.sha256(read_bytes(p, "case TOML file")).hexdigest())
 
 
 def case_design_ref(path: str | Path) -> str | None:
@@ -314,13 +351,12 @@ def formation_inertias(design: Any, n: int) -> tuple[np.ndarray, str]:
 
 
 def _design_of(ref: str, path: str) -> Any:
-    """The design a case file at ``path`` names: a shipped name, else a file relative to it."""
-    from formsync_design.resources import design_names
+    """The design a case file at ``path`` names: a shipped name, else a trusted file beside
+    it (:func:`~formsync_design.spec.trust.resolve_design_ref`)."""
     from formsync_design.spec.loader import load_design
+    from formsync_design.spec.trust import resolve_design_ref
 
-    if ref.isidentifier() and ref in design_names():
-        return load_design(ref)
-    return load_design(Path(ref) if Path(ref).is_absolute() else Path(path).parent / ref)
+    return load_design(resolve_design_ref(ref, path, "case.design"))
 
 
 def _resolve_design(ref: str, path: str) -> Any:
@@ -417,12 +453,12 @@ def parse_agent_case(data: dict, path: str = "<memory>", design: Any = None) -> 
         if not graph_input.strip():
             raise InputError(f"expected [case] graph as a graph spec or a graph file in {path}, "
                              "received ''")
-        graph_input = case_path(graph_input.strip(), path)
+        graph_input = case_path(graph_input.strip(), path, "case.graph")
     elif not isinstance(graph_input, dict):
         raise InputError(f"expected [case] graph as a graph spec or a graph file (or a [graph] "
                          f"table) in {path}, received {repr(graph_input)[:60]}")
     case = AgentCase(
-        name=str(meta.get("name", Path(path).stem)), title=str(meta.get("title", "")),
+        name=case_name(meta, path), title=str(meta.get("title", "")),
         source=str(meta.get("source", "")), path=path, kind=str(meta.get("kind", "agents")),
         design=d, design_ref=str(ref), graph_input=graph_input, inertias=np.array(J),
         attitudes=np.array(A), rates=np.array(W),

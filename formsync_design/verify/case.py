@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -60,11 +61,12 @@ from formsync_design.models.disturbances import (
 from formsync_design.ranges import check_range, quantity_of
 from formsync_design.sim.formation import Formation, Gains, SimOptions
 from formsync_design.spec.loader import load_spec
+from formsync_design.textio import check_ascii, confined_path, cut, read_bytes
 from formsync_design.tomlio import load_toml
 
 __all__ = ["Case", "load_case", "default_case_path", "parse_case", "make_disturbance",
            "case_number", "case_numbers", "case_matrix", "case_orbit", "check_case_tables",
-           "case_path"]
+           "case_path", "case_name"]
 
 _TABLES = {
     "case": {"name", "title", "source", "graph", "assumptions", "spec", "design", "kind"},
@@ -223,17 +225,50 @@ def _matrix(v: Any, what: str) -> np.ndarray:
     return np.array([[_num(x, what) for x in r] for r in v])
 
 
-def case_path(text: str, path: str) -> str:
-    """A graph named in the case file at ``path``: a graph spec (``ring:8``, it has a ``:``)
-    or an absolute path as written, else a file relative to the case file's folder (never
-    to the current folder).
+def case_path(text: str, path: str, key: str = "case.graph") -> str:
+    """A graph named in the case file at ``path`` (under ``key``): a graph spec (``ring:8``:
+    a word, a ``:``, no ``/``) as written, else a file inside the case file's folder (never
+    the current folder; an absolute path or one leaving the folder is refused:
+    :func:`~formsync_design.textio.confined_path`).
 
     >>> case_path("ring:8", "cases/c.toml"), case_path("edges.txt", "cases/c.toml")
     ('ring:8', 'cases/edges.txt')
+    >>> case_path("/etc/passwd", "cases/c.toml")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected case.graph as a path inside the folder of cases/c.toml ... (an absolute path)
     """
-    if ":" in text or Path(text).is_absolute():
-        return text
-    return str(Path(path).parent / text)
+    if _SPEC_LIKE.fullmatch(text) and not (Path(path).parent / text).is_file():
+        return check_ascii(text, f"{key} {cut(text, 40)}")
+    return str(confined_path(text, path, key))
+
+
+#: A case's ``name``: ASCII letters, digits, ``_``, ``.``, ``-``, no separator.
+_CASE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,99}")
+
+
+def case_name(meta: dict, path: str) -> str:
+    """``[case] name`` of the case file at ``path`` (default: the file's stem): ASCII
+    ``[A-Za-z0-9][A-Za-z0-9_.-]*``, at most 100 characters, never a path (``"../../x"``).
+
+    >>> case_name({"name": "small3"}, "c.toml"), case_name({}, "cases/my case.toml")
+    ('small3', 'my case')
+    >>> case_name({"name": "../../../x"}, "c.toml")
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected case.name in c.toml as ASCII letters, digits, '_', '.', '-' (a letter or digit first, no '/'), received '../../../x'
+    """
+    if "name" not in meta:
+        return Path(path).stem
+    name = meta["name"]
+    if not isinstance(name, str) or not _CASE_NAME.fullmatch(name):
+        raise InputError(f"expected case.name in {path} as ASCII letters, digits, '_', '.', '-' "
+                         f"(a letter or digit first, no '/'), received {cut(name, 40)}")
+    return name
+
+
+#: A graph spec as a case file writes it (``ring:8``, ``cycle:5``): never a path out of a folder.
+_SPEC_LIKE = re.compile(r"[A-Za-z]+:[^/\\]*")
 
 
 #: The case files' value checks, public for the other case readers (one line on bad input).
@@ -255,9 +290,10 @@ def case_orbit(o: dict) -> Orbit:
     )
 
 
-def load_case(path: str | Path | None = None) -> Case:
+def load_case(path: str | Path | None = None, *, trust: Any = ()) -> Case:
     """Load and validate a case file (default: the paper's); a shipped case's name
-    (``"pd_consensus"``) is that case.
+    (``"pd_consensus"``) is that case.  ``trust``: design files the case may name (paths;
+    :mod:`formsync_design.spec.trust`).
 
     >>> c = load_case()
     >>> c.name, c.n, c.graph_spec, c.options.phi
@@ -270,16 +306,20 @@ def load_case(path: str | Path | None = None) -> Case:
     if isinstance(path, str) and path.isidentifier() and not Path(path).exists() \
             and path in case_names():
         path = case_file(path)
+    from formsync_design.spec.trust import trusting
+
     p = Path(path) if path is not None else default_case_path()
     data = load_toml(p, "case TOML file")
-    case = parse_case(data, str(p))
-    return replace(case, digest=hashlib.sha256(p.read_bytes()).hexdigest())
+    with trusting(*trust):
+        case = parse_case(data, str(p))
+    return replace(case, digest=hashlib.sha256(read_bytes(p, "case TOML file")).hexdigest())
 
 
 def _case_design(meta: dict, path: str) -> str | None:
-    """``[case] design`` (or its old name ``spec``): a shipped design's name, or a design
-    ``.py`` file relative to the case file; ``None``: the paper's (liang2016)."""
-    from formsync_design.resources import design_names
+    """``[case] design`` (or its old name ``spec``): a shipped design's name, or a trusted
+    design ``.py`` file beside the case file (:func:`~formsync_design.spec.trust.resolve_design_ref`);
+    ``None``: the paper's (liang2016)."""
+    from formsync_design.spec.trust import resolve_design_ref
 
     if "spec" in meta and "design" in meta:
         raise InputError(f"expected one of case.design or case.spec in {path}, received both")
@@ -287,18 +327,7 @@ def _case_design(meta: dict, path: str) -> str | None:
     spec = meta.get(key)
     if spec is None:
         return None
-    if not (isinstance(spec, str) and spec.strip()):
-        raise InputError(f"expected case.{key} = a design name or a .py file, received {spec!r}")
-    if spec.isidentifier() and spec in design_names():
-        return spec
-    sp = Path(spec)
-    if not sp.is_absolute():
-        sp = Path(path).parent / sp
-    if not sp.is_file():
-        raise InputError(f"expected case.{key} to name a shipped design ({', '.join(design_names())}) "
-                         f"or an existing .py file (relative to the case file), received {spec!r} "
-                         f"({str(sp)!r} does not exist)")
-    return str(sp)
+    return str(resolve_design_ref(spec, path, f"case.{key}"))
 
 
 def check_case_tables(data: dict, tables: dict[str, set[str] | None], path: str) -> None:
@@ -422,7 +451,7 @@ def parse_case(data: dict, path: str = "<memory>") -> Case:
     graph_spec = case_path(graph.strip(), path)
     inertias = np.array(J)
     case = Case(
-        name=str(meta.get("name", Path(path).stem)),
+        name=case_name(meta, path),
         title=str(meta.get("title", "")),
         source=str(meta.get("source", "")),
         path=path,

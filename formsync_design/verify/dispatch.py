@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from formsync_design.errors import InputError
+from formsync_design.textio import check_regular
 
 __all__ = ["resolve_case", "verify_case"]
 
@@ -38,8 +39,7 @@ def resolve_case(case: str | Path | None) -> Path:
         return default_case_path()
     p = Path(case)
     if isinstance(case, Path) or p.suffix == ".toml" or p.exists():
-        if not p.is_file():
-            raise InputError(f"expected an existing case TOML file, received {str(case)!r}")
+        check_regular(p, "existing case TOML file")  # a folder, a FIFO, a loop: each its reason
         return p
     if case not in case_names():
         raise InputError(f"expected a case name in {case_names()} or a .toml file, "
@@ -48,7 +48,7 @@ def resolve_case(case: str | Path | None) -> Path:
 
 
 def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
-                progress: Callable[[str], None] | None = None) -> Any:
+                progress: Callable[[str], None] | None = None, trust: Any = ()) -> Any:
     """Verify a case file; return the engine's result (module docstring).
 
     Parameters
@@ -60,6 +60,10 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
         case file's own.
     progress : callable(str), optional
         Called with a short message before each step.
+    trust : paths, optional
+        Design files (relative ``.py`` paths beside the case) the case and its scenarios may
+        name; they are hashed now and run only with that content
+        (:mod:`formsync_design.spec.trust`; shipped designs need none).
 
     Raises
     ------
@@ -77,4 +81,5 @@ def verify_case(case_path: str | Path | None = None, *, spec: Any = None,
     from formsync_design.verify.enginecase import load_engine_case
 
     path = resolve_case(case_path)
-    return run_engine(load_engine_case(path, design=spec), progress or (lambda s: None))
+    return run_engine(load_engine_case(path, design=spec, trust=trust),
+                      progress or (lambda s: None))

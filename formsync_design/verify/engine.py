@@ -35,7 +35,9 @@ What is computed, once per verification (:class:`EngineResults`, cached):
 A claim's verdict is ``holds``, ``fails`` or ``undecided`` (a metric it needs is unknown, or
 the values do not decide it); its *evidence* is the evidence of the metrics that decided it,
 and its *basis* is ``proof`` only when every one of them is a certificate, else ``evidence``
-(simulation is evidence, never proof).
+(simulation is evidence, never proof).  A certificate declared by the own metric of a design
+file that is not shipped is that file's word, not the engine's proof: the basis then reads
+``declared by design file PATH (sha256 HEX)`` (:mod:`formsync_design.spec.trust`).
 
 A rate damper ``u = -k J w`` damps the rates (simulation: evidence) but has no attitude
 feedback, so its consensus is marginal: the certificate is undecided, and so is the claim:
@@ -71,7 +73,7 @@ feedback, so its consensus is marginal: the certificate is undecided, and so is 
 ... text = "consensus is locally exponentially stable"
 ... predicate = 'cert == "certified"'
 ... ''' + sc + sc)
->>> ver = run_engine(load_engine_case(d / "c.toml"))
+>>> ver = run_engine(load_engine_case(d / "c.toml", trust=[d / "damper.py"]))  # a file: trusted
 >>> [(c.claim.id, c.verdict, c.basis) for c in ver.claims]
 [('damped', 'holds', 'evidence'), ('stable', 'undecided', 'evidence')]
 """
@@ -99,7 +101,7 @@ from formsync_design.verify.predicates import evaluate
 from formsync_design.verify.request import VerifyRequest
 
 __all__ = ["EngineResults", "ClaimVerdict", "EngineVerification", "run_engine",
-           "verify_engine_case", "certificate_inputs", "aggregate", "judge"]
+           "verify_engine_case", "certificate_inputs", "aggregate", "judge", "measure"]
 
 
 def certificate_inputs(case: Any) -> tuple[dict[str, Fraction] | None, str, str, str]:
@@ -364,11 +366,28 @@ def judge(claim: ClaimRow, values: dict[str, MetricValue],
     out = evaluate(claim.node, {k: v.interval() for k, v in values.items()})
     ev = tuple(sorted({str(values[m].evidence) for m in out.deciding}))
     basis = "proof" if ev == ("certificate",) and out.verdict != "undecided" else "evidence"
+    if basis == "proof" and rows is not None:
+        declared = _declared_by(rows[m] for m in out.deciding)
+        if declared:  # a design file's own metric declared the certificate: its word, not ours
+            basis = "declared by design file " + ", ".join(declared)
     read = tuple((m, values[m].text()) for m in sorted(claim.node.names()))
     scope: tuple[str, ...] = ()
     if rows is not None:
         scope = tuple(sorted({f"{rows[m].formation} / {rows[m].scenario}" for m in out.deciding}))
     return ClaimVerdict(claim, out.verdict, out.deciding, ev, basis, read, scope)
+
+
+def _declared_by(rows: Any) -> list[str]:
+    """The non-shipped design files (``PATH (sha256 HEX)``) whose own metrics are among
+    ``rows``."""
+    from formsync_design.spec.trust import code_file_of
+
+    out: list[str] = []
+    for r in rows:
+        code = code_file_of(r.spec.fn)
+        if code is not None and code.text() not in out:
+            out.append(code.text())
+    return out
 
 
 def aggregate(values: list[MetricValue], stat: str, skip_unknown: bool, unit: str
@@ -430,6 +449,52 @@ def _checked(m: MetricRow, v: Any) -> MetricValue:
     return v
 
 
+class _EngineWork:
+    """A verification's results as a design file's metric sees them: the engine's own work
+    (a run, a certificate, a batch) does not count towards the design code's time limit
+    (:func:`formsync_design.spec.contain.paused`)."""
+
+    _ENGINE = frozenset({"run", "record", "options", "initial", "families", "certificate",
+                         "montecarlo"})
+
+    def __init__(self, results: Any) -> None:
+        self._results = results
+
+    def __getattr__(self, name: str) -> Any:
+        from formsync_design.spec.contain import paused
+
+        attr = getattr(self._results, name)
+        if name not in self._ENGINE or not callable(attr):
+            return attr
+
+        def engine_work(*a: Any, **k: Any) -> Any:
+            with paused():
+                return attr(*a, **k)
+
+        return engine_work
+
+
+def measure(m: MetricRow, ctx: MetricContext, check: bool = True) -> MetricValue:
+    """A metric's value (``check``: refused unless a :class:`MetricValue` of the declared
+    kind); a metric registered by a design file that is not shipped runs under
+    :func:`~formsync_design.spec.contain.contained` and its value says which file (and hash)
+    declared it (its evidence is that file's word, not the engine's: :func:`judge`)."""
+    from formsync_design.spec.contain import contained
+    from formsync_design.spec.trust import code_file_of
+
+    code = code_file_of(m.spec.fn)
+    if code is None:
+        v = m.spec.fn(ctx)
+        return _checked(m, v) if check else v
+    with contained(code.path, f"metric {m.spec.name}"):
+        v = m.spec.fn(replace(ctx, results=_EngineWork(ctx.results)))
+        v = _checked(m, v) if check else v
+    if not isinstance(v, MetricValue):
+        return v
+    return replace(v, detail=f"declared by design file {code.text()}"
+                   + (f"; {v.detail}" if v.detail else ""))
+
+
 def run_engine(case: EngineCase, progress: Callable[[str], None] = lambda s: None
                ) -> EngineVerification:
     """Compute every metric, certificate and verdict of ``case`` (module docstring); the case
@@ -449,10 +514,10 @@ def run_engine(case: EngineCase, progress: Callable[[str], None] = lambda s: Non
         ctx = MetricContext(res.case_for(m.formation, m.scenario), m.formation, m.scenario,
                             m.spec, res, m.args, graph=case.formation(m.formation).graph)
         if m.aggregate is None:
-            v = _checked(m, m.spec.fn(ctx))
+            v = measure(m, ctx)
         else:
             assert case.montecarlo is not None
-            per = [_checked(m, m.spec.fn(replace(ctx, draw=k)))
+            per = [measure(m, replace(ctx, draw=k))
                    for k in range(case.montecarlo.settings.numbers()[0])]
             v = aggregate(per, m.aggregate, m.skip_unknown, m.spec.unit)
         values[m.id] = v

@@ -24,7 +24,8 @@ from formsync_design.gains import json_number
 from formsync_design.outdir import write_text
 from formsync_design.verify.metrics import format_number
 
-__all__ = ["engine_markdown", "engine_json", "engine_figures", "write_engine_report"]
+__all__ = ["engine_markdown", "engine_json", "engine_figures", "write_engine_report",
+           "report_design_code"]
 
 _SEMANTICS = [
     "A claim's predicate is read by the engine's own parser "
@@ -231,6 +232,8 @@ def engine_markdown(ver: Any, fig_dir: str, figures: list[str], command: str,
          f"- design: `{b.design.name}` ({display_path(b.design.path)})"
          if getattr(b.design, "path", None) else f"- design: `{b.design.name}`",
          f"- case: `{case_display}` (sha256 `{case.digest}`)"]
+    L += [f"- design code that is not shipped, run on the user's trust: `{c.path}` (sha256 "
+          f"`{c.sha256}`)" for c in report_design_code(ver)]
     if b.source:
         L.append(f"- source: {_cell(b.source)}")
     L += ["", "## Assumptions", ""]
@@ -301,12 +304,27 @@ def engine_figures(ver: Any) -> dict[str, Any]:
     return out
 
 
+def report_design_code(ver: Any) -> list[Any]:
+    """The non-shipped design files of a verification (its design, the scenarios' designs):
+    :class:`~formsync_design.spec.trust.TrustedFile` records, named in the report."""
+    from formsync_design.spec.trust import design_code_of
+
+    case = ver.case
+    designs = [case.base.design, getattr(case.base, "spec", None)]  # a fly-around: .spec
+    for s in case.scenarios:
+        designs += [getattr(getattr(s, "case", None), "design", None), getattr(s, "run_design", None)]
+    return design_code_of(designs)
+
+
 def engine_json(ver: Any, command: str) -> dict[str, Any]:
     """The verification as one JSON document (numbers by :func:`json_number`)."""
     case = ver.case
     form = getattr(case, "form", None)
     head = {"case": case.base.name, "design": case.base.design.name, "digest": case.digest,
             "command": command, "assumptions": list(case.base.assumptions)}
+    code = report_design_code(ver)
+    if code:
+        head["design_code"] = [c.to_dict() for c in code]
     return head | (_agent_tables(ver) if form is None else form.json_tables(ver)) | {
         "metrics": [{"id": m.id, "metric": m.spec.name, "formation": m.formation,
                      "scenario": m.scenario, "args": dict(m.args),

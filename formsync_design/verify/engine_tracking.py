@@ -36,7 +36,7 @@ from formsync_design.errors import InputError
 from formsync_design.notebook import NotebookViews
 from formsync_design.verify import metrics_tracking  # noqa: F401 (registered)
 from formsync_design.verify.enginecase import ClaimRow, MetricRow
-from formsync_design.verify.metrics import METRICS, MetricContext, check_metric_args
+from formsync_design.verify.metrics import MetricContext, check_metric_args, metric_spec
 from formsync_design.verify.predicates import KEYWORDS, parse_predicate
 
 __all__ = ["FORMATION", "TrackingScenario", "TrackingBase", "TrackingEngineCase",
@@ -161,10 +161,7 @@ def _metrics(data: dict, base: Any, scens: tuple[TrackingScenario, ...], path: s
         where = f"metrics[{k}]"
         mid = _unique(row, where, "id", _ID, seen)
         name = row.get("metric")
-        if not isinstance(name, str) or name not in METRICS:
-            raise InputError(f"expected {where}.metric among {sorted(METRICS)}, received "
-                             f"{name!r:.60}")
-        spec = METRICS[name]
+        spec = metric_spec(name, where)
         why = spec.applies(base.spec) if spec.applies is not None else (
             "a metric of agent designs")
         if why is not None or spec.evidence == "montecarlo":
@@ -310,7 +307,7 @@ class TrackingForm:
 
     def run(self, case: TrackingEngineCase, progress: Callable[[str], None]
             ) -> TrackingVerification:
-        from formsync_design.verify.engine import judge
+        from formsync_design.verify.engine import judge, measure
 
         res = TrackingResults(case, progress)
         values = {}
@@ -318,7 +315,7 @@ class TrackingForm:
         for m in case.metrics:
             ctx = MetricContext(case.case_for(m.formation, m.scenario), m.formation, m.scenario,
                                 m.spec, res, m.args)
-            v = m.spec.fn(ctx)
+            v = measure(m, ctx, check=False)
             values[m.id] = v
             rows.append((m, v))
         by_id = {m.id: m for m in case.metrics}

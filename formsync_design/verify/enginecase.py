@@ -74,6 +74,7 @@ from typing import Any
 
 from formsync_design.errors import InputError
 from formsync_design.ranges import check_range
+from formsync_design.textio import read_bytes
 from formsync_design.tomlio import load_toml
 from formsync_design.verify import metric_modules  # noqa: F401 (registers the metrics)
 from formsync_design.verify.agentcase import ENGINE_TABLES, AgentCase, parse_agent_case
@@ -86,7 +87,7 @@ from formsync_design.verify.enginekeys import (
     torque_matching,
 )
 from formsync_design.verify.enginesensors import scenario_leader, scenario_sensors
-from formsync_design.verify.metrics import METRICS, MetricSpec, check_metric_args, point_gains
+from formsync_design.verify.metrics import MetricSpec, check_metric_args, metric_spec, point_gains
 from formsync_design.verify.predicates import KEYWORDS, Node, parse_predicate
 
 __all__ = ["FormationSpec", "ScenarioSpec", "MetricRow",
@@ -409,9 +410,7 @@ def _metrics(data: dict, base: AgentCase, forms: tuple[FormationSpec, ...],
         where = f"metrics[{k}]"
         mid = _unique(row, "id", where, _ID, seen)
         name = row.get("metric")
-        if not isinstance(name, str) or name not in METRICS:
-            raise InputError(f"expected {where}.metric among {sorted(METRICS)}, received {name!r:.60}")
-        spec = METRICS[name]
+        spec = metric_spec(name, where)
         s = row.get("scenario", snames[0])
         run = next((x.case.design for x in scens if x.name == s), base.design)
         why = spec.applies(run) if spec.applies is not None else None
@@ -453,7 +452,7 @@ def _metrics(data: dict, base: AgentCase, forms: tuple[FormationSpec, ...],
                              "received none")
         raw = {a: v for a, v in row.items() if a not in (
             "id", "metric", "formation", "scenario", "montecarlo", "skip_unknown")}
-        args = check_metric_args(spec, raw, where)
+        args = check_metric_args(spec, raw, where, next(x for x in forms if x.name == f).graph.n)
         vs = args.get("versus")
         if vs is not None and vs not in snames:
             raise InputError(f"expected {where}.versus among {snames}, received {vs!r:.60}")
@@ -539,10 +538,15 @@ def parse_engine_case(data: dict, path: str = "<memory>", design: Any = None) ->
                       report_runs=runs, report_derivation=der, report_figures=pairs)
 
 
-def load_engine_case(path: str | Path, design: Any = None) -> EngineCase:
-    """Load and validate an engine case file (``design``: overrides ``[case] design``)."""
+def load_engine_case(path: str | Path, design: Any = None, *, trust: Any = ()) -> EngineCase:
+    """Load and validate an engine case file (``design``: overrides ``[case] design``;
+    ``trust``: the design files, paths, the case and its scenarios may name:
+    :mod:`formsync_design.spec.trust`)."""
     from dataclasses import replace
 
+    from formsync_design.spec.trust import trusting
+
     p = Path(path)
-    case = parse_engine_case(load_toml(p, "case TOML file"), str(p), design=design)
-    return replace(case, digest=hashlib.sha256(p.read_bytes()).hexdigest())
+    with trusting(*trust):
+        case = parse_engine_case(load_toml(p, "case TOML file"), str(p), design=design)
+    return replace(case, digest=hashlib.sha256(read_bytes(p, "case TOML file")).hexdigest())

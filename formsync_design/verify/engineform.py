@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any, Protocol
 
 from formsync_design.errors import FormsyncError
@@ -69,17 +68,17 @@ def design_form(data: dict, path: str, design: Any = None) -> EngineForm | None:
     """The form of the case's design (``design``: overrides ``[case] design``), ``None`` for
     a design on the attitude plant, or one that does not load (the agent case parser reports
     it)."""
-    from formsync_design.resources import design_names
     from formsync_design.spec.loader import load_design
+    from formsync_design.spec.trust import resolve_design_ref
 
     meta = data.get("case", {})
-    ref = design if design is not None else (meta.get("design") if isinstance(meta, dict) else None)
     try:
-        if isinstance(ref, str):
-            ref = load_design(ref if ref.isidentifier() and ref in design_names()
-                              else Path(ref) if Path(ref).is_absolute() else Path(path).parent / ref)
-        elif ref is not None:
-            ref = load_design(ref)
+        if design is not None:  # the caller's (--design): loaded as named
+            ref = load_design(design)
+        elif isinstance(meta, dict) and meta.get("design") is not None:
+            ref = load_design(resolve_design_ref(meta["design"], path, "case.design"))
+        else:
+            ref = None
     except FormsyncError:
         return None
     plant = getattr(getattr(ref, "decl", None), "plant", None)

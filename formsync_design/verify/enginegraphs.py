@@ -6,28 +6,16 @@ is read by :mod:`formsync_design.verify.enginecase`.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable
 from typing import Any
 
 from formsync_design.errors import InputError
+from formsync_design.graphs.digraph_io import directed_cycle, parse_cycle_spec
 from formsync_design.ranges import check_range
+from formsync_design.textio import check_ascii, cut
 from formsync_design.verify.case import case_path
 
 __all__ = ["directed_cycle", "formation_graph"]
-
-
-def directed_cycle(n: int) -> Any:
-    """The directed cycle on ``n`` spacecraft (``i`` receives from ``i - 1``, 1 from ``n``).
-
-    >>> g = directed_cycle(4)
-    >>> g.name, g.n, g.is_undirected
-    ('cycle:4', 4, False)
-    """
-    from formsync_design.graphs.digraph_io import digraph_from_edges
-
-    return digraph_from_edges([(i, i - 1 if i > 1 else n, 1) for i in range(1, n + 1)], n=n,
-                              name=f"cycle:{n}")
 
 
 def formation_graph(row: dict, where: str, case_graph: Callable[[], Any],
@@ -72,14 +60,8 @@ def formation_graph(row: dict, where: str, case_graph: Callable[[], Any],
     if spec == "case":
         g = case_graph()
         return (g if pin is None else make_digraph(g, pinning=pin)), "the case's graph"
-    m = re.fullmatch(r"cycle:(\d{1,9})", spec)
-    if m:
-        from formsync_design.graphs.build import check_size
-
-        n = int(m.group(1))
-        if n < 2:
-            raise InputError(f"expected cycle:N with N >= 2 in {where}.graph, received {spec!r}")
-        check_size(n, spec)
-        g = directed_cycle(n)
-        return (g if pin is None else make_digraph(g, pinning=pin)), spec
-    return make_digraph(case_path(spec, path), pinning=pin), spec
+    check_ascii(spec, f"{where}.graph {cut(spec, 40)}")
+    cycle = parse_cycle_spec(spec)  # the one parser of cycle:N, also --graph's
+    if cycle is not None:
+        return (cycle if pin is None else make_digraph(cycle, pinning=pin)), spec
+    return make_digraph(case_path(spec, path, f"{where}.graph"), pinning=pin), spec

@@ -79,11 +79,13 @@ import numpy as np
 from formsync_design.errors import InputError
 from formsync_design.gains import json_number
 from formsync_design.ranges import check_range
+from formsync_design.textio import check_ascii
 from formsync_design.verify.metric_identity import origin, same_metric
-from formsync_design.verify.predicates import Interval
+from formsync_design.verify.predicates import Interval, closest
 
 __all__ = ["Evidence", "MetricValue", "MetricArg", "MetricSpec", "Results", "MetricContext",
-           "METRICS", "register_metric", "check_metric_args", "format_number", "point_gains"]
+           "METRICS", "register_metric", "check_metric_args", "format_number", "point_gains",
+           "metric_spec"]
 
 
 class Evidence(enum.StrEnum):
@@ -214,9 +216,33 @@ def register_metric(name: str, *, unit: str, evidence: str, doc: str, value: str
     return deco
 
 
-def check_metric_args(spec: MetricSpec, raw: Mapping[str, Any], where: str) -> dict[str, Any]:
+def metric_spec(name: Any, where: str) -> MetricSpec:
+    """The registered metric ``name`` of the ``[[metrics]]`` row ``where``; an unknown name is
+    a one-line :class:`InputError` naming the closest few registered names (not all of them).
+
+    >>> metric_spec("peak_torqe", "metrics[1]")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected metrics[1].metric among the registered metrics (closest: peak_torque...), received 'peak_torqe'
+    """
+    if not isinstance(name, str) or name not in METRICS:
+        near = closest(name, METRICS) if isinstance(name, str) else f"{len(METRICS)} names"
+        raise InputError(f"expected {where}.metric among the registered metrics ({near}), "
+                         f"received {name!r:.60}")
+    return METRICS[name]
+
+
+def check_metric_args(spec: MetricSpec, raw: Mapping[str, Any], where: str,
+                      n: int | None = None) -> dict[str, Any]:
     """The arguments of a ``[[metrics]]`` row (``raw``: its keys other than id, metric,
-    formation, scenario), typed, range-checked and defaulted."""
+    formation, scenario), typed, range-checked and defaulted; ``n``: the number of
+    spacecraft of the formation the row reads (a ``spacecraft`` argument is at most ``n``).
+
+    >>> check_metric_args(METRICS["peak_torque"], {"spacecraft": 99}, "metrics[1]", n=3)
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.InputError: expected metrics[1].spacecraft <= 3 (the formation's spacecraft are 1..3), received 99
+    """
     known = {a.name: a for a in spec.args}
     extra = sorted(set(raw) - set(known))
     if extra:
@@ -235,6 +261,7 @@ def check_metric_args(spec: MetricSpec, raw: Mapping[str, Any], where: str) -> d
             if not isinstance(v, str) or (a.choices and v not in a.choices):
                 raise InputError(f"expected {where}.{a.name} one of {list(a.choices)}, "
                                  f"received {v!r:.60}")
+            check_ascii(v, f"{where}.{a.name}")  # numbers in a text ('angles') are ASCII
         else:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or (
                     a.kind == "int" and not isinstance(v, int)):
@@ -243,6 +270,9 @@ def check_metric_args(spec: MetricSpec, raw: Mapping[str, Any], where: str) -> d
             check_range(v, a.quantity, f"{where}.{a.name}")
             if a.minimum is not None and v < a.minimum:
                 raise InputError(f"expected {where}.{a.name} >= {a.minimum:g}, received {v:g}")
+            if a.name == "spacecraft" and n is not None and v > n:
+                raise InputError(f"expected {where}.spacecraft <= {n} (the formation's "
+                                 f"spacecraft are 1..{n}), received {v}")
         out[a.name] = v
     return out
 

@@ -15,7 +15,9 @@ words and a *predicate* over the ids of the case's ``[[metrics]]``::
 
 Precedence is Python's: arithmetic binds tighter than a comparison, a comparison tighter
 than ``not``, ``not`` tighter than ``and``, ``and`` tighter than ``or``.  A metric id is a
-letter followed by letters, digits and ``_``; a text is in double quotes (no escapes).  The
+letter followed by letters, digits and ``_``; a text is in double quotes (no escapes); a
+predicate is ASCII (a Bengali or fullwidth digit, which Python's ``float`` reads as a digit,
+is refused with its column).  The
 parser (:func:`parse_predicate`) reads tokens by a fixed table and builds a tree of frozen
 nodes; nothing is handed to ``eval``, ``compile`` or SymPy, and anything else (``_x``,
 ``f(x)``, ``a.b``, ``[``, ``'``, ``**``, a chained ``a < b < c``) is refused with one line
@@ -55,6 +57,7 @@ formsync_design.errors.InputError: expected a metric id, number, "text", operato
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
 from collections.abc import Mapping
@@ -62,9 +65,10 @@ from dataclasses import dataclass
 from typing import Any
 
 from formsync_design.errors import InputError
+from formsync_design.textio import check_ascii
 
 __all__ = ["Interval", "Outcome", "Node", "parse_predicate", "evaluate", "HOLDS", "FAILS",
-           "UNDECIDED", "KEYWORDS", "MAX_PREDICATE_LENGTH"]
+           "UNDECIDED", "KEYWORDS", "MAX_PREDICATE_LENGTH", "closest"]
 
 HOLDS, FAILS, UNDECIDED = "holds", "fails", "undecided"
 
@@ -81,7 +85,7 @@ _TOKEN = re.compile(r"""
   | (?P<text>"[^"\\\n]*")
   | (?P<name>[A-Za-z][A-Za-z0-9_]*)
   | (?P<op><=|>=|==|!=|<|>|\+|-|\*|/|\(|\))
-""", re.VERBOSE)
+""", re.VERBOSE | re.ASCII)
 
 _COMPARE = ("<", "<=", ">", ">=", "==", "!=")
 
@@ -145,6 +149,7 @@ class _Parser:
                           f"in {self.text[:80]!r}")
 
     def _tokens(self) -> list[tuple[str, str, int]]:
+        check_ascii(self.text, self.where)
         out, pos = [], 0
         while pos < len(self.text):
             m = _TOKEN.match(self.text, pos)
@@ -229,12 +234,13 @@ class _Parser:
         if self.peek() in _COMPARE:
             raise self.fail("one comparison (write 'a < b and b < c' for a chain)")
         types = {left.type, right.type}
+        sides = f"a {left.type} and a {right.type}"  # left, then right, as written
         if "truth" in types:
             raise InputError(f"expected numbers or texts on both sides of '{op}' at column {col} "
-                             f"of {self.where}, received a truth value in {self.text[:80]!r}")
+                             f"of {self.where}, received {sides} in {self.text[:80]!r}")
         if len(types) != 1:
             raise InputError(f"expected two numbers or two texts on both sides of '{op}' at "
-                             f"column {col} of {self.where}, received a number and a text")
+                             f"column {col} of {self.where}, received {sides} (left, right)")
         if "text" in types and op not in ("==", "!="):
             raise InputError(f"expected '==' or '!=' between texts at column {col} of "
                              f"{self.where}, received '{op}'")
@@ -295,13 +301,31 @@ class _Parser:
             return Node("text", "text", tok[1:-1])
         if kind == "name":
             if tok not in self.kinds:
-                raise InputError(f"expected a metric id among {sorted(self.kinds)} at column "
-                                 f"{col} of {self.where}, received {tok!r}")
+                raise InputError(f"expected a metric id of the case ({closest(tok, self.kinds)}) "
+                                 f"at column {col} of {self.where}, received {tok[:40]!r}")
             self.i += 1
             if self.peek() == "(":
                 raise self.fail(f"an operator after the metric id {tok!r} (no calls)")
             return Node("name", self.kinds[tok], tok)
         raise self.fail("a metric id, number, \"text\" or '('")
+
+
+def closest(name: str, names: Any, n: int = 5) -> str:
+    """The few of ``names`` closest to ``name``, for an unknown name's message: all of them
+    when there are at most ``n``, else the ``n`` closest (:func:`difflib.get_close_matches`),
+    never the whole list.
+
+    >>> closest("zzz", ["peak_torque", "control_effort"])
+    'among control_effort, peak_torque'
+    >>> pool = ["peak_torque", "control_effort", "decay_rate", "abscissa", "final_rate", "x"]
+    >>> closest("peak_torqe", pool), closest("zzz", pool)
+    ('closest: peak_torque', 'none close among 6')
+    """
+    pool = sorted(str(x) for x in names)
+    if len(pool) <= n:
+        return ("among " + ", ".join(pool)) if pool else "none defined"
+    near = difflib.get_close_matches(str(name), pool, n=n, cutoff=0.6)
+    return ("closest: " + ", ".join(near)) if near else f"none close among {len(pool)}"
 
 
 def parse_predicate(text: Any, kinds: Mapping[str, str], where: str = "the predicate") -> Node:

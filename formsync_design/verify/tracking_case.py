@@ -50,7 +50,9 @@ from formsync_design.sim.tracking_scenario import ALLOCATIONS, FlyaroundOptions,
 from formsync_design.spec.agent import AgentDesign
 from formsync_design.spec.declarations import GainKind
 from formsync_design.spec.loader import load_design
+from formsync_design.textio import read_bytes
 from formsync_design.tomlio import load_toml
+from formsync_design.verify.case import case_name
 
 __all__ = ["FlyaroundCase", "Variant", "load_flyaround_case", "parse_flyaround_case",
            "parse_variant", "apply_variant", "LAYOUTS", "ENGINE_TABLES"]
@@ -282,7 +284,7 @@ def load_flyaround_case(path: str | Path | None = None, design: Any = None) -> F
 
     p = Path(path) if path is not None else case_file("zhang2014_flyaround")
     return replace(parse_flyaround_case(load_toml(p, "case TOML file"), str(p), design),
-                   digest=hashlib.sha256(p.read_bytes()).hexdigest())
+                   digest=hashlib.sha256(read_bytes(p, "case TOML file")).hexdigest())
 
 
 def _design_ref(meta: dict, where: str, design: Any) -> str:
@@ -292,7 +294,9 @@ def _design_ref(meta: dict, where: str, design: Any) -> str:
     if not isinstance(ref, str) or not ref:
         raise InputError(f"expected case.design a design name or file in {where}, received "
                          f"{ref!r}")
-    return ref if ref.isidentifier() else str((Path(where).parent / ref).resolve())
+    from formsync_design.spec.trust import resolve_design_ref
+
+    return str(resolve_design_ref(ref, where, "case.design"))
 
 
 def parse_flyaround_case(data: dict, where: str = "<memory>", design: Any = None
@@ -349,7 +353,7 @@ def parse_flyaround_case(data: dict, where: str = "<memory>", design: Any = None
     if not (isinstance(assumptions, list) and all(isinstance(a, str) for a in assumptions)):
         raise InputError(f"expected case.assumptions a list of strings in {where}")
     return FlyaroundCase(
-        name=str(meta.get("name", Path(where).stem)), title=str(meta.get("title", Path(where).stem)),
+        name=case_name(meta, where), title=str(meta.get("title", Path(where).stem)),
         source=str(meta.get("source", "")), path=where, design=design, scenario=scenario,
         options=options, steady_from=steady, thrusters=dict(thr),
         assumptions=tuple(assumptions),

@@ -1,0 +1,18 @@
+"""Integer flags read ASCII digits only (Python's ``int`` reads a Bengali or fullwidth digit)."""
+
+from tests.badinput import BadInput
+
+_SRC = "issue 34 item 3 (command-line numbers, found after the readers' change)"
+
+ROWS: list[BadInput] = [
+    BadInput(id="flag-resolution-bengali-digit", argv=("region", "--resolution", "\u09ea"),
+             exit=2, stderr=("--resolution", "U+09EA"), source=_SRC),
+    BadInput(id="flag-runs-fullwidth-digit", argv=("montecarlo", "--runs", "\uff14"),
+             exit=2, stderr=("--runs", "U+FF14"), source=_SRC),
+    BadInput(id="flag-seed-fullwidth-digit", argv=("montecarlo", "--seed", "\uff11"),
+             exit=2, stderr=("--seed", "U+FF11"), source=_SRC),
+    BadInput(id="flag-betas-not-an-integer", argv=("design", "--betas", "4.5"),
+             exit=2, stderr=("--betas", "expected an integer"), source=_SRC),
+    BadInput(id="flag-workers-arabic-indic-digit", argv=("sweep", "--workers", "\u0662"),
+             exit=2, stderr=("--workers", "U+0662"), source=_SRC),
+]
