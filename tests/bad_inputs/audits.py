@@ -35,6 +35,8 @@ CLI = "issue 34 item 8: every subcommand's flags"
 GRAPH = "issue 34 item 8: graph specs and graph files"
 CASE = "issue 34 item 8: case, engine-case and campaign values"
 FUZZ = "issue 34 item 8: found by the path fuzz (tests/test_fuzz_readers.py), exit 3 before"
+# (a path's refusal names it as too long: the readers' "(File name too long)" or cli/main's
+# "received one too long", whichever sees it first)
 LONG = "a" * 300  # one name over the system's 255-byte limit (ENAMETOOLONG)
 
 
@@ -118,7 +120,7 @@ ROWS: list[BadInput] = [
     row("region-resolution-huge", ("region", "--resolution", "1000000000"),
         "expected --resolution in 1..512", A24),
     row("region-resolution-text", ("region", "--resolution", "abc"),
-        "invalid int value: 'abc'", CLI),
+        "expected an integer in ASCII digits 0-9, received 'abc'", CLI),
     row("region-gain-reversed", ("region", "--gain", "K_o=5:1"),
         "expected LO <= HI for K_o", CLI),
     row("design-betas-zero", ("design", "--betas", "0"), "expected --betas in 1..1000", CLI),
@@ -130,7 +132,7 @@ ROWS: list[BadInput] = [
     row("graph-ring-one", ("certify", "--graph", "ring:1"),
         "expected at least 2 spacecraft, received N=1", GRAPH),
     row("graph-ring-negative", ("certify", "--graph", "ring:-3"),
-        "expected at least 2 spacecraft", GRAPH),
+        "expected an integer number of spacecraft N", GRAPH),
     row("graph-ring-text", ("certify", "--graph", "ring:abc"),
         "expected an integer number of spacecraft N", GRAPH),
     row("graph-ring-float", ("certify", "--graph", "ring:4.5"),
@@ -145,7 +147,6 @@ ROWS: list[BadInput] = [
         "expected random:N:P:SEED", GRAPH),
     row("graph-circulant-offset-zero", ("certify", "--graph", "circulant:8:0"),
         "expected circulant offsets in 1..4 for N=8", GRAPH),
-    row("graph-empty-spec", ("certify", "--graph", ""), "expected a graph spec", GRAPH),
     row("graph-set-on-certify", ("certify", "--graph", "atlas:2..6"),
         "expected a graph spec", GRAPH),
     # -- graph files -------------------------------------------------------------------------
@@ -208,7 +209,7 @@ ROWS: list[BadInput] = [
     row("montecarlo-runs-huge", ("montecarlo", "--runs", "100000000"),
         "expected --runs at most 100000", A25),
     row("montecarlo-runs-text", ("montecarlo", "--runs", "abc"),
-        "expected an integer for --runs", CLI),
+        "--runs: expected an integer in ASCII digits 0-9", CLI),
     row("montecarlo-max-angle-200", ("montecarlo", "--design", "ma_so3", "--runs", "2",
                                      "--max-angle", "200"),
         "expected --max-angle in [0, 180) degrees", A25),
@@ -218,7 +219,7 @@ ROWS: list[BadInput] = [
     row("montecarlo-threads-zero", ("montecarlo", "--threads", "0"), "expected --threads >= 1",
         CLI),
     row("montecarlo-replay-text", ("montecarlo", "--replay", "abc"),
-        "expected an integer for --replay", CLI),
+        "--replay: expected an integer in ASCII digits 0-9", CLI),
     row("montecarlo-replay-negative", ("montecarlo", "--replay", "-1"),
         "expected --replay >= 0", CLI),
     row("montecarlo-gain-reversed", ("montecarlo", "--gain", "K_o=5:1"),
@@ -410,11 +411,11 @@ ROWS: list[BadInput] = [
         CASE, {"c.toml": sub(LIANG, C1_ALL, 'predicate = "1 == 1"')}),
     # -- paths beyond the system's limits (exit 3 "check disk space" before) -------------------
     row("path-too-long-graph-flag", ("certify", "--graph", LONG),
-        "expected a path within the system's limits", FUZZ),
+        "too long", FUZZ),
     row("path-too-long-case-flag", ("verify", f"{LONG}.toml"),
-        "expected a path within the system's limits", FUZZ),
+        "too long", FUZZ),
     row("path-too-long-campaign-flag", ("sweep", "--campaign", f"{LONG}.toml", "--out", "o"),
-        "expected a path within the system's limits", FUZZ),
-    row("path-too-long-in-case-file", SIM, "expected a path within the system's limits", FUZZ,
+        "too long", FUZZ),
+    row("path-too-long-in-case-file", SIM, "too long", FUZZ,
         {"c.toml": sub(LIANG, 'graph = "ring:8"', f'graph = "{LONG}"')}),
 ]
