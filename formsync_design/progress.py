@@ -14,6 +14,12 @@ disable it), so redirected output, pipes, CI logs and JSON stay clean; set
 
 Library functions take a plain ``progress`` callable and never draw; the
 command line and the kernel builder create the bars.
+
+* :func:`mark_ready` is a state a watcher can wait for (tests, scripts): when the
+  environment variable ``FORMSYNC_READY_FILE`` names a file, the long work of a command
+  records there that it is running (the first finished step of every :class:`Progress`,
+  a sweep's local cluster as it starts), so a test interrupts a command once its work
+  runs, not after a guessed number of seconds.  Unset (the default), nothing is written.
 """
 
 from __future__ import annotations
@@ -25,7 +31,11 @@ from collections.abc import Iterator
 from contextlib import contextmanager, redirect_stdout
 from typing import IO, Any
 
-__all__ = ["Progress", "activity", "progress_enabled"]
+__all__ = ["Progress", "activity", "progress_enabled", "mark_ready", "READY_ENV"]
+
+#: The environment variable naming the file :func:`mark_ready` writes (unset: nothing written).
+READY_ENV = "FORMSYNC_READY_FILE"
+_READY: list[str] = []
 
 
 def progress_enabled(enabled: bool = True, stream: IO[str] | None = None) -> bool:
@@ -43,6 +53,34 @@ def progress_enabled(enabled: bool = True, stream: IO[str] | None = None) -> boo
         return bool(s.isatty())
     except (AttributeError, ValueError, OSError):  # closed or not a file
         return False
+
+
+def mark_ready(what: str) -> None:
+    """Record that the long work ``what`` is running, for a watcher (module docstring).
+
+    When ``FORMSYNC_READY_FILE`` names a file, it is rewritten atomically with one line per
+    distinct ``what`` marked so far in this process, in order (a watcher reads complete
+    lines only); a no-op when the variable is unset or empty.  A failed write is ignored:
+    the marker is an observable for tests, never a reason for the command to fail.
+
+    >>> import os, tempfile
+    >>> f = os.path.join(tempfile.mkdtemp(), "ready")
+    >>> os.environ[READY_ENV] = f
+    >>> mark_ready("montecarlo"); mark_ready("montecarlo"); mark_ready("sweep tasks")
+    >>> del os.environ[READY_ENV]
+    >>> open(f).read().splitlines()[-2:]
+    ['montecarlo', 'sweep tasks']
+    """
+    path = os.environ.get(READY_ENV)
+    if not path or what in _READY:
+        return
+    _READY.append(what)
+    from formsync_design.outdir import write_text
+
+    try:
+        write_text(path, "".join(f"{w}\n" for w in _READY))
+    except OSError:
+        pass
 
 
 class Progress:
@@ -103,7 +141,10 @@ class Progress:
         return self._bar is not None
 
     def update(self, k: int = 1) -> None:
-        """Count ``k`` more finished steps (the bar is cleared after the last one)."""
+        """Count ``k`` more finished steps (the bar is cleared after the last one); the
+        first one marks the work ``label`` as running (:func:`mark_ready`)."""
+        if self.done == 0 and k > 0:
+            mark_ready(self.label)
         self.done += k
         if self._bar is not None:
             self._bar.update(k)

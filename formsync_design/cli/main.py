@@ -8,6 +8,7 @@ Every subcommand lives in its own module ``formsync_design.cli.<name>`` exposing
 from __future__ import annotations
 
 import argparse
+import errno
 import gc
 import os
 import re
@@ -150,6 +151,12 @@ def _main(argv: Sequence[str] | None) -> int:
         _fail(command, f"cannot use{what}: {e.strerror or e}")
         return EXIT_USAGE
     except OSError as e:  # disk full, I/O error: not the user's input
+        if e.errno == errno.ENAMETOOLONG:  # a path given (flag or data file) beyond the OS limit
+            name = str(getattr(e, "filename", None) or "")
+            shown = f" ({len(name)} characters, {name[:40]!r}...)" if name else ""
+            _fail(command, "expected a path within the system's limits (a name of at most 255 "
+                           f"bytes), received one too long{shown}")
+            return EXIT_USAGE
         _fail(command, f"{type(e).__name__}: {e.strerror or e} (check disk space and permissions)")
         _traceback()
         return EXIT_FAILURE

@@ -149,10 +149,16 @@ def _client(scheduler: str | None, n_workers: int, timeout: float) -> Iterator[A
                 client.close(timeout=5)
         return
     held = _hold_sigint()
+    from formsync_design.progress import mark_ready
+
+    mark_ready("sweep: local cluster starting")  # FORMSYNC_READY_FILE (a test's Ctrl-C waits for it)
     try:
         cluster = LocalCluster(
             n_workers=n_workers, threads_per_worker=1, processes=True, host="127.0.0.1",
             dashboard_address=None, silence_logs=logging.CRITICAL,
+            # the scheduler's HTTP server (health routes) on a free port: its default, 8787,
+            # is taken by any other cluster running, and Dask then warns on stderr
+            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
         )
     except Exception as e:  # noqa: BLE001 - not a finding about the campaign
         held()
