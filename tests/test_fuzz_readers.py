@@ -32,7 +32,6 @@ created in the test's folder, the working directory):
 from __future__ import annotations
 
 import copy
-import errno
 import json
 import math
 import string
@@ -549,20 +548,16 @@ def test_fuzzed_paths(in_tmp, target):
     _fuzz_paths(target, in_tmp, 25)
 
 
-@pytest.mark.xfail(raises=OSError, strict=False, reason=(
-    "issue 34 item 2 (confined readers): a name over 255 bytes in a data file reaches "
-    "Path.is_file(), whose OSError (ENAMETOOLONG) the loaders let through; formsync turns it "
-    "into exit 2 (cli/main.py), the loaders not yet"))
 def test_a_name_over_the_system_limit_in_a_data_file(in_tmp):
+    """A name over 255 bytes in a data file is a one-line bad input, never an OSError
+    (ENAMETOOLONG from Path.is_file, which the loaders let through before)."""
     doc = tomllib.loads((VERIFICATION / "pd_consensus.toml").read_text(encoding="utf-8"))
     doc["case"]["graph"] = "x" * 300
     p = in_tmp / "c.toml"
     p.write_text(to_toml(doc), encoding="utf-8")
-    try:
-        _check(_load_case_file, p, in_tmp)
-    except OSError as e:
-        assert e.errno == errno.ENAMETOOLONG
-        raise
+    with pytest.raises(FormsyncError) as e:
+        _load_case_file(p)
+    assert isinstance(e.value, ValueError) and "\n" not in str(e.value)
 
 
 # -- the larger run ----------------------------------------------------------------------------

@@ -29,6 +29,7 @@ allocated, instead of exhausting the memory.
 from __future__ import annotations
 
 import csv
+import errno
 import os
 import re
 from dataclasses import dataclass
@@ -41,7 +42,8 @@ import numpy as np
 from formsync_design.errors import GraphError
 from formsync_design.textio import check_ascii, cut, read_text
 
-__all__ = ["Graph", "make_graph", "parse_graph_spec", "check_size", "GRAPH_SPEC_HELP", "MAX_SPACECRAFT"]
+__all__ = ["Graph", "make_graph", "parse_graph_spec", "check_size", "GRAPH_SPEC_HELP", "MAX_SPACECRAFT",
+           "path_is_file"]
 
 MAX_SPACECRAFT = 2000
 """Largest formation accepted (module docstring: dense N x N matrices, O(N^3) spectrum)."""
@@ -455,6 +457,21 @@ def _read_csv(path: Path) -> Graph:
     return _from_adjacency(np.array(rows), str(path))
 
 
+def path_is_file(p: str | os.PathLike[str]) -> bool:
+    """Whether ``p`` is an existing regular file (symlinks followed); a name the system
+    cannot look up (over its length limit) is not a file, never an ``OSError``.
+
+    >>> path_is_file("x" * 300), path_is_file("ring:8")
+    (False, False)
+    """
+    try:
+        return Path(p).is_file()
+    except OSError as e:  # ENAMETOOLONG: Path.is_file lets it through
+        if e.errno == errno.ENAMETOOLONG:
+            return False
+        raise
+
+
 def make_graph(obj: Any) -> Graph:
     """Build a validated :class:`Graph` from any supported input.
 
@@ -487,19 +504,22 @@ def make_graph(obj: Any) -> Graph:
         return obj
     if isinstance(obj, (str, os.PathLike)):
         text = os.fspath(obj)
+        if not text.strip():  # Path('') is the working folder: never implied
+            raise GraphError(f"expected a graph spec ({GRAPH_SPEC_HELP}) or an existing file, "
+                             f"received {text!r} (an empty name)")
         p = Path(text)
         spec = isinstance(obj, str) and ":" in text and text.split(":", 1)[0].lower() in {
             "ring", "path", "star", "complete", "circulant", "random"
         }
         # an existing path that is no regular file (a folder, a FIFO, a symlink loop) is
         # refused by the reader, each with its own reason
-        if p.is_file() or (not spec and os.path.lexists(p)):
+        if path_is_file(p) or (not spec and os.path.lexists(p)):
             if p.suffix.lower() == ".csv":
                 return _read_csv(p)
             try:
                 return _read_edge_list(p)
             except GraphError as first:  # an i j w arc list listing each link both ways?
-                g = _symmetric_arc_list(p) if p.is_file() else None
+                g = _symmetric_arc_list(p) if path_is_file(p) else None
                 if g is None:
                     raise first from None
                 return g

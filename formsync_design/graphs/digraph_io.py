@@ -32,7 +32,7 @@ import numpy as np
 
 from formsync_design.errors import GraphError, InputError
 from formsync_design.gains import parse_number
-from formsync_design.graphs.build import Graph, check_size, make_graph
+from formsync_design.graphs.build import Graph, check_size, make_graph, path_is_file
 from formsync_design.graphs.digraph import Arc, Digraph
 from formsync_design.textio import check_ascii, cut, read_text
 
@@ -296,11 +296,12 @@ def make_digraph(obj: Any, pinning: Any = None, *, leader: Any = None) -> Digrap
         return digraph_from_edges(arcs, n=obj.n, pinning=pinning, name=obj.name)
     if isinstance(obj, (str, os.PathLike)):
         p = Path(os.fspath(obj))
-        if p.is_file() and p.suffix.lower() == ".csv":
+        is_file = path_is_file(p)
+        if is_file and p.suffix.lower() == ".csv":
             lines = read_text(p, "adjacency CSV file", GraphError).splitlines()
             rows = [r for r in csv.reader(lines) if r and any(c.strip() for c in r) and not r[0].strip().startswith("#")]
             return _from_matrix(rows, pinning, str(p))
-        if p.is_file():
+        if is_file:
             return read_edge_list(p, pinning)
         cycle = parse_cycle_spec(os.fspath(obj))
         return make_digraph(cycle if cycle is not None else make_graph(os.fspath(obj)), pinning)

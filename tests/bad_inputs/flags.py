@@ -27,3 +27,10 @@ ROWS += [
              symlinks={"x.py": "{d}/gone.py"}, exit=2, stderr=("a dangling symlink",),
              source="issue 34 item 2 (design files on the command line)"),
 ]
+
+# An empty --graph is refused as an empty name, not read as the working folder '.'
+ROWS += [
+    BadInput(id="graph-empty-name", argv=("certify", "--graph", ""), exit=2,
+             stderr=("received '' (an empty name)",), not_in_stderr=("received '.'",),
+             source="issue 34 (h-tests' report: after the readers' change '' read as '.')"),
+]
