@@ -520,7 +520,10 @@ def run_agent_design(args: argparse.Namespace, design: Any) -> int:
     graph, box = graph_and_box(design, args.graph, args.gain, defaults, free=2)
     theorem = check_theorem_graph(graph, design.decl.graphs,
                                   allow_outside=args.allow_outside_theorem, design=design.name)
-    k = max(2, int(getattr(args, "grid", 4) or 4))
+    k = int(args.grid)
+    if k < 2:  # the grid's corners at least: never silently raised to 2
+        raise InputError(f"expected --grid >= 2 for an agent design (the box's corners at "
+                         f"least), received {k}")
     des = design_agent(design, agent_conditions(design, graph), box, grid=k)
     doc: dict[str, Any] = {"design": design.name, "graph": graph.name, "box": str(box),
                            "grid": k, "points": des.points}

@@ -98,6 +98,8 @@ def run(args: argparse.Namespace) -> int:
     from formsync_design.spec.loader import load_spec
     from formsync_design.verify.defaults import Defaults
 
+    if not 1 <= args.grid <= 16:  # every path, before anything runs (never clipped)
+        raise InputError(f"expected --grid in 1..16, received {args.grid}")
     agent = agent_design_or_none(args.spec)
     refused = refuse_tracking("design", agent, "a gain design on a communication graph")
     if refused is not None:
@@ -166,8 +168,6 @@ def _run_constrained(args: argparse.Namespace, spec: Any, box: Any) -> int:
     if args.conditions != "derived":
         raise InputError("expected --conditions derived with --min-delay/--graphs-set, received "
                          f"--conditions {args.conditions}")
-    if not 1 <= args.grid <= 16:
-        raise InputError(f"expected --grid in 1..16, received {args.grid}")
     tau = 0.0
     if args.min_delay is not None:
         tau = float(parse_number(args.min_delay, "--min-delay"))

@@ -34,3 +34,13 @@ ROWS += [
              stderr=("received '' (an empty name)",), not_in_stderr=("received '.'",),
              source="issue 34 (h-tests' report: after the readers' change '' read as '.')"),
 ]
+
+# --grid out of its range is refused on every path, never clipped or ignored
+ROWS += [
+    BadInput(id="design-grid-zero-lagrangian", argv=("design", "--grid", "0"), exit=2,
+             stderr=("expected --grid in 1..16, received 0",),
+             source="issue 34 (h-tests' report: design --grid 0 accepted)"),
+    BadInput(id="design-grid-one-agent", argv=("design", "--design", "bai2008_passivity", "--grid", "1"),
+             exit=2, stderr=("expected --grid >= 2 for an agent design",),
+             source="issue 34 (--grid 1 silently raised to 2 for an agent design)"),
+]
