@@ -107,7 +107,7 @@ def test_montecarlo_counts_diverged_runs_and_goes_on(unstable_case: Path, tmp_pa
     (["montecarlo", "--design", "ma_so3", "--runs", "2", "--max-angle", "200"], "--max-angle in [0, 180)"),
     (["montecarlo", "--runs", "2", "--max-angle", "200"], "--max-angle in [0, 180)"),
     (["montecarlo", "--design", "ma_so3", "--runs", "200000"], "at most 100000"),
-    (["montecarlo", "--design", "ma_so3", "--runs", "two"], "an integer for --runs"),
+    (["montecarlo", "--design", "ma_so3", "--runs", "two"], "--runs: expected an integer"),
     (["montecarlo", "--design", "ma_so3", "--runs", "2", "--max-rate", "-1"], "--max-rate >= 0"),
     (["simulate", "--design", "ma_so3", "--tf", "1e12"], "at most 1000000 output grid points"),
 ])

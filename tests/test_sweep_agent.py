@@ -151,9 +151,16 @@ def test_graph_outside_the_theorem_is_a_row_flag_not_a_refusal(tmp_path, capsys)
     md = (out / "summary.md").read_text()
     assert "outside the design's theorem (column `theorem`; their statuses decide the families " \
            "only): path:3" in md
-    # formsync certify refuses that graph unless asked (the sweep flags it instead)
+    # formsync certify keeps the case's pinning rule on --graph path:3 (every spacecraft
+    # pinned, issue 34 item 6), so there it is inside the theorem; a graph file whose leader
+    # reaches no one past spacecraft 1 is refused unless asked (the sweep flags it instead)
     capsys.readouterr()
-    assert main(["certify", "--design", "lv2012", "--graph", "path:3"]) == 2
+    assert main(["certify", "--design", "lv2012", "--graph", "path:3"]) == 0
+    assert "pinning for --graph path:3: every spacecraft pinned" in capsys.readouterr().err
+    g = tmp_path / "unreached.txt"
+    g.write_text("1 0 1\n1 2 1\n2 3 1\n3 2 1\n")
+    assert main(["certify", "--design", "lv2012", "--graph", str(g)]) == 2
+    assert "leader-reachable: spacecraft {2,3} not reachable" in capsys.readouterr().err
 
 
 def test_python_agent_design_travels_by_value_and_dask_equals_serial(tmp_path):

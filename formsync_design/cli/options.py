@@ -277,15 +277,15 @@ def emit_json(obj: Any) -> None:
 
 def with_design_code(obj: Any) -> Any:
     """``obj`` (a mapping) with the key ``design_code``: the non-shipped design files loaded
-    in this command (path and sha256, :func:`~formsync_design.spec.trust.design_code`), when
-    there are any; else ``obj`` unchanged.
+    in this command (path and sha256, :func:`~formsync_design.spec.trust.session_design_code`),
+    when there are any; else ``obj`` unchanged.
 
     >>> with_design_code({"a": 1})
     {'a': 1}
     """
-    from formsync_design.spec.trust import design_code
+    from formsync_design.spec.trust import session_design_code
 
-    code = design_code()
+    code = session_design_code()
     if not code or not isinstance(obj, Mapping) or "design_code" in obj:
         return obj
     return {**obj, "design_code": [c.to_dict() for c in code]}

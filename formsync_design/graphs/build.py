@@ -43,7 +43,7 @@ from formsync_design.errors import GraphError
 from formsync_design.textio import check_ascii, cut, read_text
 
 __all__ = ["Graph", "make_graph", "parse_graph_spec", "check_size", "GRAPH_SPEC_HELP", "MAX_SPACECRAFT",
-           "path_is_file"]
+           "path_is_file", "check_name_length"]
 
 MAX_SPACECRAFT = 2000
 """Largest formation accepted (module docstring: dense N x N matrices, O(N^3) spectrum)."""
@@ -472,6 +472,20 @@ def path_is_file(p: str | os.PathLike[str]) -> bool:
         raise
 
 
+def check_name_length(text: str) -> None:
+    """Refuse a path with a component over the system's limit (255 bytes), as the command line
+    does, so a too-long name read from a data file is named as such.
+
+    >>> check_name_length("x" * 300)
+    Traceback (most recent call last):
+    ...
+    formsync_design.errors.GraphError: expected a path within the system's limits (a name of at most 255 bytes), received one too long (300 characters, 'xxxxxxxxxxxxxxxxxxxxxx…')
+    """
+    if any(len(os.fsencode(part)) > 255 for part in Path(text).parts):
+        raise GraphError("expected a path within the system's limits (a name of at most 255 "
+                         f"bytes), received one too long ({len(text)} characters, {cut(text)})")
+
+
 def make_graph(obj: Any) -> Graph:
     """Build a validated :class:`Graph` from any supported input.
 
@@ -525,6 +539,7 @@ def make_graph(obj: Any) -> Graph:
                 return g
         if spec:
             return parse_graph_spec(text)
+        check_name_length(text)
         if ":" in text:  # a look-alike family ('ｒｉｎｇ:8') is named with its column
             check_ascii(text, f"the graph spec {cut(text, 40)}", GraphError)
         raise GraphError(

@@ -71,6 +71,7 @@ __all__ = [
     "is_shipped_file",
     "note_loaded",
     "design_code",
+    "session_design_code",
     "design_code_of",
     "code_file_of",
     "code_session",
@@ -231,6 +232,17 @@ def design_code() -> list[TrustedFile]:
     if _SESSIONS:
         return list(_SESSIONS[-1][0])
     return list(_LOADED.values())
+
+
+def session_design_code() -> list[TrustedFile]:
+    """The non-shipped design files loaded in the innermost open :func:`code_session` (one
+    command), ``[]`` when none is open: a command's output names what *it* loaded, never
+    what an earlier call in the same process did.
+
+    >>> session_design_code()
+    []
+    """
+    return list(_SESSIONS[-1][0]) if _SESSIONS else []
 
 
 def code_file_of(fn: Any) -> TrustedFile | None:

@@ -44,7 +44,7 @@ Bad input is a one-line :class:`~formsync_design.errors.InputError` naming the t
 ... ''')
 >>> _ = (p.parent / "damper.py").write_text(
 ...     'FORM = "agent"\\nGAINS = {"k": {}}\\ndef controller(v):\\n    return -v.k * v.w\\n')
->>> c = load_agent_case(p)
+>>> c = load_agent_case(p, trust=[p.parent / "damper.py"])  # a design file: your word
 >>> c.n, c.graph().name, [round(float(x), 6) for x in c.attitudes[0]]
 (2, 'path:2', [0.0, 0.0, 0.707107, 0.707107])
 """

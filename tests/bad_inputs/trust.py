@@ -157,7 +157,7 @@ gains = {k = 1.0}
     BadInput(
         id="trust-flag-names-a-missing-file",
         argv=("verify", "liang2016", "--out", "o", "--trust-design", "nope.py"), exit=2,
-        stderr=("expected --trust-design an existing design .py file", "no such file"),
+        stderr=("expected a --trust-design design .py file", "no such file"),
         sentinels=("o",), source=_SOURCE,
     ),
     BadInput(
