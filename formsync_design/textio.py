@@ -31,13 +31,14 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import stat
 from pathlib import Path
 
 from formsync_design.errors import InputError
 
 __all__ = ["MAX_FILE_BYTES", "read_bytes", "read_text", "check_regular", "confined_path", "cut",
-           "check_ascii"]
+           "check_ascii", "ascii_float"]
 
 #: The largest file read (bytes): graph files, adjacency CSVs, case and campaign TOML files.
 #: A 2000-spacecraft complete graph as an edge list is about 20 MB.
@@ -80,6 +81,26 @@ def check_ascii(text: str, where: str, error: type[InputError] = InputError) -> 
             raise error(f"expected ASCII characters in {where}, received {ch!r} "
                         f"(U+{ord(ch):04X}) at column {col}")
     return text
+
+
+_DECIMAL = re.compile(r"[0-9.eE+-]+")
+
+
+def ascii_float(text: str) -> float | None:
+    """The float a data file's field spells in ASCII (digits 0-9, ``.``, ``e``, a sign), or
+    ``None``: ``float`` alone would read a Bengali or fullwidth digit, ``'1_0'``, ``'inf'``
+    and ``'nan'`` (a finite check stays the caller's).
+
+    >>> ascii_float("0.5"), ascii_float("1e-3"), ascii_float("\u09ea"), ascii_float("1e")
+    (0.5, 0.001, None, None)
+    """
+    t = text.strip()
+    if not _DECIMAL.fullmatch(t):
+        return None
+    try:
+        return float(t)
+    except ValueError:
+        return None
 
 
 def _an(what: str) -> str:

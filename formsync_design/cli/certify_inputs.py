@@ -5,11 +5,10 @@ disturbance bounds and switching gains."""
 from __future__ import annotations
 
 import math
-import re
 from typing import TYPE_CHECKING, Any
 
 from formsync_design.errors import InputError
-from formsync_design.textio import cut, read_text
+from formsync_design.textio import ascii_float, cut, read_text
 
 if TYPE_CHECKING:
     import numpy as np
@@ -35,14 +34,6 @@ def _check_J(J: np.ndarray, k: int, src: str) -> np.ndarray:
     return J
 
 
-def _is_float(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
 def read_inertias(path: str, n: int) -> list[np.ndarray]:
     """Read 3x3 inertias (kg m^2) from a text/CSV file: 3 rows per spacecraft
     (whitespace or comma separated, ``#`` comments).  3 rows = the same inertia
@@ -66,15 +57,12 @@ def read_inertias(path: str, n: int) -> list[np.ndarray]:
         if len(parts) != 3:
             raise InputError(f"expected 3 numbers per row, received {len(parts)} fields "
                              f"{cut(line)} at {path}:{lineno}")
-        bad = next((x for x in parts if not re.fullmatch(r"[0-9.eE+-]+", x)), None)
-        try:
-            if bad is not None:  # float() would read a Bengali or fullwidth digit
-                raise ValueError(bad)
-            vals = [float(x) for x in parts]
-        except ValueError:
-            bad = bad or next(x for x in parts if not _is_float(x))
+        read = [ascii_float(x) for x in parts]  # float() would read a Bengali digit
+        bad = next((x for x, v in zip(parts, read) if v is None), None)
+        if bad is not None:
             raise InputError(f"expected numbers (digits 0-9), received {cut(bad)} at "
-                             f"{path}:{lineno}, column {raw.index(bad) + 1}") from None
+                             f"{path}:{lineno}, column {raw.index(bad) + 1}")
+        vals = [float(v) for v in read if v is not None]
         if not all(math.isfinite(v) for v in vals):
             raise InputError(f"expected finite numbers, received {cut(line)} at {path}:{lineno}")
         rows.append(vals)

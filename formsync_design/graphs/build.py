@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 
 from formsync_design.errors import GraphError
-from formsync_design.textio import check_ascii, cut, read_text
+from formsync_design.textio import ascii_float, check_ascii, cut, read_text
 
 __all__ = ["Graph", "make_graph", "parse_graph_spec", "check_size", "GRAPH_SPEC_HELP", "MAX_SPACECRAFT",
            "path_is_file", "check_name_length"]
@@ -296,12 +296,10 @@ def parse_graph_spec(spec: str) -> Graph:
             raise GraphError(f"expected distinct circulant offsets, received {cut(parts[2])}")
         return Graph(n=n, edges=tuple(sorted(pairs)), name=name)
     # random
-    try:
-        if not re.fullmatch(r"[0-9.eE+-]+", parts[2].strip()):
-            raise ValueError(parts[2])
-        p = float(parts[2])
-    except ValueError:
-        raise GraphError(f"expected an edge probability P in (0, 1], received {cut(parts[2])}") from None
+    p_or_none = ascii_float(parts[2])
+    if p_or_none is None:
+        raise GraphError(f"expected an edge probability P in (0, 1], received {cut(parts[2])}")
+    p = p_or_none
     if not (0.0 < p <= 1.0):
         raise GraphError(f"expected an edge probability P in (0, 1], received {p!r}")
     seed = _int_field(parts[3], "seed", spec)
@@ -390,14 +388,6 @@ def _read_edge_list(path: Path) -> Graph:
     return _from_pairs(n, pairs, str(path))
 
 
-def _is_float(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
 def _symmetric_arc_list(path: Path) -> Graph | None:
     """The undirected graph of an arc-list file (``i j w`` lines, the digraph format: each
     line one arc) that lists every link both ways with weight 1 and no leader; else None.
@@ -437,18 +427,14 @@ def _read_csv(path: Path) -> Graph:
             continue
         if len(rows) > MAX_SPACECRAFT or len(cells) > MAX_SPACECRAFT + 1:
             check_size(max(len(rows), len(cells)), str(path))
-        bad = next((c for c in cells if not re.fullmatch(r"[0-9.eE+-]+", c)), None)
-        try:
-            if bad is not None:
-                raise ValueError(bad)
-            rows.append([float(c) for c in cells])
-        except ValueError:
-            bad = bad if bad is not None else next(
-                c for c in cells if not _is_float(c))
+        vals = [ascii_float(c) for c in cells]
+        bad = next((c for c, v in zip(cells, vals) if v is None), None)
+        if bad is not None:
             raise GraphError(
                 f"expected numeric 0/1 entries (digits 0-9) in adjacency CSV, received {cut(bad)} "
                 f"at {path}:{lineno}"
-            ) from None
+            )
+        rows.append([float(v) for v in vals if v is not None])
     if not rows or len({len(r) for r in rows}) != 1:
         raise GraphError(
             f"expected a square adjacency matrix in {path}, received rows of lengths "
