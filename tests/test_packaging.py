@@ -40,6 +40,8 @@ def _source_files() -> set[str]:
         if "__pycache__" not in p.parts
     }
     out.add("formsync_design/py.typed")  # PEP 561: the package's annotations are public
+    out |= {p.relative_to(ROOT).as_posix()  # the C drivers the package compiles at run time
+            for p in (ROOT / "formsync_design").rglob("*.c")}
     for src, dest in DATA_DIRS.items():
         for p in (ROOT / src).rglob("*"):
             if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc":

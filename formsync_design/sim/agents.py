@@ -22,6 +22,7 @@ the design's monitors and, for sampled designs, the transmissions and inter-even
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -37,6 +38,7 @@ from formsync_design.sim.agent_kernel import (
     agent_state_names,
     get_agent_kernel,
 )
+from formsync_design.sim.agent_native import native_agents_available
 from formsync_design.sim.disagreement import (
     attitude_disagreement,
     principal_angles,
@@ -46,7 +48,7 @@ from formsync_design.sim.disagreement import (
 from formsync_design.sim.formation import Gains
 from formsync_design.sim.reference_rate import reference_rate_expressions, reference_rate_function
 from formsync_design.sim.result import SimResult, SimStatus
-from formsync_design.spec.agent import AgentDesign
+from formsync_design.spec.agent import AgentDesign, uses_switching
 
 __all__ = [
     "Reference",
@@ -222,8 +224,9 @@ class AgentOptions:
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
             raise InputError(f"expected step to divide output_step, received step {self.step:g} "
                              f"and output_step {self.output_step:g}")
-        if self.integrator not in ("rk4", "cvodes"):
-            raise InputError(f"expected integrator rk4 or cvodes, received {self.integrator!r}")
+        if self.integrator not in ("rk4", "dopri5", "cvodes"):
+            raise InputError(f"expected integrator rk4, dopri5 or cvodes, received "
+                             f"{self.integrator!r}")
         if self.switch not in ("sgn", "sat", "tanh"):
             raise InputError(f"expected switch sgn, sat or tanh, received {self.switch!r}")
         if self.torque_limit is not None and not self.torque_limit > 0:
@@ -314,6 +317,13 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
     f = formation
     M, T, K = _grid(opt)
     ref_rate = f.reference.rate if f.reference is not None else ("0", "0", "0")
+    if not measured and opt.integrator in ("rk4", "dopri5"):
+        if native_agents_available():
+            return _simulate_native(design, f, opt, M, T, ref_rate)
+        if opt.integrator == "dopri5":
+            raise SimulationError("expected a C compiler (gcc/cc) for the dopri5 integrator of "
+                                  "agent designs, received none (FORMSYNC_NO_COMPILE or no "
+                                  "compiler): use --integrator rk4 or cvodes")
     kern = get_agent_kernel(design, f.neighbours(), opt.switch, M, K, ref_rate,
                             measured=measured)
     p = agent_parameters(design, f, opt, kern.layout)
@@ -364,6 +374,60 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
     return assemble_result(design, f, opt, kern, p, t, X, opt.integrator, ext=obs_ext)
 
 
+def _simulate_native(design: AgentDesign, f: AgentFormation, opt: AgentOptions, M: int, T: int,
+                     ref_rate: Any) -> SimResult:
+    """A continuous run on the compiled driver (:mod:`~formsync_design.sim.agent_native`): one
+    object per design, the graph and everything physical as data."""
+    import time
+
+    from formsync_design.sim.agent_kernel import _gain_symbols, agent_param_layout
+    from formsync_design.sim.agent_native import get_native_agents
+
+    if opt.integrator == "dopri5" and opt.switch == "sgn" and uses_switching(design):
+        raise InputError(f"expected --switch sat or tanh with the dopri5 integrator (design "
+                         f"{design.name} switches; an adaptive step would chase its sliding "
+                         "mode), received sgn")
+    t0 = time.perf_counter()
+    nk = get_native_agents(design, opt.switch)
+    nb = f.neighbours()
+    lay = agent_param_layout(f.n, len(_gain_symbols(design)), sum(len(v) for v in nb))
+    p = agent_parameters(design, f, opt, lay)
+    t = np.arange(T + 1) * opt.output_step
+    for m in sorted({len(v) for v in nb}):
+        nk.law(m)  # built (or loaded) before the clock of the run starts
+    t1 = time.perf_counter()
+    run = nk.run(nb, lay, p, _x0(design, f), t, opt.integrator, step=opt.step, substeps=M,
+                 rtol=opt.rtol, atol=opt.atol, ref_rate=ref_rate)
+    t2 = time.perf_counter()
+    stats = {"integrator": opt.integrator, "compiled": True, "steps": run.steps,
+             "rejected_steps": run.rejected, "rhs_evaluations": run.rhs_evaluations,
+             "wall_seconds": t2 - t1, "build_seconds": t1 - t0}
+    if run.status == 2 and run.reason == 3:
+        raise SimulationError(f"the {opt.integrator} integrator stopped on {design.name} at t = "
+                              f"{run.t_fail:g} s (too many steps); try --integrator rk4 or a "
+                              "boundary layer")
+    k = run.X.shape[0]
+    res = assemble_result(design, f, opt, nk, p, t[:k], run.X, opt.integrator,
+                          observed=(run.U, run.MON))
+    res = replace(res, stats=stats)
+    if run.status == 1:  # a finding: the trajectory ends at the last finite output time
+        tdiv = float(t[k]) if k < t.size else run.t_fail
+        return replace(res, status=SimStatus.DIVERGED, diverged_time=tdiv,
+                       convergence_time=None,
+                       message=f"diverged at t = {tdiv:g} s (non-finite state; the trajectory "
+                               f"ends at t = {float(t[k - 1]):g} s): try a smaller step or a "
+                               "boundary layer")
+    if run.status == 2:  # the adaptive step underflowed: a finite escape time (a finding)
+        return replace(res, status=SimStatus.DIVERGED, diverged_time=run.t_fail,
+                       convergence_time=None,
+                       message=f"diverged at t = {run.t_fail:.6g} s (the {opt.integrator} step "
+                               "size underflowed: the state escapes in finite time, or a "
+                               f"discontinuity stops the step; the trajectory ends at t = "
+                               f"{float(t[k - 1]):g} s): try --integrator rk4 or a boundary "
+                               "layer")
+    return res
+
+
 def _diverged(design: AgentDesign, f: AgentFormation, opt: AgentOptions, kern: Any,
               p: np.ndarray, t: np.ndarray, X: np.ndarray, index: int) -> SimResult:
     """The result of a run whose state is non-finite from output ``index`` on: a finding,
@@ -379,13 +443,14 @@ def _diverged(design: AgentDesign, f: AgentFormation, opt: AgentOptions, kern: A
 def simulate_agents_batch(design: AgentDesign, formations: Sequence[AgentFormation],
                           options: AgentOptions | None = None, *,
                           threads: int | None = None) -> list[SimResult]:
-    """The runs of ``formations`` (one graph structure: Monte-Carlo draws of one case) under
-    ``design``, advanced together: one call of the compiled RK4 kernel mapped over the runs
-    per chunk of output intervals, spread over ``threads`` threads (default: the machine's
-    cores).  Each result equals :func:`simulate_agents` of its formation bitwise (every run
-    is one column of the same compiled function); a run whose state goes non-finite ends
-    there as alone.  Formations of several structures or reference rates, the ``cvodes``
-    integrator and sampled designs run one by one through :func:`simulate_agents`.
+    """The runs of ``formations`` (Monte-Carlo draws of one case) under ``design``, spread
+    over ``threads`` threads (default: the machine's cores).  Each result equals
+    :func:`simulate_agents` of its formation bitwise: with the compiled driver
+    (:mod:`~formsync_design.sim.agent_native`, ``rk4`` and ``dopri5``) each run is one call
+    of it; without a C compiler the runs of one graph structure advance together, one call
+    of the RK4 kernel mapped over them per chunk of output intervals.  A run whose state goes
+    non-finite ends there as alone.  Otherwise (``cvodes``, sampled designs, several
+    structures or reference rates) the runs go one by one through :func:`simulate_agents`.
 
     >>> from formsync_design.graphs import load_graph
     >>> from formsync_design.spec.agent import agent_design_from_functions
@@ -398,12 +463,21 @@ def simulate_agents_batch(design: AgentDesign, formations: Sequence[AgentFormati
     >>> all(np.array_equal(b.rates, simulate_agents(d, f, opt).rates) for b, f in zip(both, fs_))
     True
     """
-    import os
-
     from sympy import srepr
 
     opt = options or AgentOptions()
     fl = list(formations)
+    if (design.decl.sampling == "continuous" and opt.integrator in ("rk4", "dopri5")
+            and native_agents_available()):
+        # the compiled driver: each run is one call of it (the same arithmetic as a single
+        # run), on ``threads`` threads (the driver runs without the interpreter lock)
+        from concurrent.futures import ThreadPoolExecutor
+
+        workers = max(1, min(len(fl), threads or os.cpu_count() or 1))
+        if workers == 1 or len(fl) < 2:
+            return [simulate_agents(design, f, opt) for f in fl]
+        with ThreadPoolExecutor(workers) as pool:
+            return list(pool.map(lambda f: simulate_agents(design, f, opt), fl))
     # the reference rates are SymPy expressions (Reference); one kernel serves one of them
     refs = {None if f.reference is None else tuple(srepr(r) for r in f.reference.rate) for f in fl}
     if (len(fl) < 2 or opt.integrator != "rk4" or design.decl.sampling != "continuous"
@@ -469,27 +543,40 @@ def observe_grid(kern: Any, X: np.ndarray, t: np.ndarray, p: np.ndarray,
             np.asarray(m, float).reshape(kern.observe.size1_out(1), K).T)
 
 
+#: Formations larger than this compute their disagreement in C (every pair, O(N^2) per sample;
+#: the same values as :mod:`~formsync_design.sim.disagreement`, tested against it).
+_NATIVE_METRICS_FROM = 32
+
+
 def assemble_result(design: AgentDesign, f: AgentFormation, opt: AgentOptions, kern: Any, p: np.ndarray,
             t: np.ndarray, X: np.ndarray, integrator: str, *, torques: np.ndarray | None = None,
-            sampled: Any = None, ext: np.ndarray | None = None) -> SimResult:
+            sampled: Any = None, ext: np.ndarray | None = None,
+            observed: tuple[np.ndarray, np.ndarray] | None = None) -> SimResult:
     """The :class:`~formsync_design.sim.result.SimResult` of a trajectory ``X`` (kernel state
     order) on the grid ``t`` (shared by the continuous and the sampled paths; ``ext``: the
     measured kernel's held inputs at each output time).  Its status is one of
-    :data:`AGENT_STATUSES`."""
+    :data:`AGENT_STATUSES`.  ``observed``: the torques and monitors at every output time
+    when the driver evaluated them (else ``kern``'s ``observe``)."""
     n = f.n
     nz = design.decl.state_size
     Q = X[:, : 4 * n].reshape(X.shape[0], n, 4)
     W = X[:, 4 * n: 7 * n].reshape(X.shape[0], n, 3)
     Z = X[:, 7 * n: 7 * n + nz * n].reshape(X.shape[0], n, nz)
     R = X[:, 7 * n + nz * n: 7 * n + nz * n + 4] if design.decl.leader else None
-    U_obs, Mv = observe_grid(kern, X if X.shape[1] == kern.nx or R is None
-                             else np.concatenate([X, R], axis=1), t, p, ext)
+    U_obs, Mv = observed if observed is not None else observe_grid(
+        kern, X if X.shape[1] == kern.nx or R is None else np.concatenate([X, R], axis=1), t, p,
+        ext)
     U = U_obs.reshape(-1, n, 3) if torques is None else torques
     mons: dict[str, np.ndarray] = {}
     names = kern.monitors
     for j, name in enumerate(names):
         mons[name] = Mv[:, j::len(names)] if names else Mv
-    att = attitude_disagreement(Q)
+    if n > _NATIVE_METRICS_FROM and native_agents_available():
+        from formsync_design.sim.agent_native import native_disagreement
+
+        att, rate_dis = native_disagreement(Q, W)
+    else:
+        att, rate_dis = attitude_disagreement(Q), None
     if R is not None:
         ref_err = np.degrees(principal_angles(Q, R[:, None, :])).max(axis=1)
         rr = reference_rate_function(f.reference.rate if f.reference else ("0", "0", "0"))
@@ -498,7 +585,7 @@ def assemble_result(design: AgentDesign, f: AgentFormation, opt: AgentOptions, k
         ok = (ref_err <= opt.angle_tol) & (rate_err <= opt.rate_tol) & (att <= opt.angle_tol)
     else:
         ref_err = None
-        rate_err = rate_disagreement(W)
+        rate_err = rate_disagreement(W) if rate_dis is None else rate_dis
         ok = (att <= opt.angle_tol) & (rate_err <= opt.rate_tol)
     conv = settle_time(t, ok)
     status = SimStatus.CONVERGED if conv is not None else SimStatus.NOT_CONVERGED
