@@ -99,8 +99,8 @@ def test_a_new_size_or_horizon_compiles_nothing(monkeypatch):
         lambda v: -v.k * v.w + sum((n.a * (n.q - v.q) for n in v.nbrs), 0 * v.q),
         gains={"k": {}}, name="native_sizes")
     built: list[int] = []
-    real = agent_native._law_function
-    monkeypatch.setattr(agent_native, "_law_function",
+    real = agent_native._law_functions
+    monkeypatch.setattr(agent_native, "_law_functions",
                         lambda *a: built.append(a[1]) or real(*a))
 
     def run(n, tf):

@@ -7,11 +7,16 @@
  *                                                 in the design's representation, rate, states
  *   trig(t, freq[6], orbit[4]) -> trig[ntrig]     time-only disturbance terms (once per call)
  *   lead(qr[4], t) -> ref[na + 6], dqr[4]         the leader (reference) and its kinematics
- *   law_m(own[nf], q[4], w[3], J[9], Jinv[9], nbrs[nf m], a[m], b, ref[na + 6], gains[G],
- *         phi, umax[3], harm[18], trig[ntrig], gg, t)
- *       -> dq[4], dw[3], dz[nz], u[3], monitors[nmon]
+ *   dist(q[4], J[9], harm[18], trig[ntrig], gg) -> ud[3]
+ *                                                 the disturbance torque (called only when
+ *                                                 the run has a disturbance, dims[D_DIST])
+ *   law_m(own[nf], q[4], w[3], J[9], Jinv[9], a[m], b, ref[na + 6], gains[G], phi,
+ *         umax[3], ud[3], t, nbr_1[nf], ..., nbr_m[nf]) -> dq[4], dw[3], dz[nz]
  *                                                 one spacecraft's closed loop with m
  *                                                 in-neighbours (one function per in-degree)
+ *   obs_m(the same inputs) -> u[3], monitors[nmon]
+ *                                                 its torque (after the limit) and monitors,
+ *                                                 evaluated at the output times only
  *
  * This file loops: the graph is data (CSR: row pointers rp[n + 1], in-neighbour columns ci,
  * arc weights a in the same order), as are the inertias, gains, pinning gains, limits and
@@ -40,18 +45,18 @@ typedef int (*fs_fn)(const double **arg, double **res, fs_int *iw, double *w, in
 
 enum { P_GAINS, P_PHI, P_UMAX, P_J, P_JINV, P_A, P_B, P_FREQ, P_HARM, P_GG, P_ORBIT, P_SIZE };
 enum { D_N, D_NA, D_NZ, D_NMON, D_LEADER, D_MAXDEG, D_NTRIG, D_SZARG, D_SZRES, D_SZIW, D_SZW,
-       D_SIZE };
+       D_DIST, D_SIZE };
 enum { C_METHOD, C_H, C_M, C_RTOL, C_ATOL, C_HMAX, C_MAXSTEPS, C_H0, C_SIZE };
 enum { I_STATUS, I_KDONE, I_STEPS, I_REJECTED, I_NFEV, I_TFAIL, I_REASON, I_NOBS, I_SIZE };
 
 typedef struct {
-  int n, na, nz, nf, nmon, leader, maxdeg, ntrig, nx;
+  int n, na, nz, nf, nmon, leader, maxdeg, ntrig, nx, dist;
   const int *rp, *ci;
   const double *p;
   const long *off;
-  fs_fn pre, trig, lead;
-  fs_fn const *law;
-  double *full, *nbuf, *zero, *trigv, *ref, *dqr, *jmon, *xdo;
+  fs_fn pre, trig, lead, dist_fn;
+  fs_fn const *law, *obs;
+  double *full, *zero, *trigv, *ref, *dqr, *jmon, *xdo, *ud;
   const double **arg;
   double **res;
   fs_int *iw;
@@ -60,46 +65,50 @@ typedef struct {
 } fs_model;
 
 static void fs_free(fs_model *m) {
-  free(m->full); free(m->nbuf); free(m->zero); free(m->trigv); free(m->ref); free(m->dqr);
-  free(m->jmon); free(m->xdo);
+  free(m->full); free(m->zero); free(m->trigv); free(m->ref); free(m->dqr);
+  free(m->jmon); free(m->xdo); free(m->ud);
   free(m->arg); free(m->res); free(m->iw); free(m->w);
 }
 
 static int fs_init(fs_model *m, const long *dims, const long *off, const int *rp, const int *ci,
                    const double *p, void *const *fns) {
-  long szarg = dims[D_SZARG] > 20 ? dims[D_SZARG] : 20, szres = dims[D_SZRES] > 8 ? dims[D_SZRES] : 8;
+  long need = 14 + dims[D_MAXDEG];
+  long szarg = dims[D_SZARG] > need ? dims[D_SZARG] : need, szres = dims[D_SZRES] > 8 ? dims[D_SZRES] : 8;
   memset(m, 0, sizeof(*m));
   m->n = (int)dims[D_N]; m->na = (int)dims[D_NA]; m->nz = (int)dims[D_NZ];
   m->nf = m->na + 3 + m->nz; m->nmon = (int)dims[D_NMON]; m->leader = (int)dims[D_LEADER];
   m->maxdeg = (int)dims[D_MAXDEG]; m->ntrig = (int)dims[D_NTRIG];
   m->nx = 7 * m->n + m->nz * m->n + (m->leader ? 4 : 0);
   m->rp = rp; m->ci = ci; m->p = p; m->off = off;
+  m->dist = (int)dims[D_DIST];
   m->pre = (fs_fn)fns[0]; m->trig = (fs_fn)fns[1]; m->lead = (fs_fn)fns[2];
-  m->law = (fs_fn const *)(fns + 3);
+  m->dist_fn = (fs_fn)fns[3];
+  m->law = (fs_fn const *)(fns + 4);
+  m->obs = (fs_fn const *)(fns + 5 + m->maxdeg);
   m->full = (double *)malloc(sizeof(double) * ((size_t)m->nf * m->n + 1));
   m->zero = (double *)calloc((size_t)m->nf + 1, sizeof(double));
   m->trigv = (double *)malloc(sizeof(double) * (m->ntrig + 1));
   m->ref = (double *)calloc((size_t)m->na + 7, sizeof(double));
   m->dqr = (double *)calloc(4, sizeof(double));
-  m->nbuf = (double *)malloc(sizeof(double) * ((size_t)m->nf * (m->maxdeg + 1)));
   m->jmon = (double *)malloc(sizeof(double) * (m->nmon + 1));
   m->xdo = (double *)malloc(sizeof(double) * (m->nx + 1));
+  m->ud = (double *)calloc(3 * (size_t)m->n + 1, sizeof(double));
   m->arg = (const double **)calloc(szarg, sizeof(double *));
   m->res = (double **)calloc(szres, sizeof(double *));
   m->iw = (fs_int *)malloc(sizeof(fs_int) * (dims[D_SZIW] + 1));
   m->w = (double *)malloc(sizeof(double) * (dims[D_SZW] + 1));
-  if (!m->full || !m->nbuf || !m->zero || !m->trigv || !m->ref || !m->dqr || !m->jmon || !m->xdo || !m->arg
+  if (!m->full || !m->zero || !m->trigv || !m->ref || !m->dqr || !m->jmon || !m->xdo || !m->ud || !m->arg
       || !m->res || !m->iw || !m->w) { fs_free(m); return -1; }
   return 0;
 }
 
-/* the closed loop at (t, x): xd (the state derivative), u (3n limited torques) and mon
-   (nmon values per spacecraft, spacecraft-major); u and mon may be NULL */
+/* the closed loop at (t, x): xd (the state derivative; may be NULL), or with obs set u (3n
+   limited torques) and mon (nmon values per spacecraft, spacecraft-major) */
 static void fs_rhs(fs_model *m, double t, const double *x, double *xd, double *u, double *mon) {
-  int i, k, n = m->n, nf = m->nf, nz = m->nz;
+  int i, k, n = m->n, nf = m->nf, nz = m->nz, obs = xd == 0;
   const double *p = m->p;
   const long *off = m->off;
-  double tt = t, ju[3];
+  double tt = t;
   m->arg[0] = &tt; m->arg[1] = p + off[P_FREQ]; m->arg[2] = p + off[P_ORBIT];
   m->res[0] = m->trigv;
   m->trig(m->arg, m->res, m->iw, m->w, 0);
@@ -113,24 +122,32 @@ static void fs_rhs(fs_model *m, double t, const double *x, double *xd, double *u
     m->arg[0] = x + 4 * i; m->arg[1] = x + 4 * n + 3 * i; m->arg[2] = x + 7 * n + nz * i;
     m->res[0] = m->full + (size_t)nf * i;
     m->pre(m->arg, m->res, m->iw, m->w, 0);
+    if (m->dist) {
+      m->arg[0] = x + 4 * i; m->arg[1] = p + off[P_J] + 9 * i; m->arg[2] = p + off[P_HARM] + 18 * i;
+      m->arg[3] = m->trigv; m->arg[4] = p + off[P_GG];
+      m->res[0] = m->ud + 3 * i;
+      m->dist_fn(m->arg, m->res, m->iw, m->w, 0);
+    }
   }
   for (i = 0; i < n; ++i) {
     int deg = m->rp[i + 1] - m->rp[i];
-    /* the in-neighbours' broadcasts, column k the k-th in-neighbour (column-major nf x deg) */
-    for (k = 0; k < deg; ++k)
-      memcpy(m->nbuf + (size_t)nf * k, m->full + (size_t)nf * m->ci[m->rp[i] + k],
-             sizeof(double) * nf);
     m->arg[0] = m->full + (size_t)nf * i; m->arg[1] = x + 4 * i; m->arg[2] = x + 4 * n + 3 * i;
     m->arg[3] = p + off[P_J] + 9 * i; m->arg[4] = p + off[P_JINV] + 9 * i;
-    m->arg[5] = deg ? m->nbuf : m->zero; m->arg[6] = deg ? p + off[P_A] + m->rp[i] : m->zero;
-    m->arg[7] = p + off[P_B] + i; m->arg[8] = m->ref; m->arg[9] = p + off[P_GAINS];
-    m->arg[10] = p + off[P_PHI]; m->arg[11] = p + off[P_UMAX] + 3 * i;
-    m->arg[12] = p + off[P_HARM] + 18 * i; m->arg[13] = m->trigv; m->arg[14] = p + off[P_GG];
-    m->arg[15] = &tt;
-    m->res[0] = xd + 4 * i; m->res[1] = xd + 4 * n + 3 * i; m->res[2] = xd + 7 * n + nz * i;
-    m->res[3] = u ? u + 3 * i : ju; m->res[4] = mon ? mon + (size_t)m->nmon * i : m->jmon;
-    m->law[deg](m->arg, m->res, m->iw, m->w, 0);
+    m->arg[5] = deg ? p + off[P_A] + m->rp[i] : m->zero; m->arg[6] = p + off[P_B] + i;
+    m->arg[7] = m->ref; m->arg[8] = p + off[P_GAINS]; m->arg[9] = p + off[P_PHI];
+    m->arg[10] = p + off[P_UMAX] + 3 * i; m->arg[11] = m->ud + 3 * i; m->arg[12] = &tt;
+    /* the in-neighbours' broadcasts, in place */
+    for (k = 0; k < deg; ++k) m->arg[13 + k] = m->full + (size_t)nf * m->ci[m->rp[i] + k];
+    if (!deg) m->arg[13] = m->zero;
+    if (obs) {
+      m->res[0] = u + 3 * i; m->res[1] = mon + (size_t)m->nmon * i;
+      m->obs[deg](m->arg, m->res, m->iw, m->w, 0);
+    } else {
+      m->res[0] = xd + 4 * i; m->res[1] = xd + 4 * n + 3 * i; m->res[2] = xd + 7 * n + nz * i;
+      m->law[deg](m->arg, m->res, m->iw, m->w, 0);
+    }
   }
+  if (obs) return;
   if (m->leader) memcpy(xd + 7 * n + nz * n, m->dqr, sizeof(double) * 4);
   m->nfev++;
 }
@@ -161,8 +178,7 @@ static void fs_output(fs_model *m, long k, double t, const double *x, double *X,
                       double *MON) {
   int n = m->n;
   memcpy(X + (size_t)k * m->nx, x, sizeof(double) * m->nx);
-  fs_rhs(m, t, x, m->xdo, U + (size_t)k * 3 * n, MON + (size_t)k * m->nmon * n);
-  m->nfev--;
+  fs_rhs(m, t, x, 0, U + (size_t)k * 3 * n, MON + (size_t)k * m->nmon * n);
   m->nobs++;
 }
 
@@ -368,7 +384,8 @@ int fsa_eval(const long *dims, const long *off, const int *rp, const int *ci, co
              void *const *fns, double t, const double *x, double *xd, double *u, double *mon) {
   fs_model m;
   if (fs_init(&m, dims, off, rp, ci, p, fns) != 0) return -1;
-  fs_rhs(&m, t, x, xd, u, mon);
+  fs_rhs(&m, t, x, xd, 0, 0);
+  fs_rhs(&m, t, x, 0, u, mon);
   fs_free(&m);
   return 0;
 }
@@ -380,51 +397,88 @@ int fsa_eval(const long *dims, const long *off, const int *rp, const int *ci, co
    formula's arguments on every pair within 1e-12 of the smallest (a bound far above the dot
    product's rounding): the largest angle is that of the exact formula, to rounding.  Q (T, n, 4),
    W (T, n, 3); qn: 4n work values. */
+/* one row of the pair scan: the smallest |a . x_j| and the largest |b - v_j|^2 over j < m
+   (finite inputs: the caller detects non-finite ones; reassociated so that it vectorises) */
+__attribute__((optimize("O3", "fast-math")))
+static void fs_row(long m, double a0, double a1, double a2, double a3, double b0, double b1,
+                   double b2, const double *restrict x0, const double *restrict x1,
+                   const double *restrict x2, const double *restrict x3,
+                   const double *restrict v0, const double *restrict v1,
+                   const double *restrict v2, double *cmin, double *dmax) {
+  long j;
+  double cm = INFINITY, dm = 0;
+  for (j = 0; j < m; ++j) {
+    double c = fabs(a0 * x0[j] + a1 * x1[j] + a2 * x2[j] + a3 * x3[j]);
+    double d0 = b0 - v0[j], d1 = b1 - v1[j], d2 = b2 - v2[j];
+    double dd = d0 * d0 + d1 * d1 + d2 * d2;
+    cm = c < cm ? c : cm;
+    dm = dd > dm ? dd : dm;
+  }
+  *cmin = cm;
+  *dmax = dm;
+}
+
 static void fs_disagree(long k0, long k1, long n, const double *Q, const double *W, double *att,
                         double *rate, double *qn) {
-  long k, i, j;
+  /* work (10 n values): the normalised quaternions and the rates by component (SoA, so the
+     inner loops vectorise), and each row's smallest |qa . qb| */
+  double *x0 = qn, *x1 = qn + n, *x2 = qn + 2 * n, *x3 = qn + 3 * n;
+  double *v0 = qn + 4 * n, *v1 = qn + 5 * n, *v2 = qn + 6 * n, *rowmin = qn + 7 * n;
+  long k, i, j, nseen;
+  double seen[32][4];
   for (k = k0; k < k1; ++k) {
     const double *q = Q + (size_t)k * n * 4, *w = W + (size_t)k * n * 3;
-    double cmin = INFINITY, amax = 0, d2max = 0;
-    int bad = 0;
+    double cmin = INFINITY, d2max = 0, sb = 0, cb = 1, nanq = 0, nanw = 0;
     for (i = 0; i < n; ++i) {
       double r = sqrt(q[4 * i] * q[4 * i] + q[4 * i + 1] * q[4 * i + 1] + q[4 * i + 2] * q[4 * i + 2]
                       + q[4 * i + 3] * q[4 * i + 3]);
-      qn[4 * i] = q[4 * i] / r; qn[4 * i + 1] = q[4 * i + 1] / r;
-      qn[4 * i + 2] = q[4 * i + 2] / r; qn[4 * i + 3] = q[4 * i + 3] / r;
+      x0[i] = q[4 * i] / r; x1[i] = q[4 * i + 1] / r; x2[i] = q[4 * i + 2] / r;
+      x3[i] = q[4 * i + 3] / r;
+      v0[i] = w[3 * i]; v1[i] = w[3 * i + 1]; v2[i] = w[3 * i + 2];
+      nanq += x0[i] + x1[i] + x2[i] + x3[i];
+      nanw += v0[i] + v1[i] + v2[i];
     }
-    for (i = 0; i < n; ++i) {
-      const double *a = qn + 4 * i, *wa = w + 3 * i;
-      for (j = i + 1; j < n; ++j) {
-        const double *b = qn + 4 * j, *wb = w + 3 * j;
-        double c = fabs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]);
-        double d0 = wa[0] - wb[0], d1 = wa[1] - wb[1], d2 = wa[2] - wb[2];
-        double dd = d0 * d0 + d1 * d1 + d2 * d2;
-        if (c != c) bad = 1;
-        cmin = c < cmin ? c : cmin;
-        if (!(dd <= d2max)) d2max = dd;  /* NaN propagates */
+    for (i = 0; i < n - 1; ++i) {
+      const double a0 = x0[i], a1 = x1[i], a2 = x2[i], a3 = x3[i];
+      const double b0 = v0[i], b1 = v1[i], b2 = v2[i];
+      double cm, dm;
+      fs_row(n - i - 1, a0, a1, a2, a3, b0, b1, b2, x0 + i + 1, x1 + i + 1, x2 + i + 1,
+             x3 + i + 1, v0 + i + 1, v1 + i + 1, v2 + i + 1, &cm, &dm);
+      rowmin[i] = cm;
+      cmin = cm < cmin ? cm : cmin;
+      d2max = dm > d2max ? dm : d2max;
+    }
+    /* the exact angle of the candidates (|qa . qb| within 1e-12 of the smallest, a bound far
+       above its rounding): the largest 2 atan2(|vec(qa* qb)|, |qa . qb|), compared as
+       s cb > sb c */
+    nseen = 0;
+    for (i = 0; i < n - 1 && nanq == nanq; ++i) {
+      const double a0 = x0[i], a1 = x1[i], a2 = x2[i], a3 = x3[i];
+      long s_;
+      int again = 0;
+      if (!(rowmin[i] <= cmin + 1e-12)) continue;
+      /* a row equal to an earlier candidate row (a repeated spacecraft state) holds only
+         pairs that row held */
+      for (s_ = 0; s_ < nseen && !again; ++s_)
+        again = seen[s_][0] == a0 && seen[s_][1] == a1 && seen[s_][2] == a2 && seen[s_][3] == a3;
+      if (again) continue;
+      if (nseen < 32) {
+        seen[nseen][0] = a0; seen[nseen][1] = a1; seen[nseen][2] = a2; seen[nseen][3] = a3;
+        ++nseen;
       }
-    }
-    {  /* the exact angle of the candidates: max of atan2(s, c), compared as s cb > sb c */
-      double sb = 0, cb = 1;
-      for (i = 0; i < n && !bad; ++i) {
-        const double *a = qn + 4 * i;
-        for (j = i + 1; j < n; ++j) {
-          const double *b = qn + 4 * j;
-          double c = fabs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]);
-          if (c <= cmin + 1e-12) {
-            double v0 = a[3] * b[0] - b[3] * a[0] + (a[1] * b[2] - a[2] * b[1]);
-            double v1 = a[3] * b[1] - b[3] * a[1] + (a[2] * b[0] - a[0] * b[2]);
-            double v2 = a[3] * b[2] - b[3] * a[2] + (a[0] * b[1] - a[1] * b[0]);
-            double sv = sqrt(v0 * v0 + v1 * v1 + v2 * v2);
-            if (sv * cb > sb * c) { sb = sv; cb = c; }
-          }
+      for (j = i + 1; j < n; ++j) {
+        double c = fabs(a0 * x0[j] + a1 * x1[j] + a2 * x2[j] + a3 * x3[j]);
+        if (c <= cmin + 1e-12) {
+          double e0 = a3 * x0[j] - x3[j] * a0 + (a1 * x2[j] - a2 * x1[j]);
+          double e1 = a3 * x1[j] - x3[j] * a1 + (a2 * x0[j] - a0 * x2[j]);
+          double e2 = a3 * x2[j] - x3[j] * a2 + (a0 * x1[j] - a1 * x0[j]);
+          double sv = sqrt(e0 * e0 + e1 * e1 + e2 * e2);
+          if (sv * cb > sb * c) { sb = sv; cb = c; }
         }
       }
-      amax = 2.0 * atan2(sb, cb);
     }
-    att[k] = n < 2 ? 0.0 : (bad ? NAN : amax);
-    rate[k] = n < 2 ? 0.0 : sqrt(d2max);
+    att[k] = n < 2 ? 0.0 : (nanq != nanq ? NAN : 2.0 * atan2(sb, cb));
+    rate[k] = n < 2 ? 0.0 : (nanw != nanw ? NAN : sqrt(d2max));
   }
 }
 
@@ -436,7 +490,7 @@ static void *fs_dis_thread(void *arg) {
   return 0;
 }
 
-/* the samples split over `threads` threads (qn: 4n work values per thread) */
+/* the samples split over `threads` threads (qn: 8n work values per thread) */
 int fsa_disagreement(long T, long n, const double *Q, const double *W, double *att, double *rate,
                      double *qn, int threads) {
   pthread_t tid[64];
@@ -447,7 +501,7 @@ int fsa_disagreement(long T, long n, const double *Q, const double *W, double *a
   if (threads > T) threads = (int)(T > 0 ? T : 1);
   for (h = 0; h < threads; ++h) {
     job[h].k0 = T * h / threads; job[h].k1 = T * (h + 1) / threads; job[h].n = n;
-    job[h].Q = Q; job[h].W = W; job[h].att = att; job[h].rate = rate; job[h].qn = qn + 4 * n * h;
+    job[h].Q = Q; job[h].W = W; job[h].att = att; job[h].rate = rate; job[h].qn = qn + 8 * n * h;
   }
   for (h = 1; h < threads; ++h) {
     if (pthread_create(&tid[h], 0, fs_dis_thread, &job[h]) != 0) break;

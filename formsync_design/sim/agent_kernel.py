@@ -59,6 +59,7 @@ __all__ = [
     "get_agent_kernel",
     "agent_state_names",
     "gain_vector",
+    "gain_count",
     "LawInputs",
     "law_inputs",
 ]
@@ -129,6 +130,18 @@ def _gain_symbols(design: AgentDesign) -> list[sp.Symbol]:
         else:
             out.append(g.symbol)
     return out
+
+
+def gain_count(design: AgentDesign) -> int:
+    """The number of controller gain values in kernel order (a diagonal gain: 3), without
+    deriving anything.
+
+    >>> from formsync_design.spec.agent import agent_design_from_functions
+    >>> gain_count(agent_design_from_functions(lambda v: -v.k * v.w, gains={"k": {}}))
+    1
+    """
+    return sum(3 if g.kind == GainKind.DIAG else 1 for g in design.decl.gains
+               if g.role == GainRole.CONTROLLER)
 
 
 @dataclass

@@ -17,10 +17,16 @@ The CasADi functions (named inputs and outputs; the C driver
   k_gg``, 16 values);
 * ``fsa_lead(qr, t) -> ref, dqr``: the reference (attitude entries, rate, rate derivative)
   and its quaternion's derivative;
-* ``fsa_law_<m>(own, q, w, J, Jinv, nbrs, a, b, ref, gains, phi, umax, harm, trig, gg, t)
-  -> dq, dw, dz, u, monitors``: one spacecraft's closed loop, the law of
+* ``fsa_dist(q, J, harm, trig, gg) -> ud``: the disturbance torque
+  (:func:`~formsync_design.models.disturbances.disturbance_torque`), evaluated only in a run
+  whose disturbance parameters are not all zero;
+* ``fsa_law_<m>(own, q, w, J, Jinv, a, b, ref, gains, phi, umax, ud, t, nbr_1, ...,
+  nbr_m) -> dq, dw, dz``: one spacecraft's closed loop (``nbr_k``: what its ``k``-th
+  in-neighbour broadcasts), the law of
   :func:`~formsync_design.sim.agent_kernel.agent_law` (the one symbolic-to-CasADi bridge)
-  limited to ``umax`` per axis, the rigid body and the disturbance torque.
+  limited to ``umax`` per axis, the rigid body and the disturbance torque ``ud``;
+* ``fsa_obs_<m>`` (the same inputs) ``-> u, monitors``: the limited torque and the design's
+  monitors, evaluated at the output times only.
 
 State order: that of :func:`~formsync_design.sim.agent_kernel.agent_state_names`.  The
 parameter vector: :func:`~formsync_design.sim.agent_kernel.agent_param_layout`.
@@ -54,7 +60,13 @@ from formsync_design.sim.agent_kernel import (
     agent_law,
     attitude_entries,
 )
-from formsync_design.sim.ccompile import build_shared, c_compiler, compile_enabled, generated_source
+from formsync_design.sim.ccompile import (
+    CFLAGS,
+    build_shared,
+    c_compiler,
+    compile_enabled,
+    generated_source,
+)
 from formsync_design.sim.reference_rate import reference_rate_expressions, reference_rate_function
 from formsync_design.spec.agent import AgentDesign
 
@@ -83,6 +95,10 @@ _GENERATOR = ("sim/agent_native.py", "sim/agent_kernel.py", "sim/bridge.py",
               "models/disturbances.py", "sim/reference_rate.py", "spec")
 
 _DRIVER = Path(__file__).with_name("agent_driver.c")
+
+#: The kernels' flags, plus calls inside an object resolved at link time (CasADi's helpers,
+#: e.g. ``casadi_sq``, are inlined instead of called through the symbol table).
+_FLAGS = (*CFLAGS, "-fno-semantic-interposition")
 
 
 def native_agents_available() -> bool:
@@ -151,7 +167,22 @@ def _lead_function(rep: str, rate: tuple[Any, ...]) -> ca.Function:
                        {"cse": True})
 
 
-def _law_function(design: AgentDesign, m: int, switch: str) -> tuple[ca.Function, tuple[str, ...]]:
+def _dist_function() -> ca.Function:
+    q, Jv, harm = ca.SX.sym("q", 4), ca.SX.sym("J", 9), ca.SX.sym("harm", 18)
+    trig, gg = ca.SX.sym("trig", _NTRIG), ca.SX.sym("gg")
+    parts, off = {}, 0
+    for name, k in _TRIG:
+        parts[name] = trig[off: off + k] if k > 1 else trig[off]
+        off += k
+    ud = disturbance_torque(parts, q[0:3], q[3], ca.reshape(Jv, 3, 3), harm, gg)
+    return ca.Function("fsa_dist", [q, Jv, harm, trig, gg], [ud],
+                       ["q", "J", "harm", "trig", "gg"], ["ud"], {"cse": True})
+
+
+def _law_functions(design: AgentDesign, m: int,
+                   switch: str) -> tuple[list[ca.Function], tuple[str, ...]]:
+    """``fsa_law_<m>`` (the state derivative) and ``fsa_obs_<m>`` (torque and monitors) of a
+    spacecraft with ``m`` in-neighbours, and the monitor names."""
     law = agent_law(design, m, switch)
     na = ATTITUDE_SIZE[design.representation]
     nz = design.decl.state_size
@@ -159,28 +190,25 @@ def _law_function(design: AgentDesign, m: int, switch: str) -> tuple[ca.Function
     ng = max(len(_gain_symbols(design)), 1)
     own, q, w = ca.SX.sym("own", nf), ca.SX.sym("q", 4), ca.SX.sym("w", 3)
     Jv, Jiv = ca.SX.sym("J", 9), ca.SX.sym("Jinv", 9)
-    nb, a, b = ca.SX.sym("nbrs", nf, max(m, 1)), ca.SX.sym("a", max(m, 1)), ca.SX.sym("b")
+    # one input per in-neighbour: the driver points each at that neighbour's broadcast
+    nbs = [ca.SX.sym(f"nbr_{k + 1}", nf) for k in range(max(m, 1))]
+    nb = ca.horzcat(*nbs)
+    a, b = ca.SX.sym("a", max(m, 1)), ca.SX.sym("b")
     ref, gains, phi = ca.SX.sym("ref", na + 6), ca.SX.sym("gains", ng), ca.SX.sym("phi")
-    umax, harm, trig = ca.SX.sym("umax", 3), ca.SX.sym("harm", 18), ca.SX.sym("trig", _NTRIG)
-    gg, t = ca.SX.sym("gg"), ca.SX.sym("t")
+    umax, ud, t = ca.SX.sym("umax", 3), ca.SX.sym("ud", 3), ca.SX.sym("t")
     J, Jinv = ca.reshape(Jv, 3, 3), ca.reshape(Jiv, 3, 3)
     u_raw, zdot, mon = law.law(own, J, t, nb, a, b, ref, gains, phi)
     u = ca.fmin(umax, ca.fmax(-umax, u_raw))
-    parts, off = {}, 0
-    for name, k in _TRIG:
-        parts[name] = trig[off: off + k] if k > 1 else trig[off]
-        off += k
     v3, q0 = q[0:3], q[3]
-    ud = disturbance_torque(parts, v3, q0, J, harm, gg)
     dq = ca.vertcat(0.5 * (q0 * w + ca.cross(v3, w)), -0.5 * ca.dot(v3, w))
     dw = ca.mtimes(Jinv, -ca.cross(w, ca.mtimes(J, w)) + u + ud)
-    names_in = ["own", "q", "w", "J", "Jinv", "nbrs", "a", "b", "ref", "gains", "phi", "umax",
-                "harm", "trig", "gg", "t"]
-    fn = ca.Function(f"fsa_law_{m}", [own, q, w, Jv, Jiv, nb, a, b, ref, gains, phi, umax,
-                                       harm, trig, gg, t],
-                     [dq, dw, zdot, u, mon], names_in, ["dq", "dw", "dz", "u", "monitors"],
-                     {"cse": True})
-    return fn, law.monitors
+    ins = [own, q, w, Jv, Jiv, a, b, ref, gains, phi, umax, ud, t, *nbs]
+    names = ["own", "q", "w", "J", "Jinv", "a", "b", "ref", "gains", "phi", "umax", "ud", "t",
+             *[f"nbr_{k + 1}" for k in range(len(nbs))]]
+    f = ca.Function(f"fsa_law_{m}", ins, [dq, dw, zdot], names, ["dq", "dw", "dz"],
+                    {"cse": True})
+    g = ca.Function(f"fsa_obs_{m}", ins, [u, mon], names, ["u", "monitors"], {"cse": True})
+    return [f, g], law.monitors
 
 
 @dataclass
@@ -203,37 +231,43 @@ def _c_string(name: str, text: str) -> str:
     return f'const char {name}[] = "{body}";\n'
 
 
-def _load(name: str, make: Any, key: str, monitors: bool = False) -> _Compiled:
+def _load(name: str, make: Any, key: str, functions: tuple[str, ...],
+          monitors: bool = False) -> dict[str, _Compiled]:
+    """The compiled object ``name`` holding ``functions`` (``make()`` returns them, and with
+    ``monitors`` the monitor names as well), built once and cached on disk by ``key``."""
     cc = c_compiler()
     if cc is None:  # pragma: no cover - callers check native_agents_available first
         raise CompilerError("expected a C compiler (gcc/cc) for the compiled agent kernel, "
                             "received none")
 
     def source() -> str:
-        fn, names = make() if monitors else (make(), ())
+        fns, names = make() if monitors else (make(), ())
         cg = ca.CodeGenerator(f"{name}.c", {"with_header": False})
-        cg.add(fn)
-        src = generated_source(cg, f"{name}.c", f"the agent kernel function {name}")
+        for fn in fns:
+            cg.add(fn)
+        src = generated_source(cg, f"{name}.c", f"the agent kernel functions {name}")
         # the monitor names travel with the compiled law: a warm run derives nothing
         return src + (_c_string("fsa_monitors", "\n".join(names)) if monitors else "")
 
-    so = build_shared(name, source, key, cc)
+    so = build_shared(name, source, key, cc, flags=_FLAGS)
+    out: dict[str, _Compiled] = {}
     try:
         lib = ctypes.CDLL(str(so))
-        fn = getattr(lib, name)
-        work = getattr(lib, f"{name}_work")
-    except (OSError, AttributeError) as e:
+        names: tuple[str, ...] = ()
+        if monitors:
+            raw = ctypes.cast(ctypes.addressof(ctypes.c_char.in_dll(lib, "fsa_monitors")),
+                              ctypes.c_char_p).value or b""
+            names = tuple(raw.decode().split("\n")) if raw else ()
+        for fname in functions:
+            fn = getattr(lib, fname)
+            sz = [ctypes.c_longlong() for _ in range(4)]
+            getattr(lib, f"{fname}_work")(*[ctypes.byref(v) for v in sz])
+            out[fname] = _Compiled(lib, ctypes.cast(fn, ctypes.c_void_p).value or 0,
+                                   (sz[0].value, sz[1].value, sz[2].value, sz[3].value), names)
+    except (OSError, AttributeError, ValueError) as e:
         raise CompilerError(f"loading the compiled kernel {so} failed ({e}); delete it to "
                             "rebuild, or set FORMSYNC_NO_COMPILE=1") from None
-    sz = [ctypes.c_longlong() for _ in range(4)]
-    work(*[ctypes.byref(s) for s in sz])
-    names: tuple[str, ...] = ()
-    if monitors:
-        raw = ctypes.cast(ctypes.addressof(ctypes.c_char.in_dll(lib, "fsa_monitors")),
-                          ctypes.c_char_p).value or b""
-        names = tuple(raw.decode().split("\n")) if raw else ()
-    return _Compiled(lib, ctypes.cast(fn, ctypes.c_void_p).value or 0,
-                     tuple(int(s.value) for s in sz), names)  # type: ignore[arg-type]
+    return out
 
 
 _DRIVER_LIB: list[Any] = []
@@ -248,7 +282,7 @@ def _driver() -> Any:
                 raise CompilerError("expected a C compiler (gcc/cc) for the compiled agent "
                                     "kernel, received none")
             so = build_shared("fsa_driver", _DRIVER.read_text(), "agent driver", cc,
-                              libs=("-lm", "-lpthread"))
+                              flags=_FLAGS, libs=("-lm", "-lpthread"))
             lib = ctypes.CDLL(str(so))
             P = ctypes.c_void_p
             lib.fsa_run.argtypes = [P, P, P, P, P, P, P, P, ctypes.c_long, P, P, P, P, P]
@@ -292,7 +326,7 @@ class NativeAgentKernel:
     switch: str
     monitors: tuple[str, ...] = ()
     common: dict[str, _Compiled] = field(default_factory=dict)
-    laws: dict[int, _Compiled] = field(default_factory=dict)
+    laws: dict[int, dict[str, _Compiled]] = field(default_factory=dict)
     leads: dict[tuple[str, ...], _Compiled] = field(default_factory=dict)
 
     @property
@@ -303,16 +337,19 @@ class NativeAgentKernel:
     def _key(self, *parts: str) -> str:
         return "\n".join([self.design.key, self.switch, _DIGEST[0], *parts])
 
-    def law(self, m: int) -> _Compiled:
-        """The compiled closed loop of a spacecraft with ``m`` in-neighbours (built once)."""
+    def law(self, m: int) -> dict[str, _Compiled]:
+        """The compiled closed loop (``fsa_law_<m>``) and observation (``fsa_obs_<m>``) of a
+        spacecraft with ``m`` in-neighbours (built once)."""
         hit = self.laws.get(m)
         if hit is None:
             with _LOCK:
                 hit = self.laws.get(m)
                 if hit is None:
-                    hit = self.laws[m] = _load(f"fsa_law_{m}", lambda: _law_function(
-                        self.design, m, self.switch), self._key("law", str(m)), monitors=True)
-                    self.monitors = hit.monitors
+                    hit = self.laws[m] = _load(
+                        f"fsa_law_{m}", lambda: _law_functions(self.design, m, self.switch),
+                        self._key("law", str(m)), (f"fsa_law_{m}", f"fsa_obs_{m}"),
+                        monitors=True)
+                    self.monitors = hit[f"fsa_law_{m}"].monitors
         return hit
 
     def lead(self, rate: tuple[Any, ...]) -> _Compiled:
@@ -322,32 +359,41 @@ class NativeAgentKernel:
             with _LOCK:
                 hit = self.leads.get(rk)
                 if hit is None:
-                    hit = self.leads[rk] = _load("fsa_lead", lambda: _lead_function(
-                        self.design.representation, reference_rate_expressions(rate)),
-                        "\n".join([self.design.representation, _DIGEST[0], *rk]))
+                    hit = self.leads[rk] = _load("fsa_lead", lambda: [_lead_function(
+                        self.design.representation, reference_rate_expressions(rate))],
+                        "\n".join([self.design.representation, _DIGEST[0], *rk]),
+                        ("fsa_lead",))["fsa_lead"]
         return hit
 
     def _setup(self, neighbours: tuple[tuple[int, ...], ...], layout: dict[str, slice],
-               ref_rate: Any) -> tuple[Any, ...]:
+               ref_rate: Any, p: np.ndarray) -> tuple[Any, ...]:
         n = len(neighbours)
         rp, ci = csr(neighbours)
         degs = sorted({len(nb) for nb in neighbours})
         maxdeg = degs[-1] if degs else 0
-        fns = (ctypes.c_void_p * (4 + maxdeg))()
-        used = [self.common["pre"], self.common["trig"]]
-        fns[0], fns[1] = self.common["pre"].address, self.common["trig"].address
+        fns = (ctypes.c_void_p * (6 + 2 * maxdeg))()
+        used = [self.common[k] for k in ("fsa_pre", "fsa_trig", "fsa_dist")]
+        fns[0], fns[1] = self.common["fsa_pre"].address, self.common["fsa_trig"].address
+        fns[3] = self.common["fsa_dist"].address
         if self.design.decl.leader:
             ld = self.lead(ref_rate)
             fns[2] = ld.address
             used.append(ld)
         for m in degs:
             c = self.law(m)
-            fns[3 + m] = c.address
-            used.append(c)
+            fns[4 + m] = c[f"fsa_law_{m}"].address
+            fns[5 + maxdeg + m] = c[f"fsa_obs_{m}"].address
+            used += list(c.values())
         sizes = np.max([c.sizes for c in used], axis=0)
         na = ATTITUDE_SIZE[self.design.representation]
+        # the disturbance torque is evaluated only when the run has one (data, not code)
+        # (the harmonic terms' amplitudes c, a of every axis: 6 parameters an axis, the
+        # phases' cosines and sines are not amplitudes)
+        amp = p[layout["harm"]].reshape(-1, 6)[:, :2]
+        dist = bool(np.any(amp != 0) or np.any(p[layout["gg"]] != 0))
         dims = np.array([n, na, self.design.decl.state_size, len(self.monitors),
-                         int(self.design.decl.leader), maxdeg, _NTRIG, *sizes], dtype=np.int64)
+                         int(self.design.decl.leader), maxdeg, _NTRIG, *sizes, int(dist)],
+                        dtype=np.int64)
         off = np.array([layout[b].start for b in _BLOCKS], dtype=np.int64)
         return dims, off, rp, ci, fns
 
@@ -355,7 +401,7 @@ class NativeAgentKernel:
                  p: np.ndarray, t: float, x: np.ndarray,
                  ref_rate: Any = ("0", "0", "0")) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The closed loop at ``(t, x)``: state derivative, torques, monitors."""
-        dims, off, rp, ci, fns = self._setup(neighbours, layout, ref_rate)
+        dims, off, rp, ci, fns = self._setup(neighbours, layout, ref_rate, p)
         n = len(neighbours)
         x = np.ascontiguousarray(x, dtype=float)
         p = np.ascontiguousarray(p, dtype=float)
@@ -374,7 +420,7 @@ class NativeAgentKernel:
             ref_rate: Any = ("0", "0", "0")) -> NativeRun:
         """Integrate from ``x0`` at ``tgrid[0]`` and record every time of ``tgrid``
         (``rk4``: ``substeps`` steps of ``step`` per output interval)."""
-        dims, off, rp, ci, fns = self._setup(neighbours, layout, ref_rate)
+        dims, off, rp, ci, fns = self._setup(neighbours, layout, ref_rate, p)
         n, nmon = len(neighbours), len(self.monitors)
         T = len(tgrid) - 1
         x0 = np.ascontiguousarray(x0, dtype=float)
@@ -413,7 +459,7 @@ def native_disagreement(Q: np.ndarray, W: np.ndarray) -> tuple[np.ndarray, np.nd
     W = np.ascontiguousarray(W, dtype=float)
     T, n = Q.shape[0], Q.shape[1]
     threads = max(1, min(os.cpu_count() or 1, 8))
-    att, rate, work = np.empty(T), np.empty(T), np.empty(4 * max(n, 1) * threads)
+    att, rate, work = np.empty(T), np.empty(T), np.empty(8 * max(n, 1) * threads)
     _driver().fsa_disagreement(T, n, Q.ctypes.data, W.ctypes.data, att.ctypes.data,
                                rate.ctypes.data, work.ctypes.data, threads)
     return np.degrees(att), rate
@@ -435,9 +481,10 @@ def get_native_agents(design: AgentDesign, switch: str) -> NativeAgentKernel:
         if not _DIGEST:
             _DIGEST.append(_generator_digest())
     k = NativeAgentKernel(design, switch)
-    k.common["pre"] = _load("fsa_pre", lambda: _pre_function(design),
-                            "\n".join([design.representation, str(design.decl.state_size),
-                                       _DIGEST[0]]))
-    k.common["trig"] = _load("fsa_trig", _trig_function, _DIGEST[0])
+    k.common.update(_load("fsa_pre", lambda: [_pre_function(design)],
+                          "\n".join([design.representation, str(design.decl.state_size),
+                                     _DIGEST[0]]), ("fsa_pre",)))
+    k.common.update(_load("fsa_env", lambda: [_trig_function(), _dist_function()], _DIGEST[0],
+                          ("fsa_trig", "fsa_dist")))
     _NATIVE[key] = k
     return k

@@ -374,23 +374,35 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
     return assemble_result(design, f, opt, kern, p, t, X, opt.integrator, ext=obs_ext)
 
 
+_SWITCHES: dict[str, bool] = {}
+
+
+def _switches(design: AgentDesign) -> bool:
+    """:func:`~formsync_design.spec.agent.uses_switching`, once per design (it derives the
+    law)."""
+    hit = _SWITCHES.get(design.key)
+    if hit is None:
+        hit = _SWITCHES[design.key] = uses_switching(design)
+    return hit
+
+
 def _simulate_native(design: AgentDesign, f: AgentFormation, opt: AgentOptions, M: int, T: int,
                      ref_rate: Any) -> SimResult:
     """A continuous run on the compiled driver (:mod:`~formsync_design.sim.agent_native`): one
     object per design, the graph and everything physical as data."""
     import time
 
-    from formsync_design.sim.agent_kernel import _gain_symbols, agent_param_layout
+    from formsync_design.sim.agent_kernel import agent_param_layout, gain_count
     from formsync_design.sim.agent_native import get_native_agents
 
-    if opt.integrator == "dopri5" and opt.switch == "sgn" and uses_switching(design):
+    if opt.integrator == "dopri5" and opt.switch == "sgn" and _switches(design):
         raise InputError(f"expected --switch sat or tanh with the dopri5 integrator (design "
                          f"{design.name} switches; an adaptive step would chase its sliding "
                          "mode), received sgn")
     t0 = time.perf_counter()
     nk = get_native_agents(design, opt.switch)
     nb = f.neighbours()
-    lay = agent_param_layout(f.n, len(_gain_symbols(design)), sum(len(v) for v in nb))
+    lay = agent_param_layout(f.n, gain_count(design), sum(len(v) for v in nb))
     p = agent_parameters(design, f, opt, lay)
     t = np.arange(T + 1) * opt.output_step
     for m in sorted({len(v) for v in nb}):
