@@ -190,3 +190,30 @@ def test_batch_runs_equal_single_runs_bitwise():
         one = simulate_agents(case.design, f, opt)
         assert np.array_equal(r.quaternions, one.quaternions)
         assert np.array_equal(r.torques, one.torques)
+
+
+def test_cli_integrator_auto_and_the_montecarlo_default(capsys):
+    """``--integrator auto`` of an agent design is dopri5 (rk4 with ``--step``); a
+    Monte-Carlo campaign integrates with dopri5 at its ``--rtol``/``--atol`` unless
+    ``--step`` is given, and says which in its defaults."""
+    import json
+
+    from formsync_design.cli.main import main
+
+    def run(*argv):
+        code = main(list(argv))
+        out, err = capsys.readouterr()
+        return code, out, err
+
+    code, out, _ = run("simulate", "--design", "bai2008_passivity", "--tf", "5",
+                       "--integrator", "auto", "--format", "json")
+    assert code in (0, 1) and json.loads(out)["integrator"] == "dopri5"
+    code, out, _ = run("simulate", "--design", "bai2008_passivity", "--tf", "5",
+                       "--integrator", "auto", "--step", "0.05", "--format", "json")
+    assert json.loads(out)["integrator"] == "rk4"
+    code, out, err = run("montecarlo", "--design", "bai2008_passivity", "--runs", "3",
+                         "--tf", "5", "--no-certify", "--rtol", "1e-7")
+    assert "integrator: dopri5 rtol 1e-07 atol 1e-10 (the Monte-Carlo default" in err + out
+    code, out, err = run("montecarlo", "--design", "bai2008_passivity", "--runs", "3",
+                         "--tf", "5", "--no-certify", "--step", "0.05")
+    assert "integrator: dopri5" not in err + out

@@ -306,6 +306,26 @@ def run_agent_derive(args: argparse.Namespace, design: Any) -> int:
     return EXIT_OK
 
 
+def _montecarlo_integrator(args: argparse.Namespace, design: Any, opt: Any, defaults: Any) -> Any:
+    """The Monte-Carlo integrator of an agent design: the compiled adaptive DOPRI5 at
+    ``--rtol``/``--atol`` (the command's documented default) where ``auto`` chooses it
+    (:func:`~formsync_design.sim.agents.resolve_auto`), ``--step H`` the fixed-step RK4;
+    otherwise the case's integrator (said in the defaults)."""
+    from dataclasses import replace
+
+    from formsync_design.sim.agents import resolve_auto
+
+    if args.step is not None:
+        return replace(opt, integrator="rk4")
+    if resolve_auto(design, switch=opt.switch) != "dopri5":
+        defaults.add(f"integrator: the case's {opt.integrator} (dopri5 needs a continuous law "
+                     "that does not switch under sgn, and a C compiler)")
+        return opt
+    defaults.add(f"integrator: dopri5 rtol {opt.rtol:g} atol {opt.atol:g} (the Monte-Carlo "
+                 "default; --step H for rk4)")
+    return replace(opt, integrator="dopri5")
+
+
 def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
     """``formsync montecarlo`` of an agent design: gains sampled from the ``--gain`` box (a
     gain not given: the case's value), random initial attitudes and rates from per-run seeds,
@@ -353,6 +373,7 @@ def run_agent_montecarlo_cli(args: argparse.Namespace, design: Any) -> int:
         import os
 
         os.environ["FORMSYNC_NO_COMPILE"] = "1"
+    opt = _montecarlo_integrator(args, design, opt, defaults)
     flag = {} if theorem.inside else {"outside_theorem": theorem.to_dict()}
     if args.replay is not None:
         seed = int(args.replay)

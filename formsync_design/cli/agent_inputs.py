@@ -167,7 +167,9 @@ def agent_options(args: argparse.Namespace, base: Any) -> Any:
     if getattr(args, "switch", None) is not None:
         kw["switch"] = args.switch
     if getattr(args, "integrator", None) is not None:
-        kw["integrator"] = args.integrator
+        # auto with --step is the fixed step (the flag's documented meaning)
+        kw["integrator"] = ("rk4" if args.integrator == "auto" and getattr(args, "step", None)
+                            is not None else args.integrator)
     return replace(base, **kw)
 
 

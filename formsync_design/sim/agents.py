@@ -61,6 +61,7 @@ __all__ = [
     "simulate_agents_sampled",
     "simulate_agents_batch",
     "assemble_result",
+    "resolve_auto",
     "observe_grid",
 ]
 
@@ -186,8 +187,9 @@ class AgentOptions:
     """Simulation options.
 
     ``tf`` horizon (s); ``output_step`` (s); ``step`` RK4 step (s, a divisor of
-    ``output_step``); ``integrator`` ``rk4`` or ``cvodes`` (continuous designs; sampled designs
-    always use the exact hybrid integrator with ``rtol``/``atol``); ``switch`` ``sgn``/``sat``/
+    ``output_step``); ``integrator`` ``rk4``, ``dopri5`` (adaptive, at ``rtol``/``atol``, dense
+    output on the output grid), ``cvodes`` or ``auto`` (:func:`resolve_auto`) (continuous
+    designs; sampled designs always use the exact hybrid integrator with ``rtol``/``atol``); ``switch`` ``sgn``/``sat``/
     ``tanh`` with boundary layer ``phi``; ``torque_limit`` per axis (N m, ``None``: none);
     ``angle_tol`` (deg) and ``rate_tol`` (rad/s) for convergence; ``period`` of periodic
     sampling (s).
@@ -224,8 +226,8 @@ class AgentOptions:
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
             raise InputError(f"expected step to divide output_step, received step {self.step:g} "
                              f"and output_step {self.output_step:g}")
-        if self.integrator not in ("rk4", "dopri5", "cvodes"):
-            raise InputError(f"expected integrator rk4, dopri5 or cvodes, received "
+        if self.integrator not in ("auto", "rk4", "dopri5", "cvodes"):
+            raise InputError(f"expected integrator auto, rk4, dopri5 or cvodes, received "
                              f"{self.integrator!r}")
         if self.switch not in ("sgn", "sat", "tanh"):
             raise InputError(f"expected switch sgn, sat or tanh, received {self.switch!r}")
@@ -308,6 +310,8 @@ def simulate_agents(design: AgentDesign, formation: AgentFormation,
     opt = options or AgentOptions()
     _check(design, formation)
     measured = sensors is not None or torque_input is not None
+    if opt.integrator == "auto":
+        opt = replace(opt, integrator=resolve_auto(design, measured, opt.switch))
     if measured and (opt.integrator != "rk4" or design.decl.sampling != "continuous"):
         raise InputError(f"expected the rk4 integrator and a continuous design for a gyro model "
                          f"or a torque input, received {opt.integrator} and "
@@ -384,6 +388,23 @@ def _switches(design: AgentDesign) -> bool:
     if hit is None:
         hit = _SWITCHES[design.key] = uses_switching(design)
     return hit
+
+
+def resolve_auto(design: AgentDesign, measured: bool = False, switch: str = "sgn") -> str:
+    """The integrator ``auto`` stands for: ``dopri5`` (the compiled adaptive driver), or
+    ``rk4`` for a law switching under ``sgn`` (an adaptive step would chase its sliding
+    mode), a sampled design (its own hybrid integrator), a gyro model or torque input, or
+    without a C compiler.
+
+    >>> from formsync_design.spec.agent import agent_design_from_functions
+    >>> d = agent_design_from_functions(lambda v: -v.k * v.sgn(v.w), gains={"k": {}})
+    >>> resolve_auto(d)
+    'rk4'
+    """
+    if (measured or design.decl.sampling != "continuous" or not native_agents_available()
+            or (switch == "sgn" and _switches(design))):
+        return "rk4"
+    return "dopri5"
 
 
 def _simulate_native(design: AgentDesign, f: AgentFormation, opt: AgentOptions, M: int, T: int,
@@ -555,11 +576,6 @@ def observe_grid(kern: Any, X: np.ndarray, t: np.ndarray, p: np.ndarray,
             np.asarray(m, float).reshape(kern.observe.size1_out(1), K).T)
 
 
-#: Formations larger than this compute their disagreement in C (every pair, O(N^2) per sample;
-#: the same values as :mod:`~formsync_design.sim.disagreement`, tested against it).
-_NATIVE_METRICS_FROM = 32
-
-
 def assemble_result(design: AgentDesign, f: AgentFormation, opt: AgentOptions, kern: Any, p: np.ndarray,
             t: np.ndarray, X: np.ndarray, integrator: str, *, torques: np.ndarray | None = None,
             sampled: Any = None, ext: np.ndarray | None = None,
@@ -567,7 +583,10 @@ def assemble_result(design: AgentDesign, f: AgentFormation, opt: AgentOptions, k
     """The :class:`~formsync_design.sim.result.SimResult` of a trajectory ``X`` (kernel state
     order) on the grid ``t`` (shared by the continuous and the sampled paths; ``ext``: the
     measured kernel's held inputs at each output time).  Its status is one of
-    :data:`AGENT_STATUSES`.  ``observed``: the torques and monitors at every output time
+    :data:`AGENT_STATUSES`.  The disagreement metrics are computed in C when a compiler is
+    available (:func:`~formsync_design.sim.agent_native.native_disagreement`, every pair,
+    equal to :mod:`~formsync_design.sim.disagreement` to rounding, tested against it), else
+    by the NumPy functions.  ``observed``: the torques and monitors at every output time
     when the driver evaluated them (else ``kern``'s ``observe``)."""
     n = f.n
     nz = design.decl.state_size
@@ -583,7 +602,7 @@ def assemble_result(design: AgentDesign, f: AgentFormation, opt: AgentOptions, k
     names = kern.monitors
     for j, name in enumerate(names):
         mons[name] = Mv[:, j::len(names)] if names else Mv
-    if n > _NATIVE_METRICS_FROM and native_agents_available():
+    if native_agents_available():
         from formsync_design.sim.agent_native import native_disagreement
 
         att, rate_dis = native_disagreement(Q, W)
