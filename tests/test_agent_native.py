@@ -161,21 +161,27 @@ def test_a_blow_up_is_a_diverged_finding(integrator):
 
 
 def test_native_disagreement_equals_the_numpy_metrics():
+    """The C metrics form their exact values in NumPy's operation order: equal bitwise, at
+    large and at rounding-floor spreads, with ties (a cycled case) and a non-finite sample."""
     rng = np.random.default_rng(7)
-    for spread, n in ((1.0, 40), (1e-7, 35), (3.0, 60), (0.3, 2)):
+    for spread, n in ((1.0, 40), (1e-7, 35), (3.0, 60), (0.3, 2), (1e-10, 5), (1.0, 1)):
         Q = np.array([0, 0, 0, 1.0]) + spread * rng.normal(size=(12, n, 4))
-        W = rng.normal(size=(12, n, 3))
+        W = spread * rng.normal(size=(12, n, 3))
         att, rate = native_disagreement(Q, W)
-        ref = attitude_disagreement(Q)
-        assert np.allclose(att, ref, rtol=1e-14, atol=0)
-        assert np.allclose(rate, rate_disagreement(W), rtol=1e-14, atol=0)
+        assert np.array_equal(att, attitude_disagreement(Q))
+        assert np.array_equal(rate, rate_disagreement(W))
     # repeated spacecraft (a cycled case): many pairs tie for the largest angle
     Q = np.tile(np.array([0, 0, 0, 1.0]) + 0.2 * rng.normal(size=(5, 4, 4)), (1, 30, 1))
-    att, _ = native_disagreement(Q, np.zeros((5, 120, 3)))
-    assert np.allclose(att, attitude_disagreement(Q), rtol=1e-14, atol=0)
+    W = np.tile(rng.normal(size=(5, 4, 3)), (1, 30, 1))
+    att, rate = native_disagreement(Q, W)
+    assert np.array_equal(att, attitude_disagreement(Q))
+    assert np.array_equal(rate, rate_disagreement(W))
     Q[2, 7] = np.nan
-    att, _ = native_disagreement(Q, np.zeros((5, 120, 3)))
+    W[3, 9, 1] = np.inf
+    att, rate = native_disagreement(Q, W)
     assert math.isnan(att[2]) and np.isfinite(np.delete(att, 2)).all()
+    assert np.array_equal(att, attitude_disagreement(Q), equal_nan=True)
+    assert math.isnan(rate[3]) and np.array_equal(rate, rate_disagreement(W), equal_nan=True)
 
 
 def test_batch_runs_equal_single_runs_bitwise():

@@ -418,67 +418,84 @@ static void fs_row(long m, double a0, double a1, double a2, double a3, double b0
   *dmax = dm;
 }
 
+/* The exact values are formed in the operation order of the NumPy functions of
+   formsync_design/sim/disagreement.py without fused multiply-adds, so that both give the same
+   numbers (tests/test_agent_native.py compares them bitwise). */
+__attribute__((optimize("fp-contract=off")))
 static void fs_disagree(long k0, long k1, long n, const double *Q, const double *W, double *att,
                         double *rate, double *qn) {
-  /* work (10 n values): the normalised quaternions and the rates by component (SoA, so the
-     inner loops vectorise), and each row's smallest |qa . qb| */
+  /* work (9 n values): the normalised quaternions and the rates by component (SoA, so the
+     screening loop vectorises), each row's smallest |qa . qb| and largest |wa - wb|^2 */
   double *x0 = qn, *x1 = qn + n, *x2 = qn + 2 * n, *x3 = qn + 3 * n;
   double *v0 = qn + 4 * n, *v1 = qn + 5 * n, *v2 = qn + 6 * n, *rowmin = qn + 7 * n;
+  double *rowmax = qn + 8 * n;
   long k, i, j, nseen;
-  double seen[32][4];
+  int qbad, wbad;
+  double seen[32][7];
   for (k = k0; k < k1; ++k) {
     const double *q = Q + (size_t)k * n * 4, *w = W + (size_t)k * n * 3;
-    double cmin = INFINITY, d2max = 0, sb = 0, cb = 1, nanq = 0, nanw = 0;
+    double cmin = INFINITY, d2max = 0, amax = 0, dex = 0, nanq = 0, nanw = 0;
     for (i = 0; i < n; ++i) {
       double r = sqrt(q[4 * i] * q[4 * i] + q[4 * i + 1] * q[4 * i + 1] + q[4 * i + 2] * q[4 * i + 2]
                       + q[4 * i + 3] * q[4 * i + 3]);
       x0[i] = q[4 * i] / r; x1[i] = q[4 * i + 1] / r; x2[i] = q[4 * i + 2] / r;
       x3[i] = q[4 * i + 3] / r;
       v0[i] = w[3 * i]; v1[i] = w[3 * i + 1]; v2[i] = w[3 * i + 2];
-      nanq += x0[i] + x1[i] + x2[i] + x3[i];
-      nanw += v0[i] + v1[i] + v2[i];
+      /* NaN when a value is not finite (inf - inf), as the NumPy metrics give then */
+      nanq += (x0[i] - x0[i]) + (x1[i] - x1[i]) + (x2[i] - x2[i]) + (x3[i] - x3[i]);
+      nanw += (v0[i] - v0[i]) + (v1[i] - v1[i]) + (v2[i] - v2[i]);
     }
+    qbad = nanq != nanq;
+    wbad = nanw != nanw;
+    /* screening (reassociated, vectorised): each row's extremes */
     for (i = 0; i < n - 1; ++i) {
-      const double a0 = x0[i], a1 = x1[i], a2 = x2[i], a3 = x3[i];
-      const double b0 = v0[i], b1 = v1[i], b2 = v2[i];
       double cm, dm;
-      fs_row(n - i - 1, a0, a1, a2, a3, b0, b1, b2, x0 + i + 1, x1 + i + 1, x2 + i + 1,
-             x3 + i + 1, v0 + i + 1, v1 + i + 1, v2 + i + 1, &cm, &dm);
+      fs_row(n - i - 1, x0[i], x1[i], x2[i], x3[i], v0[i], v1[i], v2[i], x0 + i + 1, x1 + i + 1,
+             x2 + i + 1, x3 + i + 1, v0 + i + 1, v1 + i + 1, v2 + i + 1, &cm, &dm);
       rowmin[i] = cm;
+      rowmax[i] = dm;
       cmin = cm < cmin ? cm : cmin;
       d2max = dm > d2max ? dm : d2max;
     }
-    /* the exact angle of the candidates (|qa . qb| within 1e-12 of the smallest, a bound far
-       above its rounding): the largest 2 atan2(|vec(qa* qb)|, |qa . qb|), compared as
-       s cb > sb c */
+    /* the exact values on every row that can hold an extreme (within 1e-12 of it, far above
+       the screening's rounding): the largest 2 atan2(|vec(qa* qb)|, |qa . qb|) over the pairs
+       with |qa . qb| within 1e-12 of the smallest, the largest |wa - wb|^2 of those rows */
     nseen = 0;
-    for (i = 0; i < n - 1 && nanq == nanq; ++i) {
+    for (i = 0; i < n - 1 && !(qbad && wbad); ++i) {
       const double a0 = x0[i], a1 = x1[i], a2 = x2[i], a3 = x3[i];
+      const double b0 = v0[i], b1 = v1[i], b2 = v2[i];
       long s_;
       int again = 0;
-      if (!(rowmin[i] <= cmin + 1e-12)) continue;
+      if (!(!qbad && rowmin[i] <= cmin + 1e-12) && !(!wbad && rowmax[i] >= d2max * (1 - 1e-12)))
+        continue;
       /* a row equal to an earlier candidate row (a repeated spacecraft state) holds only
          pairs that row held */
       for (s_ = 0; s_ < nseen && !again; ++s_)
-        again = seen[s_][0] == a0 && seen[s_][1] == a1 && seen[s_][2] == a2 && seen[s_][3] == a3;
+        again = seen[s_][0] == a0 && seen[s_][1] == a1 && seen[s_][2] == a2
+                && seen[s_][3] == a3 && seen[s_][4] == b0 && seen[s_][5] == b1
+                && seen[s_][6] == b2;
       if (again) continue;
       if (nseen < 32) {
         seen[nseen][0] = a0; seen[nseen][1] = a1; seen[nseen][2] = a2; seen[nseen][3] = a3;
+        seen[nseen][4] = b0; seen[nseen][5] = b1; seen[nseen][6] = b2;
         ++nseen;
       }
       for (j = i + 1; j < n; ++j) {
         double c = fabs(a0 * x0[j] + a1 * x1[j] + a2 * x2[j] + a3 * x3[j]);
-        if (c <= cmin + 1e-12) {
+        double d0 = b0 - v0[j], d1 = b1 - v1[j], d2 = b2 - v2[j];
+        double dd = d0 * d0 + d1 * d1 + d2 * d2;
+        if (dd > dex) dex = dd;
+        if (!qbad && c <= cmin + 1e-12) {
           double e0 = a3 * x0[j] - x3[j] * a0 + (a1 * x2[j] - a2 * x1[j]);
           double e1 = a3 * x1[j] - x3[j] * a1 + (a2 * x0[j] - a0 * x2[j]);
           double e2 = a3 * x2[j] - x3[j] * a2 + (a0 * x1[j] - a1 * x0[j]);
-          double sv = sqrt(e0 * e0 + e1 * e1 + e2 * e2);
-          if (sv * cb > sb * c) { sb = sv; cb = c; }
+          double ang = 2.0 * atan2(sqrt(e0 * e0 + e1 * e1 + e2 * e2), c);
+          if (ang > amax) amax = ang;
         }
       }
     }
-    att[k] = n < 2 ? 0.0 : (nanq != nanq ? NAN : 2.0 * atan2(sb, cb));
-    rate[k] = n < 2 ? 0.0 : (nanw != nanw ? NAN : sqrt(d2max));
+    att[k] = n < 2 ? 0.0 : (qbad ? NAN : amax);
+    rate[k] = wbad ? NAN : (n < 2 ? 0.0 : sqrt(dex));
   }
 }
 
@@ -490,7 +507,7 @@ static void *fs_dis_thread(void *arg) {
   return 0;
 }
 
-/* the samples split over `threads` threads (qn: 8n work values per thread) */
+/* the samples split over `threads` threads (qn: 9n work values per thread) */
 int fsa_disagreement(long T, long n, const double *Q, const double *W, double *att, double *rate,
                      double *qn, int threads) {
   pthread_t tid[64];
@@ -501,7 +518,7 @@ int fsa_disagreement(long T, long n, const double *Q, const double *W, double *a
   if (threads > T) threads = (int)(T > 0 ? T : 1);
   for (h = 0; h < threads; ++h) {
     job[h].k0 = T * h / threads; job[h].k1 = T * (h + 1) / threads; job[h].n = n;
-    job[h].Q = Q; job[h].W = W; job[h].att = att; job[h].rate = rate; job[h].qn = qn + 8 * n * h;
+    job[h].Q = Q; job[h].W = W; job[h].att = att; job[h].rate = rate; job[h].qn = qn + 9 * n * h;
   }
   for (h = 1; h < threads; ++h) {
     if (pthread_create(&tid[h], 0, fs_dis_thread, &job[h]) != 0) break;

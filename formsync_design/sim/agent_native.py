@@ -41,7 +41,6 @@ output on the output grid).  Without a C compiler (or with ``FORMSYNC_NO_COMPILE
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import os
 import threading
 from dataclasses import dataclass, field
@@ -64,6 +63,7 @@ from formsync_design.sim.ccompile import (
     CFLAGS,
     build_shared,
     c_compiler,
+    code_digest,
     compile_enabled,
     generated_source,
 )
@@ -111,20 +111,7 @@ def native_agents_available() -> bool:
 
 
 def _generator_digest() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    root = Path(__file__).resolve().parents[1]
-    h = hashlib.sha256()
-    for dist in ("formsync-design", "sympy", "casadi"):
-        try:
-            h.update(f"{dist}={version(dist)}\n".encode())
-        except PackageNotFoundError:
-            h.update(f"{dist}=?\n".encode())
-    for rel in _GENERATOR:
-        p = root / rel
-        for f in sorted(p.rglob("*.py")) if p.is_dir() else [p]:
-            h.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes())
-    return h.hexdigest()
+    return code_digest(_GENERATOR)
 
 
 def csr(neighbours: tuple[tuple[int, ...], ...]) -> tuple[np.ndarray, np.ndarray]:
@@ -459,7 +446,7 @@ def native_disagreement(Q: np.ndarray, W: np.ndarray) -> tuple[np.ndarray, np.nd
     W = np.ascontiguousarray(W, dtype=float)
     T, n = Q.shape[0], Q.shape[1]
     threads = max(1, min(os.cpu_count() or 1, 8))
-    att, rate, work = np.empty(T), np.empty(T), np.empty(8 * max(n, 1) * threads)
+    att, rate, work = np.empty(T), np.empty(T), np.empty(9 * max(n, 1) * threads)
     _driver().fsa_disagreement(T, n, Q.ctypes.data, W.ctypes.data, att.ctypes.data,
                                rate.ctypes.data, work.ctypes.data, threads)
     return np.degrees(att), rate

@@ -45,6 +45,7 @@ from formsync_design.progress import activity
 
 __all__ = [
     "CFLAGS",
+    "code_digest",
     "cache_dir",
     "compile_enabled",
     "c_compiler",
@@ -73,6 +74,32 @@ def cache_dir() -> Path:
         return Path(env)
     base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
     return Path(base) / "formsync-design"
+
+
+def code_digest(paths: tuple[str, ...]) -> str:
+    """SHA-256 of the package's code at ``paths`` (modules, or folders whose ``.py`` files
+    count; relative to the package) and of the versions of formsync-design, SymPy and CasADi:
+    part of a compiled kernel's cache key, so an edited generator never loads an object
+    built by the old one.
+
+    >>> len(code_digest(("sim/ccompile.py",)))
+    64
+    """
+    from importlib.metadata import PackageNotFoundError, version
+
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256()
+    for dist in ("formsync-design", "sympy", "casadi"):
+        try:
+            h.update(f"{dist}={version(dist)}\n".encode())
+        except PackageNotFoundError:
+            h.update(f"{dist}=?\n".encode())
+    for rel in paths:
+        p = root / rel
+        for f in sorted(p.rglob("*.py")) if p.is_dir() else [p]:
+            h.update(f.relative_to(root).as_posix().encode() + b"\0")
+            h.update(f.read_bytes())
+    return h.hexdigest()
 
 
 def compile_enabled() -> bool:

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import ctypes
 import functools
-import hashlib
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,6 +33,7 @@ from formsync_design.errors import CompilerError, SimulationError
 from formsync_design.sim.ccompile import (
     build_shared,
     c_compiler,
+    code_digest,
     compile_enabled,
     generated_source,
     warn_no_compiler,
@@ -104,22 +104,7 @@ def generator_digest() -> str:
     >>> len(generator_digest())
     64
     """
-    from importlib.metadata import PackageNotFoundError, version
-
-    root = Path(__file__).resolve().parents[1]
-    h = hashlib.sha256()
-    for dist in ("formsync-design", "sympy", "casadi"):
-        try:
-            h.update(f"{dist}={version(dist)}\n".encode())
-        except PackageNotFoundError:
-            h.update(f"{dist}=?\n".encode())
-    for rel in GENERATOR_CODE:
-        p = root / rel
-        files = sorted(p.rglob("*.py")) if p.is_dir() else [p]
-        for f in files:
-            h.update(f.relative_to(root).as_posix().encode() + b"\0")
-            h.update(f.read_bytes())
-    return h.hexdigest()
+    return code_digest(GENERATOR_CODE)
 
 
 def native_key(spec: Spec, switch: str, inverse: str) -> str:
