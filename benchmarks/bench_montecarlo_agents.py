@@ -12,9 +12,9 @@ keep every run's trajectory at the 1201 outputs.
    cores, each run's torques, monitors, disagreement and convergence time, the records),
    warm (the design's kernel compiled and cached), best of 3;
 2. JAX: :mod:`benchmarks.mc_jax` on the *same* draws (initial states and gains of our
-   runs' seeds), in its own venv (``--jax-python``, default ``/tmp/jaxvenv/bin/python``;
-   skipped with a note when it is absent): cold (tracing and XLA compilation included) and
-   warm (best of 3);
+   runs' seeds), in its own venv (``--jax-python``, default ``.venv-jax/bin/python`` in
+   the repository; skipped with a note when it is absent): cold (tracing and XLA
+   compilation included) and warm (best of 3);
 3. accuracy: the final-state max-abs error of both against scipy DOP853 at rtol 1e-13 /
    atol 1e-15 on the numpy right-hand side (:mod:`benchmarks.swarm_numpy`) for the first
    ``--check`` runs.
@@ -80,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--runs", type=int, default=1000)
     ap.add_argument("--rtol", type=float, default=1e-8)
     ap.add_argument("--check", type=int, default=10)
-    ap.add_argument("--jax-python", default="/tmp/jaxvenv/bin/python")
+    ap.add_argument("--jax-python", default=str(ROOT / ".venv-jax" / "bin" / "python"))
     a = ap.parse_args(argv)
     case = load_agent_case(ROOT / "verification" / "bai2008_passivity.toml")
     design, base = case.design, case.formation()
@@ -117,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
           f"runs): {ours_err:.2e}")
     jp = Path(a.jax_python)
     if not jp.is_file():
-        print(f"JAX: {jp} not found (python3 -m venv /tmp/jaxvenv && /tmp/jaxvenv/bin/pip "
+        print(f"JAX: {jp} not found (python3 -m venv .venv-jax && .venv-jax/bin/pip "
               "install jax diffrax): skipped")
         return 0
     with tempfile.TemporaryDirectory() as td:

@@ -34,8 +34,8 @@ The 1-minute load average is printed beside every time; nothing asserts a timing
 
 Run (JAX lives in its own venv; the project does not depend on it)::
 
-    python3 -m venv /tmp/jaxvenv && /tmp/jaxvenv/bin/pip install jax diffrax numpy scipy
-    PYTHONPATH=. /tmp/jaxvenv/bin/python benchmarks/mc_jax.py [--runs 1000] [--check 20]
+    python3 -m venv .venv-jax && .venv-jax/bin/pip install jax diffrax numpy scipy
+    PYTHONPATH=. .venv-jax/bin/python benchmarks/mc_jax.py [--runs 1000] [--check 20]
 
 from the repository root (``main`` also puts the repository root on ``sys.path``, as
 ``swarm_baseline.py`` does).  This module imports without JAX; only
