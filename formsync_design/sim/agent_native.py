@@ -55,9 +55,9 @@ from formsync_design.errors import CompilerError
 from formsync_design.models.disturbances import disturbance_torque, disturbance_trig
 from formsync_design.sim.agent_kernel import (
     ATTITUDE_SIZE,
-    _gain_symbols,
     agent_law,
     attitude_entries,
+    gain_count,
 )
 from formsync_design.sim.ccompile import (
     CFLAGS,
@@ -174,7 +174,7 @@ def _law_functions(design: AgentDesign, m: int,
     na = ATTITUDE_SIZE[design.representation]
     nz = design.decl.state_size
     nf = na + 3 + nz
-    ng = max(len(_gain_symbols(design)), 1)
+    ng = max(gain_count(design), 1)
     own, q, w = ca.SX.sym("own", nf), ca.SX.sym("q", 4), ca.SX.sym("w", 3)
     Jv, Jiv = ca.SX.sym("J", 9), ca.SX.sym("Jinv", 9)
     # one input per in-neighbour: the driver points each at that neighbour's broadcast
@@ -315,11 +315,6 @@ class NativeAgentKernel:
     common: dict[str, _Compiled] = field(default_factory=dict)
     laws: dict[int, dict[str, _Compiled]] = field(default_factory=dict)
     leads: dict[tuple[str, ...], _Compiled] = field(default_factory=dict)
-
-    @property
-    def nx_of(self) -> Any:
-        d = self.design
-        return lambda n: 7 * n + d.decl.state_size * n + (4 if d.decl.leader else 0)
 
     def _key(self, *parts: str) -> str:
         return "\n".join([self.design.key, self.switch, _DIGEST[0], *parts])
